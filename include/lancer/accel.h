@@ -1,0 +1,35 @@
+/*
+ * accel.h - visibility queries over all primitives of a scene.
+ *
+ *     Accel a;
+ *     if (accel_build(&a, &scene) != 0) ... out of memory ...
+ *     PrimHit h;
+ *     int i = accel_closest(&a, &ray, &h, &stats);     -1: nothing hit
+ *     int blocked = accel_occluded(&a, &shadow_ray, &stats);
+ *     accel_free(&a);
+ *
+ * This is the interface the BVH will implement; today it is a plain loop
+ * over the primitives. The Accel borrows the scene's arrays, which must
+ * outlive it.
+ */
+#ifndef LANCER_ACCEL_H
+#define LANCER_ACCEL_H
+
+#include "lancer/scene.h"
+
+typedef struct {
+    const Prim *prims;
+    int nprims;
+} Accel;
+
+/* Returns 0, or -1 when memory runs out. */
+int accel_build(Accel *a, const Scene *s);
+void accel_free(Accel *a);
+
+/* The primitive with the nearest hit in (0, r->tmax) and its PrimHit, or -1. */
+int accel_closest(const Accel *a, const Ray *r, PrimHit *h, RayStats *st);
+
+/* 1 when anything is hit in (0, r->tmax): stops at the first hit found. */
+int accel_occluded(const Accel *a, const Ray *r, RayStats *st);
+
+#endif

@@ -1,0 +1,36 @@
+/*
+ * afile.h - atomic file replacement: write beside the target, then rename.
+ *
+ *     char tmp[AFILE_PATH_MAX];
+ *     if (afile_temp(path, tmp, sizeof tmp, err, errlen) != 0) return -1;
+ *     ... write everything to tmp, on failure afile_abort(tmp) ...
+ *     return afile_commit(tmp, path, err, errlen);
+ *
+ * The user's file at `path` is never touched until the new one is complete,
+ * and a failed write never leaves a truncated file behind. rename(2) within
+ * one directory is atomic on POSIX file systems, which is why the temporary
+ * file lives in the target's own directory.
+ */
+#ifndef LANCER_AFILE_H
+#define LANCER_AFILE_H
+
+#include <stddef.h>
+
+#define AFILE_PATH_MAX 4096
+
+/* Creates an empty, uniquely named file beside `path` and writes its name to
+ * tmp. Returns 0, or -1 with a message in err (tmp is then not created). */
+int afile_temp(const char *path, char *tmp, size_t tmplen, char *err, size_t errlen);
+
+/* Renames tmp over path. Returns 0, or -1 with a message in err; on failure
+ * tmp is removed so that nothing is left behind. */
+int afile_commit(const char *tmp, const char *path, char *err, size_t errlen);
+
+/* Removes tmp after a failed write. */
+void afile_abort(const char *tmp);
+
+/* Checks, without touching path, that a file could be written there: path is
+ * not a directory and its directory accepts new files. Returns 0 or -1. */
+int afile_check_writable(const char *path, char *err, size_t errlen);
+
+#endif

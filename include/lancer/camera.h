@@ -1,0 +1,31 @@
+/*
+ * camera.h - a right-handed pinhole camera shooting through pixel centres.
+ *
+ *     Camera cam;
+ *     camera_init(&cam, &scene.camera, width, height);
+ *     Ray r = camera_ray(&cam, i + 0.5f, j + 0.5f);   pixel (i, j), row 0 at the top
+ *
+ * For pixel coordinates (x, y) the direction is
+ *     f + (2x/W - 1) * t * a * r + (1 - 2y/H) * t * u,   t = tan(fovy/2), a = W/H,
+ * with f the unit view direction, r = f x up and u = r x f (both unit). This is
+ * exactly POV-Ray's `right -x*a, angle 2*atan(a*t)` mapping (REFERENCE.md 1),
+ * and the direction is normalised so that t along a camera ray is distance.
+ */
+#ifndef LANCER_CAMERA_H
+#define LANCER_CAMERA_H
+
+#include "lancer/ray.h"
+#include "lancer/scene.h"
+
+typedef struct {
+    Vec3 eye, f, r, u; /* r and u already scaled by t*a and t */
+    float inv_w, inv_h;
+} Camera;
+
+/* The spec must be valid (scene_parse guarantees it). */
+void camera_init(Camera *cam, const CameraSpec *spec, int width, int height);
+
+/* The ray through image-plane position (x, y) in pixels. */
+Ray camera_ray(const Camera *cam, float x, float y);
+
+#endif

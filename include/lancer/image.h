@@ -1,0 +1,50 @@
+/*
+ * image.h - the framebuffer and its writers: OpenEXR (linear) and PNG preview.
+ *
+ *     Image img;
+ *     if (image_init(&img, w, h) != 0) ... out of memory ...
+ *     img.rgb[3 * (y * w + x) + c] = value;      row 0 is the top row
+ *     if (image_write_exr(&img, "out/a.exr", IMAGE_HALF, err, sizeof err) != 0) ...
+ *     image_free(&img);
+ *
+ * Pixels are linear RGB floats. The EXR keeps them linear (half or 32-bit
+ * float channels R, G, B); the PNG is an 8-bit sRGB-encoded, clamped preview.
+ * Every writer goes through afile.h: a failed write leaves the previous file
+ * untouched and no temporary file behind. Functions return 0 on success or
+ * -1 with a one-line message (no trailing newline) in err; they never print.
+ */
+#ifndef LANCER_IMAGE_H
+#define LANCER_IMAGE_H
+
+#include <stddef.h>
+
+typedef struct {
+    int width, height;
+    float *rgb; /* width * height * 3 floats, owned by the Image */
+} Image;
+
+typedef enum { IMAGE_HALF, IMAGE_FLOAT } ImagePrecision;
+
+/* Largest accepted side, so that width*height*3 floats never overflows. */
+#define IMAGE_MAX_SIDE 32768
+
+/* Allocates a black image. Returns 0, or -1 on a bad size or no memory
+ * (img is then empty and image_free is still safe). */
+int image_init(Image *img, int width, int height);
+void image_free(Image *img);
+
+/* OpenEXR through OpenEXRCore (openexr.h), scanline, ZIP compression. */
+int image_write_exr(const Image *img, const char *path, ImagePrecision prec, char *err, size_t errlen);
+
+/* Reads the R, G and B channels of a scanline or tiled EXR into a new image
+ * (img must be uninitialised or freed); missing channels read as 0. */
+int image_read_exr(const char *path, Image *img, char *err, size_t errlen);
+
+/* 8-bit RGB PNG: each channel clamped to [0,1] and sRGB-encoded. */
+int image_write_png(const Image *img, const char *path, char *err, size_t errlen);
+
+/* The sRGB transfer function applied to one linear value, clamped, as an
+ * 8-bit code value (rounded to nearest). */
+unsigned char image_srgb8(float linear);
+
+#endif

@@ -1,0 +1,36 @@
+/*
+ * render.h - the render loop: camera rays through every pixel, shaded, in
+ * parallel.
+ *
+ *     RenderOptions opt = {threads, on_progress, ctx};
+ *     if (render_image(&scene, &accel, &opt, &img, &stats) != 0) ...
+ *
+ * Rows are handed out to threads one at a time; every pixel is computed on
+ * its own from the same inputs, so the image is bit-identical for any thread
+ * count. The progress callback, when set, is called after each finished row
+ * with the number of rows done, from whichever thread finished it, one call
+ * at a time (it must not call back into the renderer).
+ */
+#ifndef LANCER_RENDER_H
+#define LANCER_RENDER_H
+
+#include "lancer/accel.h"
+#include "lancer/camera.h"
+#include "lancer/image.h"
+
+typedef void (*RenderProgress)(void *ctx, int rows_done, int rows_total);
+
+typedef struct {
+    int threads; /* 1 or more */
+    RenderProgress progress;
+    void *progress_ctx;
+} RenderOptions;
+
+/* Renders into img, which must already have the scene's size. Adds the ray
+ * counts to *stats. Returns 0, or -1 if no thread could be started. */
+int render_image(const Scene *s, const Accel *a, const RenderOptions *opt, Image *img, RayStats *stats);
+
+/* The colour of pixel (x, y): one camera ray through its centre. */
+Vec3 render_pixel(const Scene *s, const Accel *a, const Camera *cam, int x, int y, RayStats *st);
+
+#endif

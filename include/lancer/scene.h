@@ -1,0 +1,72 @@
+/*
+ * scene.h - the scene: plain arrays of materials, lights and primitives, and
+ * the parser of lancer's scene format (the format is documented in README.md).
+ *
+ *     Scene s;
+ *     char err[512];
+ *     if (scene_load("scenes/default.scn", &s, err, sizeof err) != 0) {
+ *         fprintf(stderr, "%s\n", err);   "file:line:col: what is wrong"
+ *         return 1;
+ *     }
+ *     ... s.prims[i], s.materials[s.prims[i].material] ...
+ *     scene_free(&s);
+ *
+ * A loaded scene has been validated: every number is finite, every normal and
+ * axis has length, every material exists. On error nothing is returned (the
+ * Scene is left empty and scene_free is still safe).
+ */
+#ifndef LANCER_SCENE_H
+#define LANCER_SCENE_H
+
+#include <stddef.h>
+
+#include "lancer/prim.h"
+
+#define SCENE_NAME_MAX 64
+/* Scene files larger than this are refused rather than read into memory. */
+#define SCENE_MAX_BYTES (64L << 20)
+
+/* POV-Ray's classic finish with a plain pigment (REFERENCE.md section 1). */
+typedef struct {
+    char name[SCENE_NAME_MAX];
+    Vec3 color;
+    float ambient, diffuse;
+    float phong, phong_size;
+    float specular, roughness;
+    float reflection;
+} Material;
+
+typedef struct {
+    Vec3 pos, color;
+    float fade_distance, fade_power; /* fade_power 0: no attenuation */
+    int shadowless;
+} Light;
+
+typedef struct {
+    Vec3 eye, target, up;
+    float fovy; /* vertical field of view, degrees */
+} CameraSpec;
+
+typedef struct {
+    int width, height;
+    int max_depth; /* POV-Ray's max_trace_level: the camera ray is level 1 */
+    Vec3 background;
+    CameraSpec camera;
+    Material *materials;
+    int nmaterials;
+    Light *lights;
+    int nlights;
+    Prim *prims;
+    int nprims;
+} Scene;
+
+/* Reads and parses a scene file. Returns 0, or -1 with "path:line:col:
+ * message" in err. Paths in messages are given as passed. */
+int scene_load(const char *path, Scene *s, char *err, size_t errlen);
+
+/* Parses scene text held in memory; `name` stands for the file in messages. */
+int scene_parse(const char *name, const char *text, size_t len, Scene *s, char *err, size_t errlen);
+
+void scene_free(Scene *s);
+
+#endif

@@ -1,0 +1,53 @@
+/*
+ * afile.c - atomic file replacement (see afile.h for the contract).
+ */
+#include "lancer/afile.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+int afile_temp(const char *path, char *tmp, size_t tmplen, char *err, size_t errlen)
+{
+    int n = snprintf(tmp, tmplen, "%s.tmp.XXXXXX", path);
+    if (n < 0 || (size_t)n >= tmplen) {
+        snprintf(err, errlen, "%s: path is too long", path);
+        return -1;
+    }
+    int fd = mkstemp(tmp);
+    if (fd < 0) {
+        snprintf(err, errlen, "%s: cannot create a file there: %s", path, strerror(errno));
+        return -1;
+    }
+    close(fd);
+    return 0;
+}
+
+int afile_commit(const char *tmp, const char *path, char *err, size_t errlen)
+{
+    if (rename(tmp, path) != 0) {
+        snprintf(err, errlen, "%s: cannot replace file: %s", path, strerror(errno));
+        remove(tmp);
+        return -1;
+    }
+    return 0;
+}
+
+void afile_abort(const char *tmp) { remove(tmp); }
+
+int afile_check_writable(const char *path, char *err, size_t errlen)
+{
+    struct stat st;
+    if (stat(path, &st) == 0 && S_ISDIR(st.st_mode)) {
+        snprintf(err, errlen, "%s: is a directory", path);
+        return -1;
+    }
+    char tmp[AFILE_PATH_MAX];
+    if (afile_temp(path, tmp, sizeof tmp, err, errlen) != 0)
+        return -1;
+    afile_abort(tmp);
+    return 0;
+}

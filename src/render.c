@@ -1,0 +1,85 @@
+/*
+ * render.c - parallel render loop (see render.h for the determinism contract).
+ */
+#include "lancer/render.h"
+
+#include <pthread.h>
+#include <stdlib.h>
+
+#include "lancer/shade.h"
+
+typedef struct {
+    const Scene *s;
+    const Accel *a;
+    Camera cam;
+    Image *img;
+    const RenderOptions *opt;
+    pthread_mutex_t lock; /* guards next_row, rows_done, stats and progress */
+    int next_row, rows_done;
+    RayStats stats;
+} Job;
+
+Vec3 render_pixel(const Scene *s, const Accel *a, const Camera *cam, int x, int y, RayStats *st)
+{
+    Ray r = camera_ray(cam, (float)x + 0.5f, (float)y + 0.5f);
+    st->camera++;
+    return shade_trace(s, a, &r, 1, st);
+}
+
+static void *worker(void *arg)
+{
+    Job *job = arg;
+    RayStats st = {0, 0, 0, 0, 0};
+    int w = job->img->width, h = job->img->height;
+    for (;;) {
+        pthread_mutex_lock(&job->lock);
+        int y = job->next_row < h ? job->next_row++ : -1;
+        pthread_mutex_unlock(&job->lock);
+        if (y < 0)
+            break;
+        float *row = job->img->rgb + (size_t)y * (size_t)w * 3;
+        for (int x = 0; x < w; x++) {
+            Vec3 c = render_pixel(job->s, job->a, &job->cam, x, y, &st);
+            row[3 * x] = c.x;
+            row[3 * x + 1] = c.y;
+            row[3 * x + 2] = c.z;
+        }
+        pthread_mutex_lock(&job->lock);
+        job->rows_done++;
+        if (job->opt->progress)
+            job->opt->progress(job->opt->progress_ctx, job->rows_done, h);
+        pthread_mutex_unlock(&job->lock);
+    }
+    pthread_mutex_lock(&job->lock);
+    raystats_add(&job->stats, &st);
+    pthread_mutex_unlock(&job->lock);
+    return NULL;
+}
+
+int render_image(const Scene *s, const Accel *a, const RenderOptions *opt, Image *img, RayStats *stats)
+{
+    Job job;
+    job.s = s;
+    job.a = a;
+    job.img = img;
+    job.opt = opt;
+    job.next_row = 0;
+    job.rows_done = 0;
+    job.stats = (RayStats){0, 0, 0, 0, 0};
+    camera_init(&job.cam, &s->camera, img->width, img->height);
+    if (pthread_mutex_init(&job.lock, NULL) != 0)
+        return -1;
+    int extra = opt->threads > 1 ? opt->threads - 1 : 0;
+    pthread_t *tids = extra ? malloc(sizeof(pthread_t) * (size_t)extra) : NULL;
+    int started = 0;
+    if (tids)
+        while (started < extra && pthread_create(&tids[started], NULL, worker, &job) == 0)
+            started++;
+    worker(&job); /* the calling thread works too */
+    for (int i = 0; i < started; i++)
+        pthread_join(tids[i], NULL);
+    free(tids);
+    pthread_mutex_destroy(&job.lock);
+    raystats_add(stats, &job.stats);
+    return 0;
+}

@@ -1,0 +1,756 @@
+/*
+ * scene.c - lexer and parser of lancer's scene format.
+ *
+ * The grammar is one level deep:
+ *
+ *     file      := statement*
+ *     statement := KEYWORD [NAME] '{' property* '}'
+ *     property  := KEY value*          (the KEY decides how many values)
+ *     value     := NUMBER | NAME
+ *
+ * '#' starts a comment that runs to the end of the line. Each statement kind
+ * has a table of its properties (Field), so one routine parses every block
+ * and catches unknown, duplicate, missing and extra values in one place; the
+ * per-kind code then only checks meaning. Every error goes through fail(),
+ * which prefixes "file:line:col: ". Columns count bytes from 1.
+ */
+#include "lancer/scene.h"
+
+#include <errno.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "lancer/image.h"
+
+typedef struct {
+    int line, col;
+} Loc;
+
+typedef enum { TOK_EOF, TOK_IDENT, TOK_NUMBER, TOK_LBRACE, TOK_RBRACE } TokKind;
+
+typedef struct {
+    TokKind kind;
+    Loc loc;
+    const char *start;
+    size_t len;
+    float num;
+} Token;
+
+typedef struct {
+    const char *name;
+    const char *p, *end;
+    Loc at; /* position of p */
+    Token tok;
+    char *err;
+    size_t errlen;
+    Scene *s;
+    int cap_materials, cap_lights, cap_prims;
+    int have_image, have_camera;
+} Parser;
+
+static int fail(Parser *P, Loc loc, const char *fmt, ...)
+{
+    int n = snprintf(P->err, P->errlen, "%s:%d:%d: ", P->name, loc.line, loc.col);
+    if (n >= 0 && (size_t)n < P->errlen) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(P->err + n, P->errlen - (size_t)n, fmt, ap);
+        va_end(ap);
+    }
+    return -1;
+}
+
+/* ---- lexer ---- */
+
+static int is_ident_start(int c) { return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || c == '_'; }
+static int is_digit(int c) { return c >= '0' && c <= '9'; }
+static int is_ident_char(int c) { return is_ident_start(c) || is_digit(c); }
+
+static void advance(Parser *P, size_t n)
+{
+    while (n-- > 0) {
+        if (*P->p == '\n') {
+            P->at.line++;
+            P->at.col = 1;
+        } else {
+            P->at.col++;
+        }
+        P->p++;
+    }
+}
+
+/* Length of a number at s: [+-] digits [. digits] [e [+-] digits], or 0. */
+static size_t number_len(const char *s, const char *end)
+{
+    const char *q = s;
+    size_t digits = 0;
+    if (q < end && (*q == '+' || *q == '-'))
+        q++;
+    while (q < end && is_digit(*q))
+        q++, digits++;
+    if (q < end && *q == '.') {
+        q++;
+        while (q < end && is_digit(*q))
+            q++, digits++;
+    }
+    if (digits == 0)
+        return 0;
+    if (q < end && (*q == 'e' || *q == 'E')) {
+        const char *e = q + 1;
+        if (e < end && (*e == '+' || *e == '-'))
+            e++;
+        if (e < end && is_digit(*e)) {
+            while (e < end && is_digit(*e))
+                e++;
+            q = e;
+        }
+    }
+    return (size_t)(q - s);
+}
+
+static int next(Parser *P)
+{
+    for (;;) { /* skip blanks and comments */
+        while (P->p < P->end && (*P->p == ' ' || *P->p == '\t' || *P->p == '\r' || *P->p == '\n'))
+            advance(P, 1);
+        if (P->p < P->end && *P->p == '#') {
+            while (P->p < P->end && *P->p != '\n')
+                advance(P, 1);
+            continue;
+        }
+        break;
+    }
+    Token *t = &P->tok;
+    t->loc = P->at;
+    t->start = P->p;
+    t->len = 0;
+    if (P->p >= P->end) {
+        t->kind = TOK_EOF;
+        return 0;
+    }
+    unsigned char c = (unsigned char)*P->p;
+    if (c == '{' || c == '}') {
+        t->kind = c == '{' ? TOK_LBRACE : TOK_RBRACE;
+        t->len = 1;
+        advance(P, 1);
+        return 0;
+    }
+    if (is_ident_start(c)) {
+        size_t n = 0;
+        while (P->p + n < P->end && is_ident_char(P->p[n]))
+            n++;
+        t->kind = TOK_IDENT;
+        t->len = n;
+        advance(P, n);
+        return 0;
+    }
+    size_t n = number_len(P->p, P->end);
+    if (n > 0) {
+        size_t m = n;
+        while (P->p + m < P->end && (is_ident_char(P->p[m]) || P->p[m] == '.'))
+            m++;
+        if (m != n)
+            return fail(P, t->loc, "malformed number '%.*s'", (int)m, P->p);
+        char buf[64];
+        if (n >= sizeof buf)
+            return fail(P, t->loc, "number too long");
+        memcpy(buf, P->p, n);
+        buf[n] = '\0';
+        double d = strtod(buf, NULL);
+        t->num = (float)d;
+        if (!isfinite(t->num))
+            return fail(P, t->loc, "non-finite number '%s' (out of single-precision range)", buf);
+        t->kind = TOK_NUMBER;
+        t->len = n;
+        advance(P, n);
+        return 0;
+    }
+    if (c >= 0x21 && c < 0x7f)
+        return fail(P, t->loc, "unexpected character '%c'", c);
+    return fail(P, t->loc, "unexpected byte 0x%02x", c);
+}
+
+static int tok_is(const Token *t, const char *word)
+{
+    return t->kind == TOK_IDENT && t->len == strlen(word) && memcmp(t->start, word, t->len) == 0;
+}
+
+/* A quoted description of the current token, for messages. */
+static const char *tok_desc(const Token *t, char *buf, size_t len)
+{
+    switch (t->kind) {
+    case TOK_EOF:
+        return "end of file";
+    case TOK_LBRACE:
+        return "'{'";
+    case TOK_RBRACE:
+        return "'}'";
+    case TOK_NUMBER:
+        snprintf(buf, len, "number '%.*s'", (int)t->len, t->start);
+        return buf;
+    case TOK_IDENT:
+        break;
+    }
+    snprintf(buf, len, "'%.*s'", (int)(t->len > 40 ? 40 : t->len), t->start);
+    return buf;
+}
+
+/* ---- block parsing driven by field tables ---- */
+
+typedef enum { F_NUM, F_VEC, F_FLAG, F_NAME } FieldKind;
+
+typedef struct {
+    const char *key;
+    FieldKind kind;
+} Field;
+
+typedef struct {
+    int set;
+    Loc key, value; /* where the key and its first value stand */
+    float v[3];
+    char name[SCENE_NAME_MAX];
+} Value;
+
+#define MAX_FIELDS 12
+
+static const char *kind_desc(FieldKind k)
+{
+    switch (k) {
+    case F_NUM:
+        return "a number";
+    case F_VEC:
+        return "three numbers";
+    case F_NAME:
+        return "a name";
+    case F_FLAG:
+        break;
+    }
+    return "no value";
+}
+
+static int find_field(const Field *f, int n, const Token *t)
+{
+    for (int i = 0; i < n; i++)
+        if (tok_is(t, f[i].key))
+            return i;
+    return -1;
+}
+
+/* Reads a NAME token into out. */
+static int read_name(Parser *P, char *out, const char *what)
+{
+    char buf[64];
+    if (P->tok.kind != TOK_IDENT)
+        return fail(P, P->tok.loc, "%s: expected a name, found %s", what, tok_desc(&P->tok, buf, sizeof buf));
+    if (P->tok.len >= SCENE_NAME_MAX)
+        return fail(P, P->tok.loc, "%s: name longer than %d characters", what, SCENE_NAME_MAX - 1);
+    memcpy(out, P->tok.start, P->tok.len);
+    out[P->tok.len] = '\0';
+    return next(P);
+}
+
+/* Parses "{ property* }" for a block named `what`; the current token must be
+ * the '{'. On return the token after '}' is current. */
+static int parse_block(Parser *P, const char *what, const Field *f, int nf, Value *vals)
+{
+    char buf[64];
+    memset(vals, 0, sizeof(Value) * (size_t)nf);
+    if (P->tok.kind != TOK_LBRACE)
+        return fail(P, P->tok.loc, "%s: expected '{', found %s", what, tok_desc(&P->tok, buf, sizeof buf));
+    if (next(P))
+        return -1;
+    while (P->tok.kind != TOK_RBRACE) {
+        if (P->tok.kind == TOK_EOF)
+            return fail(P, P->tok.loc, "%s: missing '}' before end of file", what);
+        if (P->tok.kind != TOK_IDENT)
+            return fail(P, P->tok.loc, "%s: expected a property name, found %s", what,
+                        tok_desc(&P->tok, buf, sizeof buf));
+        int i = find_field(f, nf, &P->tok);
+        if (i < 0)
+            return fail(P, P->tok.loc, "%s: unknown property '%.*s'", what, (int)P->tok.len, P->tok.start);
+        Value *v = &vals[i];
+        if (v->set)
+            return fail(P, P->tok.loc, "%s: duplicate property '%s' (first given at %d:%d)", what, f[i].key,
+                        v->key.line, v->key.col);
+        v->set = 1;
+        v->key = P->tok.loc;
+        if (next(P))
+            return -1;
+        v->value = P->tok.loc;
+        int count = f[i].kind == F_VEC ? 3 : f[i].kind == F_NUM ? 1 : 0;
+        if (f[i].kind == F_NAME) {
+            if (P->tok.kind == TOK_RBRACE || P->tok.kind == TOK_EOF)
+                return fail(P, P->tok.loc, "%s: missing value for '%s' (expects a name)", what, f[i].key);
+            if (read_name(P, v->name, f[i].key))
+                return -1;
+        }
+        for (int k = 0; k < count; k++) {
+            if (P->tok.kind == TOK_NUMBER) {
+                v->v[k] = P->tok.num;
+                if (next(P))
+                    return -1;
+                continue;
+            }
+            /* A '}' or another property where a value belongs means the value
+             * was left out; anything else is a value of the wrong type. */
+            if (P->tok.kind == TOK_RBRACE || P->tok.kind == TOK_EOF || find_field(f, nf, &P->tok) >= 0)
+                return fail(P, P->tok.loc, "%s: missing value for '%s' (expects %s, got %d)", what, f[i].key,
+                            kind_desc(f[i].kind), k);
+            return fail(P, P->tok.loc, "%s: wrong type for '%s': expected a number, found %s", what, f[i].key,
+                        tok_desc(&P->tok, buf, sizeof buf));
+        }
+        if (P->tok.kind == TOK_NUMBER)
+            return fail(P, P->tok.loc, "%s: extra value %s after '%s' (expects %s)", what,
+                        tok_desc(&P->tok, buf, sizeof buf), f[i].key, kind_desc(f[i].kind));
+    }
+    return next(P);
+}
+
+static int require(Parser *P, const char *what, const Field *f, const Value *vals, int i, Loc block)
+{
+    if (!vals[i].set)
+        return fail(P, block, "%s: missing property '%s'", what, f[i].key);
+    return 0;
+}
+
+static Vec3 vec_of(const Value *v) { return vec3(v->v[0], v->v[1], v->v[2]); }
+
+static Vec3 vec_or(const Value *v, Vec3 dflt) { return v->set ? vec_of(v) : dflt; }
+
+static float num_or(const Value *v, float dflt) { return v->set ? v->v[0] : dflt; }
+
+/* ---- growing the scene's arrays (bounded by the file size) ---- */
+
+static void *grow(void *arr, int *cap, int count, size_t elem)
+{
+    if (count < *cap)
+        return arr;
+    int ncap = *cap ? *cap * 2 : 8;
+    void *p = realloc(arr, (size_t)ncap * elem);
+    if (p)
+        *cap = ncap;
+    return p;
+}
+
+static Prim *new_prim(Parser *P, PrimKind kind, Loc loc)
+{
+    Prim *arr = grow(P->s->prims, &P->cap_prims, P->s->nprims, sizeof(Prim));
+    if (!arr) {
+        fail(P, loc, "out of memory");
+        return NULL;
+    }
+    P->s->prims = arr;
+    Prim *p = &arr[P->s->nprims++];
+    memset(p, 0, sizeof *p);
+    p->kind = kind;
+    return p;
+}
+
+static int find_material(const Scene *s, const char *name)
+{
+    for (int i = 0; i < s->nmaterials; i++)
+        if (strcmp(s->materials[i].name, name) == 0)
+            return i;
+    return -1;
+}
+
+/* Resolves a required 'material NAME' property. */
+static int material_ref(Parser *P, const char *what, const Field *f, const Value *vals, int i, Loc block,
+                        int *out)
+{
+    if (require(P, what, f, vals, i, block))
+        return -1;
+    *out = find_material(P->s, vals[i].name);
+    if (*out < 0)
+        return fail(P, vals[i].value, "%s: undefined material '%s'", what, vals[i].name);
+    return 0;
+}
+
+static int nonzero_vec(Parser *P, const char *what, const char *key, const Value *v)
+{
+    if (vec_length(vec_of(v)) > 0.0f && isfinite(vec_length(vec_of(v))))
+        return 0;
+    return fail(P, v->value, "%s: '%s' must have non-zero length", what, key);
+}
+
+/* ---- statements ---- */
+
+static int parse_image(Parser *P, Loc at)
+{
+    enum { WIDTH, HEIGHT, BACKGROUND, MAX_DEPTH, N };
+    static const Field f[N] = {
+        {"width", F_NUM}, {"height", F_NUM}, {"background", F_VEC}, {"max_depth", F_NUM}};
+    Value v[N];
+    if (P->have_image)
+        return fail(P, at, "duplicate 'image' block");
+    P->have_image = 1;
+    if (parse_block(P, "image", f, N, v))
+        return -1;
+    for (int i = WIDTH; i <= HEIGHT; i++) {
+        float x = v[i].v[0];
+        if (v[i].set && !(x == floorf(x) && x >= 1 && x <= IMAGE_MAX_SIDE))
+            return fail(P, v[i].value, "image: '%s' must be a whole number from 1 to %d", f[i].key, IMAGE_MAX_SIDE);
+    }
+    float d = v[MAX_DEPTH].v[0];
+    if (v[MAX_DEPTH].set && !(d == floorf(d) && d >= 1 && d <= 256))
+        return fail(P, v[MAX_DEPTH].value, "image: 'max_depth' must be a whole number from 1 to 256");
+    P->s->width = (int)num_or(&v[WIDTH], (float)P->s->width);
+    P->s->height = (int)num_or(&v[HEIGHT], (float)P->s->height);
+    P->s->max_depth = (int)num_or(&v[MAX_DEPTH], (float)P->s->max_depth);
+    P->s->background = vec_or(&v[BACKGROUND], P->s->background);
+    return 0;
+}
+
+static int parse_camera(Parser *P, Loc at)
+{
+    enum { EYE, TARGET, UP, FOV, N };
+    static const Field f[N] = {{"eye", F_VEC}, {"target", F_VEC}, {"up", F_VEC}, {"fov", F_NUM}};
+    Value v[N];
+    if (P->have_camera)
+        return fail(P, at, "duplicate 'camera' block");
+    P->have_camera = 1;
+    if (parse_block(P, "camera", f, N, v))
+        return -1;
+    for (int i = 0; i < N; i++)
+        if (i != UP && require(P, "camera", f, v, i, at))
+            return -1;
+    CameraSpec *c = &P->s->camera;
+    c->eye = vec_of(&v[EYE]);
+    c->target = vec_of(&v[TARGET]);
+    c->up = vec_or(&v[UP], vec3(0, 1, 0));
+    c->fovy = v[FOV].v[0];
+    Vec3 fwd = vec_sub(c->target, c->eye);
+    if (!(vec_length(fwd) > 0.0f))
+        return fail(P, v[TARGET].value, "camera: 'target' must differ from 'eye'");
+    if (v[UP].set && nonzero_vec(P, "camera", "up", &v[UP]))
+        return -1;
+    if (!(vec_length(vec_cross(vec_normalize(fwd), vec_normalize(c->up))) > 1e-6f))
+        return fail(P, v[UP].set ? v[UP].value : at, "camera: 'up' must not be parallel to the view direction");
+    if (!(c->fovy > 0.0f && c->fovy < 180.0f))
+        return fail(P, v[FOV].value, "camera: 'fov' must be between 0 and 180 degrees");
+    return 0;
+}
+
+static int parse_light(Parser *P, Loc at)
+{
+    enum { POSITION, COLOR, FADE_DISTANCE, FADE_POWER, SHADOWLESS, N };
+    static const Field f[N] = {{"position", F_VEC},      {"color", F_VEC},     {"fade_distance", F_NUM},
+                               {"fade_power", F_NUM},    {"shadowless", F_FLAG}};
+    Value v[N];
+    if (parse_block(P, "light", f, N, v) || require(P, "light", f, v, POSITION, at))
+        return -1;
+    Light l;
+    l.pos = vec_of(&v[POSITION]);
+    l.color = vec_or(&v[COLOR], vec3(1, 1, 1));
+    l.fade_distance = num_or(&v[FADE_DISTANCE], 0.0f);
+    l.fade_power = num_or(&v[FADE_POWER], 0.0f);
+    l.shadowless = v[SHADOWLESS].set;
+    if (v[FADE_DISTANCE].set && !(l.fade_distance > 0.0f))
+        return fail(P, v[FADE_DISTANCE].value, "light: 'fade_distance' must be positive");
+    if (l.fade_power < 0.0f)
+        return fail(P, v[FADE_POWER].value, "light: 'fade_power' must not be negative");
+    if (l.fade_power > 0.0f && !v[FADE_DISTANCE].set)
+        return fail(P, v[FADE_POWER].key, "light: 'fade_power' needs 'fade_distance'");
+    Light *arr = grow(P->s->lights, &P->cap_lights, P->s->nlights, sizeof(Light));
+    if (!arr)
+        return fail(P, at, "out of memory");
+    P->s->lights = arr;
+    arr[P->s->nlights++] = l;
+    return 0;
+}
+
+static int parse_material(Parser *P, Loc at)
+{
+    enum { COLOR, AMBIENT, DIFFUSE, PHONG, PHONG_SIZE, SPECULAR, ROUGHNESS, REFLECTION, N };
+    static const Field f[N] = {{"color", F_VEC},
+                               {"ambient", F_NUM},
+                               {"diffuse", F_NUM},
+                               {"phong", F_NUM},
+                               {"phong_size", F_NUM},
+                               {"specular", F_NUM},
+                               {"roughness", F_NUM},
+                               {"reflection", F_NUM}};
+    Value v[N];
+    Material m;
+    Loc name_at = P->tok.loc;
+    if (read_name(P, m.name, "material"))
+        return -1;
+    int prev = find_material(P->s, m.name);
+    if (prev >= 0)
+        return fail(P, name_at, "duplicate material name '%s'", m.name);
+    if (parse_block(P, "material", f, N, v))
+        return -1;
+    /* Defaults are POV-Ray 3.7's, so an unset value means the same there. */
+    m.color = vec_or(&v[COLOR], vec3(1, 1, 1));
+    m.ambient = num_or(&v[AMBIENT], 0.1f);
+    m.diffuse = num_or(&v[DIFFUSE], 0.6f);
+    m.phong = num_or(&v[PHONG], 0.0f);
+    m.phong_size = num_or(&v[PHONG_SIZE], 40.0f);
+    m.specular = num_or(&v[SPECULAR], 0.0f);
+    m.roughness = num_or(&v[ROUGHNESS], 0.05f);
+    m.reflection = num_or(&v[REFLECTION], 0.0f);
+    for (int i = AMBIENT; i < N; i++)
+        if (v[i].v[0] < 0.0f)
+            return fail(P, v[i].value, "material: '%s' must not be negative", f[i].key);
+    if (v[COLOR].set && (m.color.x < 0.0f || m.color.y < 0.0f || m.color.z < 0.0f))
+        return fail(P, v[COLOR].value, "material: 'color' must not be negative");
+    if (v[ROUGHNESS].set && !(m.roughness > 0.0f))
+        return fail(P, v[ROUGHNESS].value, "material: 'roughness' must be positive");
+    Material *arr = grow(P->s->materials, &P->cap_materials, P->s->nmaterials, sizeof(Material));
+    if (!arr)
+        return fail(P, at, "out of memory");
+    P->s->materials = arr;
+    arr[P->s->nmaterials++] = m;
+    return 0;
+}
+
+static int parse_sphere(Parser *P, Loc at)
+{
+    enum { CENTER, RADIUS, MATERIAL, N };
+    static const Field f[N] = {{"center", F_VEC}, {"radius", F_NUM}, {"material", F_NAME}};
+    Value v[N];
+    int mat;
+    if (parse_block(P, "sphere", f, N, v) || require(P, "sphere", f, v, CENTER, at) ||
+        require(P, "sphere", f, v, RADIUS, at) || material_ref(P, "sphere", f, v, MATERIAL, at, &mat))
+        return -1;
+    if (!(v[RADIUS].v[0] > 0.0f))
+        return fail(P, v[RADIUS].value, "sphere: 'radius' must be positive");
+    Prim *p = new_prim(P, PRIM_SPHERE, at);
+    if (!p)
+        return -1;
+    p->material = mat;
+    p->g.sphere.c = vec_of(&v[CENTER]);
+    p->g.sphere.r = v[RADIUS].v[0];
+    return 0;
+}
+
+static int parse_plane(Parser *P, Loc at)
+{
+    enum { NORMAL, OFFSET, MATERIAL, N };
+    static const Field f[N] = {{"normal", F_VEC}, {"offset", F_NUM}, {"material", F_NAME}};
+    Value v[N];
+    int mat;
+    if (parse_block(P, "plane", f, N, v) || require(P, "plane", f, v, NORMAL, at) ||
+        material_ref(P, "plane", f, v, MATERIAL, at, &mat) || nonzero_vec(P, "plane", "normal", &v[NORMAL]))
+        return -1;
+    Prim *p = new_prim(P, PRIM_PLANE, at);
+    if (!p)
+        return -1;
+    p->material = mat;
+    p->g.plane.n = vec_normalize(vec_of(&v[NORMAL]));
+    p->g.plane.d = num_or(&v[OFFSET], 0.0f);
+    return 0;
+}
+
+static int parse_triangle(Parser *P, Loc at, int smooth)
+{
+    enum { A, B, C, NA, NB, NC, MATERIAL, N };
+    static const Field f[N] = {{"a", F_VEC},  {"b", F_VEC},  {"c", F_VEC},        {"na", F_VEC},
+                               {"nb", F_VEC}, {"nc", F_VEC}, {"material", F_NAME}};
+    const char *what = smooth ? "smooth_triangle" : "triangle";
+    Value v[N];
+    int mat;
+    /* A flat triangle takes no normals: its table ends before them. */
+    static const Field flat[4] = {{"a", F_VEC}, {"b", F_VEC}, {"c", F_VEC}, {"material", F_NAME}};
+    if (smooth) {
+        if (parse_block(P, what, f, N, v))
+            return -1;
+    } else {
+        Value fv[4];
+        if (parse_block(P, what, flat, 4, fv))
+            return -1;
+        memset(v, 0, sizeof v);
+        v[A] = fv[0];
+        v[B] = fv[1];
+        v[C] = fv[2];
+        v[MATERIAL] = fv[3];
+    }
+    for (int i = A; i <= (smooth ? NC : C); i++)
+        if (require(P, what, f, v, i, at))
+            return -1;
+    if (material_ref(P, what, f, v, MATERIAL, at, &mat))
+        return -1;
+    if (smooth)
+        for (int i = NA; i <= NC; i++)
+            if (nonzero_vec(P, what, f[i].key, &v[i]))
+                return -1;
+    Triangle t;
+    t.a = vec_of(&v[A]);
+    t.b = vec_of(&v[B]);
+    t.c = vec_of(&v[C]);
+    if (!(vec_length(vec_cross(vec_sub(t.b, t.a), vec_sub(t.c, t.a))) > 0.0f))
+        return fail(P, at, "%s: the three vertices are collinear (zero area)", what);
+    t.na = vec_normalize(vec_of(&v[NA])); /* zero for a flat triangle */
+    t.nb = vec_normalize(vec_of(&v[NB]));
+    t.nc = vec_normalize(vec_of(&v[NC]));
+    Prim *p = new_prim(P, smooth ? PRIM_SMOOTH_TRIANGLE : PRIM_TRIANGLE, at);
+    if (!p)
+        return -1;
+    p->material = mat;
+    p->g.tri = t;
+    return 0;
+}
+
+static int parse_box(Parser *P, Loc at)
+{
+    enum { MIN, MAX, MATERIAL, N };
+    static const Field f[N] = {{"min", F_VEC}, {"max", F_VEC}, {"material", F_NAME}};
+    Value v[N];
+    int mat;
+    if (parse_block(P, "box", f, N, v) || require(P, "box", f, v, MIN, at) || require(P, "box", f, v, MAX, at) ||
+        material_ref(P, "box", f, v, MATERIAL, at, &mat))
+        return -1;
+    Vec3 lo = vec_of(&v[MIN]), hi = vec_of(&v[MAX]);
+    if (!(lo.x < hi.x && lo.y < hi.y && lo.z < hi.z))
+        return fail(P, v[MAX].value, "box: 'max' must exceed 'min' on every axis");
+    Prim *p = new_prim(P, PRIM_BOX, at);
+    if (!p)
+        return -1;
+    p->material = mat;
+    p->g.box.lo = lo;
+    p->g.box.hi = hi;
+    return 0;
+}
+
+static int parse_obox(Parser *P, Loc at)
+{
+    enum { CENTER, U, V, W, MATERIAL, N };
+    static const Field f[N] = {{"center", F_VEC}, {"u", F_VEC}, {"v", F_VEC}, {"w", F_VEC}, {"material", F_NAME}};
+    Value v[N];
+    int mat;
+    if (parse_block(P, "obox", f, N, v))
+        return -1;
+    for (int i = CENTER; i <= W; i++)
+        if (require(P, "obox", f, v, i, at))
+            return -1;
+    if (material_ref(P, "obox", f, v, MATERIAL, at, &mat))
+        return -1;
+    for (int i = U; i <= W; i++)
+        if (nonzero_vec(P, "obox", f[i].key, &v[i]))
+            return -1;
+    OBox b;
+    b.c = vec_of(&v[CENTER]);
+    b.u = vec_of(&v[U]);
+    b.v = vec_of(&v[V]);
+    b.w = vec_of(&v[W]);
+    if (prim_obox_init(&b) != 0)
+        return fail(P, at, "obox: axes 'u', 'v' and 'w' are linearly dependent (the box is flat)");
+    Prim *p = new_prim(P, PRIM_OBOX, at);
+    if (!p)
+        return -1;
+    p->material = mat;
+    p->g.obox = b;
+    return 0;
+}
+
+static int parse_statement(Parser *P)
+{
+    Token kw = P->tok;
+    char buf[64];
+    if (kw.kind != TOK_IDENT)
+        return fail(P, kw.loc, "expected a keyword, found %s", tok_desc(&kw, buf, sizeof buf));
+    if (next(P))
+        return -1;
+    if (tok_is(&kw, "image"))
+        return parse_image(P, kw.loc);
+    if (tok_is(&kw, "camera"))
+        return parse_camera(P, kw.loc);
+    if (tok_is(&kw, "light"))
+        return parse_light(P, kw.loc);
+    if (tok_is(&kw, "material"))
+        return parse_material(P, kw.loc);
+    if (tok_is(&kw, "sphere"))
+        return parse_sphere(P, kw.loc);
+    if (tok_is(&kw, "plane"))
+        return parse_plane(P, kw.loc);
+    if (tok_is(&kw, "triangle"))
+        return parse_triangle(P, kw.loc, 0);
+    if (tok_is(&kw, "smooth_triangle"))
+        return parse_triangle(P, kw.loc, 1);
+    if (tok_is(&kw, "box"))
+        return parse_box(P, kw.loc);
+    if (tok_is(&kw, "obox"))
+        return parse_obox(P, kw.loc);
+    return fail(P, kw.loc, "unknown keyword %s", tok_desc(&kw, buf, sizeof buf));
+}
+
+void scene_free(Scene *s)
+{
+    free(s->materials);
+    free(s->lights);
+    free(s->prims);
+    memset(s, 0, sizeof *s);
+}
+
+int scene_parse(const char *name, const char *text, size_t len, Scene *s, char *err, size_t errlen)
+{
+    Parser P;
+    memset(&P, 0, sizeof P);
+    memset(s, 0, sizeof *s);
+    P.name = name;
+    P.p = text;
+    P.end = text + len;
+    P.at.line = 1;
+    P.at.col = 1;
+    P.err = err;
+    P.errlen = errlen;
+    P.s = s;
+    s->width = 640;
+    s->height = 480;
+    s->max_depth = 5; /* POV-Ray's default max_trace_level */
+    int rc = next(&P);
+    while (rc == 0 && P.tok.kind != TOK_EOF)
+        rc = parse_statement(&P);
+    if (rc == 0 && !P.have_camera)
+        rc = fail(&P, P.tok.loc, "the scene has no 'camera' block");
+    if (rc != 0)
+        scene_free(s);
+    return rc;
+}
+
+int scene_load(const char *path, Scene *s, char *err, size_t errlen)
+{
+    memset(s, 0, sizeof *s);
+    FILE *f = fopen(path, "rb");
+    if (!f) {
+        snprintf(err, errlen, "%s: cannot open: %s", path, strerror(errno));
+        return -1;
+    }
+    char *buf = NULL;
+    size_t len = 0, cap = 0;
+    int rc = 0;
+    for (;;) {
+        if (len == cap) {
+            if (cap >= (size_t)SCENE_MAX_BYTES) {
+                snprintf(err, errlen, "%s: file larger than %ld MiB, refusing to read it", path,
+                         SCENE_MAX_BYTES >> 20);
+                rc = -1;
+                break;
+            }
+            cap = cap ? cap * 2 : 1 << 16;
+            char *nb = realloc(buf, cap);
+            if (!nb) {
+                snprintf(err, errlen, "%s: out of memory", path);
+                rc = -1;
+                break;
+            }
+            buf = nb;
+        }
+        size_t n = fread(buf + len, 1, cap - len, f);
+        len += n;
+        if (n == 0) {
+            if (ferror(f)) {
+                snprintf(err, errlen, "%s: read error: %s", path, strerror(errno));
+                rc = -1;
+            }
+            break;
+        }
+    }
+    fclose(f);
+    if (rc == 0)
+        rc = scene_parse(path, buf, len, s, err, errlen);
+    free(buf);
+    return rc;
+}
