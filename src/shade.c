@@ -9,16 +9,15 @@
 
 #include <float.h>
 
-/* The hit point p = o + t*d of the classic routines carries an error of a few
- * tens of ulps of max(|o|, |p|) (t itself is computed from o, and cancellation
- * happens at that magnitude). 2^7 ulps leaves a margin over what the classic
- * routines show in practice; the robust variants replace this with a proven
- * per-primitive bound. */
-#define SPAWN_ULPS 128.0f
+/* Along the normal, the hit point p = o + t*d of the classic routines is off
+ * by a few ulps of max(|o|, |p|): t is computed from o, so its rounding
+ * happens at that magnitude. 16 ulps leaves a margin over that; the robust
+ * variants will replace this with a proven per-primitive bound. */
+#define SPAWN_ULPS 16.0f
 
 Vec3 shade_spawn_origin(Vec3 p, Vec3 ng, Vec3 dir, Vec3 o)
 {
-    float mag = vec_max_abs(p) + vec_max_abs(o);
+    float mag = fmaxf(vec_max_abs(p), vec_max_abs(o));
     float e = SPAWN_ULPS * FLT_EPSILON * (mag > FLT_MIN ? mag : FLT_MIN);
     return vec_madd(p, ng, vec_dot(dir, ng) >= 0.0f ? e : -e);
 }

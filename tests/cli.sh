@@ -1,0 +1,99 @@
+#!/bin/sh
+# Command-line tests: exit codes, messages, and that bad input loses nothing.
+#   sh tests/cli.sh build/san/lancer
+# Prints "cli: N passed, N failed" and fails if any check failed.
+set -u
+LANCER=$(cd "$(dirname "$1")" && pwd)/$(basename "$1")
+ROOT=$(pwd)
+T=$(mktemp -d)
+trap 'rm -rf "$T"' EXIT
+pass=0
+fail=0
+
+ok() { pass=$((pass + 1)); }
+bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
+
+# expect CODE CMD...: runs CMD, stdout to $T/out, stderr to $T/err.
+expect() {
+    want=$1
+    shift
+    "$@" >"$T/out" 2>"$T/err"
+    got=$?
+    if [ "$got" -eq "$want" ]; then ok; else bad "exit $got, wanted $want: $* ($(head -c 300 "$T/err"))"; fi
+}
+# has FILE TEXT: FILE contains TEXT literally.
+has() { if grep -qF -- "$2" "$1"; then ok; else bad "$1 lacks '$2': $(head -c 300 "$1")"; fi; }
+
+cat >"$T/tiny.scn" <<'SCN'
+image { width 32 height 24 }
+camera { eye 0 1 -4 target 0 0 0 fov 50 }
+light { position 2 4 -3 }
+material m { color 1 0.5 0.2 }
+sphere { center 0 0 0 radius 1 material m }
+SCN
+printf 'camera { eye 0 1 -4 target 0 0 0 fov 50 }\nmaterial m { }\nsphere { center 0 0 0 radius -1 material m }\n' >"$T/bad.scn"
+
+# help and version
+expect 0 "$LANCER" --version
+has "$T/out" "lancer "
+expect 0 "$LANCER" --help
+has "$T/out" "usage: lancer <command>"
+expect 0 "$LANCER" render --help
+has "$T/out" "usage: lancer render SCENE"
+expect 0 "$LANCER" help render
+has "$T/out" "--threads N"
+expect 2 "$LANCER"
+expect 2 "$LANCER" frobnicate
+has "$T/err" "unknown command 'frobnicate'"
+
+# usage errors
+expect 2 "$LANCER" render
+has "$T/err" "missing SCENE"
+expect 2 "$LANCER" render "$T/tiny.scn" --threads 0
+has "$T/err" "--threads needs a whole number"
+expect 2 "$LANCER" render "$T/tiny.scn" --width abc
+expect 2 "$LANCER" render "$T/tiny.scn" --bogus
+has "$T/err" "unknown option '--bogus'"
+expect 2 "$LANCER" render "$T/tiny.scn" -o
+
+# a bad scene: file:line:col message, exit 1, and the user's file untouched
+echo "precious" >"$T/keep.exr"
+expect 1 "$LANCER" render "$T/bad.scn" -o "$T/keep.exr"
+has "$T/err" "$T/bad.scn:3:30: sphere: 'radius' must be positive"
+has "$T/keep.exr" "precious"
+expect 1 "$LANCER" render "$T/missing.scn"
+has "$T/err" "$T/missing.scn: cannot open: No such file or directory"
+
+# an unwritable output fails before rendering, leaving nothing behind
+expect 1 "$LANCER" render "$T/tiny.scn" -o "$T/no/such/dir/a.exr"
+has "$T/err" "$T/no/such/dir/a.exr"
+expect 1 "$LANCER" render "$T/tiny.scn" -o "$T/ok.exr" --png "$T/no/dir/a.png"
+if [ -e "$T/ok.exr" ]; then bad "EXR written although the PNG path was bad"; else ok; fi
+mkdir "$T/adir"
+expect 1 "$LANCER" render "$T/tiny.scn" -o "$T/adir"
+has "$T/err" "is a directory"
+
+# a good render writes every requested file, atomically replacing old ones
+expect 0 "$LANCER" render "$T/tiny.scn" -o "$T/keep.exr" --png "$T/a.png" --stats "$T/s.json" --threads 2 -q
+if head -c 4 "$T/keep.exr" | od -An -tx1 | grep -q "76 2f 31 01"; then ok; else bad "keep.exr is not an EXR"; fi
+if head -c 8 "$T/a.png" | od -An -c | grep -q "P   N   G"; then ok; else bad "a.png is not a PNG"; fi
+for key in '"parse"' '"build"' '"render"' '"write"' '"camera": 768' '"shadow"' '"reflection"' \
+    '"refraction"' '"intersection_tests"'; do
+    has "$T/s.json" "$key"
+done
+if ls "$T" | grep -q '\.tmp\.'; then bad "temporary files left: $(ls "$T")"; else ok; fi
+if [ -s "$T/err" ]; then bad "-q still printed: $(cat "$T/err")"; else ok; fi
+
+# --width/--height override the scene; the default output is out/<name>.exr
+mkdir "$T/cwd" && cp "$T/tiny.scn" "$T/cwd/"
+(cd "$T/cwd" && "$LANCER" render tiny.scn --width 8 --height 6 --float -q) >"$T/out" 2>"$T/err"
+if [ -s "$T/cwd/out/tiny.exr" ]; then ok; else bad "no out/tiny.exr: $(cat "$T/err")"; fi
+
+# the thread count does not change a single bit of the image
+expect 0 "$LANCER" render "$ROOT/scenes/default.scn" -o "$T/t1.exr" --width 80 --height 60 --threads 1 -q --float
+expect 0 "$LANCER" render "$ROOT/scenes/default.scn" -o "$T/t2.exr" --width 80 --height 60 --threads 2 -q --float
+# (the EXR writer stores no timestamp, so equal pixels mean equal bytes)
+if cmp -s "$T/t1.exr" "$T/t2.exr"; then ok; else bad "1 and 2 threads differ"; fi
+
+echo "cli: $pass passed, $fail failed"
+[ "$fail" -eq 0 ]

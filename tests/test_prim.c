@@ -1,0 +1,240 @@
+/* Unit tests for prim.c: analytic hits, misses, tangents, rays starting
+ * inside, objects behind the ray, and rays parallel to planes and faces. */
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <setjmp.h>
+#include <cmocka.h>
+
+#include "lancer/prim.h"
+
+static Ray ray(float ox, float oy, float oz, float dx, float dy, float dz)
+{
+    return ray_make(vec3(ox, oy, oz), vec_normalize(vec3(dx, dy, dz)), INFINITY);
+}
+
+static void assert_vec(Vec3 v, float x, float y, float z, float tol)
+{
+    assert_float_equal(v.x, x, tol);
+    assert_float_equal(v.y, y, tol);
+    assert_float_equal(v.z, z, tol);
+}
+
+/* ---- sphere ---- */
+
+static void test_sphere(void **state)
+{
+    (void)state;
+    Sphere s = {{0, 0, 5}, 1};
+    float t = -1;
+    Ray r = ray(0, 0, 0, 0, 0, 1);
+    assert_true(prim_sphere_hit(&s, &r, &t));
+    assert_float_equal(t, 4, 1e-6);
+    r.tmax = 3.5f; /* the hit lies beyond tmax */
+    assert_false(prim_sphere_hit(&s, &r, &t));
+    r = ray(0, 1.01f, 0, 0, 0, 1); /* passes just above */
+    assert_false(prim_sphere_hit(&s, &r, &t));
+    r = ray(0, 0, 10, 0, 0, 1); /* sphere behind the ray */
+    assert_false(prim_sphere_hit(&s, &r, &t));
+}
+
+static void test_sphere_tangent_and_inside(void **state)
+{
+    (void)state;
+    Sphere unit = {{0, 0, 0}, 1};
+    float t = -1;
+    /* discriminant exactly 0: the grazing ray touches at (0, 1, 0) */
+    Ray r = ray(-5, 1, 0, 1, 0, 0);
+    assert_true(prim_sphere_hit(&unit, &r, &t));
+    assert_float_equal(t, 5, 1e-6);
+    Sphere big = {{0, 0, 0}, 2};
+    r = ray(0, 0, 0, 0, 0, -1); /* from the centre: the far side at t = r */
+    assert_true(prim_sphere_hit(&big, &r, &t));
+    assert_float_equal(t, 2, 1e-6);
+    Prim p = {PRIM_SPHERE, 0, {.sphere = {{0, 0, 0}, 2}}};
+    PrimHit h;
+    Surface sf;
+    assert_true(prim_intersect(&p, &r, &h));
+    prim_surface(&p, &r, &h, &sf);
+    assert_vec(sf.p, 0, 0, -2, 1e-6);
+    assert_vec(sf.ng, 0, 0, 1, 1e-6); /* flipped to face the ray: inward */
+}
+
+/* ---- plane ---- */
+
+static void test_plane(void **state)
+{
+    (void)state;
+    Plane pl = {{0, 1, 0}, 2}; /* y = 2 */
+    float t = -1;
+    Ray r = ray(0, 0, 0, 0, 1, 0);
+    assert_true(prim_plane_hit(&pl, &r, &t));
+    assert_float_equal(t, 2, 0);
+    r = ray(0, 0, 0, 0, -1, 0); /* plane behind */
+    assert_false(prim_plane_hit(&pl, &r, &t));
+    r = ray(0, 0, 0, 1, 0, 0); /* parallel, below */
+    assert_false(prim_plane_hit(&pl, &r, &t));
+    r = ray(0, 2, 0, 1, 0, 0); /* parallel, in the plane */
+    assert_false(prim_plane_hit(&pl, &r, &t));
+    r = ray(3, 6, 0, -3, -4, 0); /* oblique from above: distance 5 */
+    assert_true(prim_plane_hit(&pl, &r, &t));
+    assert_float_equal(t, 5, 1e-6);
+    Prim p = {PRIM_PLANE, 0, {.plane = pl}};
+    PrimHit h;
+    Surface sf;
+    assert_true(prim_intersect(&p, &r, &h));
+    prim_surface(&p, &r, &h, &sf);
+    assert_vec(sf.p, 0, 2, 0, 1e-6);
+    assert_vec(sf.ng, 0, 1, 0, 0);
+    r = ray(0, 0, 0, 0, 1, 0); /* from below: the normal faces down */
+    assert_true(prim_intersect(&p, &r, &h));
+    prim_surface(&p, &r, &h, &sf);
+    assert_vec(sf.ng, 0, -1, 0, 0);
+}
+
+/* ---- triangle ---- */
+
+static const Triangle tri = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, 1}, {0, 0, 1}};
+
+static void test_triangle(void **state)
+{
+    (void)state;
+    float t = -1, u = -1, v = -1;
+    Ray r = ray(0.25f, 0.5f, -2, 0, 0, 1);
+    assert_true(prim_triangle_hit(&tri, &r, &t, &u, &v));
+    assert_float_equal(t, 2, 0);
+    assert_float_equal(u, 0.25f, 0);
+    assert_float_equal(v, 0.5f, 0);
+    r = ray(0.25f, 0.5f, 2, 0, 0, -1); /* back side: two-sided */
+    assert_true(prim_triangle_hit(&tri, &r, &t, &u, &v));
+    assert_float_equal(t, 2, 0);
+    r = ray(0.75f, 0.75f, -2, 0, 0, 1); /* beyond the hypotenuse */
+    assert_false(prim_triangle_hit(&tri, &r, &t, &u, &v));
+    r = ray(-0.1f, 0.5f, -2, 0, 0, 1); /* left of edge a-c */
+    assert_false(prim_triangle_hit(&tri, &r, &t, &u, &v));
+    r = ray(0.25f, 0.25f, 2, 0, 0, 1); /* triangle behind */
+    assert_false(prim_triangle_hit(&tri, &r, &t, &u, &v));
+    r = ray(-1, 0.25f, 0, 1, 0, 0); /* parallel, in its plane */
+    assert_false(prim_triangle_hit(&tri, &r, &t, &u, &v));
+    r = ray(0.5f, 0.5f, -1, 0, 0, 1); /* exactly on the hypotenuse: u + v = 1 */
+    assert_true(prim_triangle_hit(&tri, &r, &t, &u, &v));
+    assert_float_equal(u + v, 1, 0);
+}
+
+static void test_smooth_triangle_normal(void **state)
+{
+    (void)state;
+    Prim p = {PRIM_SMOOTH_TRIANGLE, 0, {.tri = tri}};
+    p.g.tri.na = vec3(0, 0, 1);
+    p.g.tri.nb = vec_normalize(vec3(1, 0, 1));
+    p.g.tri.nc = vec_normalize(vec3(0, 1, 1));
+    Ray r = ray(0, 0, -1, 0, 0, 1); /* hits vertex a */
+    PrimHit h;
+    Surface sf;
+    assert_true(prim_intersect(&p, &r, &h));
+    prim_surface(&p, &r, &h, &sf);
+    /* at a the shading normal is na, flipped with ng to face the ray */
+    assert_vec(sf.ns, 0, 0, -1, 1e-6);
+    assert_vec(sf.ng, 0, 0, -1, 1e-6);
+    r = ray(1, 0, 1, 0, 0, -1); /* vertex b, from the other side */
+    assert_true(prim_intersect(&p, &r, &h));
+    prim_surface(&p, &r, &h, &sf);
+    assert_vec(sf.ns, 0.70710678f, 0, 0.70710678f, 1e-6);
+    assert_vec(sf.ng, 0, 0, 1, 1e-6);
+}
+
+/* ---- axis-aligned box ---- */
+
+static const Box cube = {{-1, -1, -1}, {1, 1, 1}};
+
+static void test_box(void **state)
+{
+    (void)state;
+    float t = -1;
+    int face = -1;
+    Ray r = ray(0, 0, -5, 0, 0, 1);
+    assert_true(prim_box_hit(&cube, &r, &t, &face));
+    assert_float_equal(t, 4, 0);
+    assert_int_equal(face, 2);
+    r = ray(0.5f, 0.5f, 5, 0, 0, -1); /* negative direction */
+    assert_true(prim_box_hit(&cube, &r, &t, &face));
+    assert_float_equal(t, 4, 0);
+    r = ray(0, 0, 0, 1, 0, 0); /* from inside: the far face */
+    assert_true(prim_box_hit(&cube, &r, &t, &face));
+    assert_float_equal(t, 1, 0);
+    assert_int_equal(face, 0);
+    r = ray(0, 0, 5, 0, 0, 1); /* box behind */
+    assert_false(prim_box_hit(&cube, &r, &t, &face));
+    r = ray(-5, 0.5f, 0, 1, 0, 0); /* parallel to four faces, inside their slabs */
+    assert_true(prim_box_hit(&cube, &r, &t, &face));
+    assert_float_equal(t, 4, 0);
+    assert_int_equal(face, 0);
+    r = ray(-5, 2, 0, 1, 0, 0); /* parallel and outside the y slab */
+    assert_false(prim_box_hit(&cube, &r, &t, &face));
+    r = ray(-5, 0, -5, 1, 0, 0.2f); /* passes beside */
+    assert_false(prim_box_hit(&cube, &r, &t, &face));
+    r = ray(-3, 4, 0, 3, -4, 0); /* oblique onto the top face at (0, 1, 0) */
+    assert_true(prim_box_hit(&cube, &r, &t, &face));
+    assert_float_equal(t, 3.75f, 1e-6);
+    assert_int_equal(face, 1);
+    r.tmax = 3.0f;
+    assert_false(prim_box_hit(&cube, &r, &t, &face));
+}
+
+/* ---- oriented box ---- */
+
+static void test_obox_init(void **state)
+{
+    (void)state;
+    OBox b = {{1, 2, 3}, {2, 0, 0}, {1, 1, 0}, {0, 0.5f, 3}, {{0, 0, 0}}};
+    assert_int_equal(prim_obox_init(&b), 0);
+    Vec3 ax[3] = {b.u, b.v, b.w};
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            assert_float_equal(vec_dot(b.inv[i], ax[j]), i == j ? 1 : 0, 1e-6);
+    OBox flat = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}, {{0, 0, 0}}};
+    assert_int_equal(prim_obox_init(&flat), -1);
+}
+
+static void test_obox(void **state)
+{
+    (void)state;
+    /* the unit cube turned 45 degrees about y: half-diagonals of length sqrt 2 */
+    OBox b = {{0, 0, 0}, {1, 0, 1}, {0, 1, 0}, {-1, 0, 1}, {{0, 0, 0}}};
+    assert_int_equal(prim_obox_init(&b), 0);
+    float t = -1;
+    int face = -1;
+    Ray r = ray(0.5f, 0, -5, 0, 0, 1); /* enters through the w face at z = -1.5 */
+    assert_true(prim_obox_hit(&b, &r, &t, &face));
+    assert_float_equal(t, 3.5f, 1e-6);
+    assert_int_equal(face, 2);
+    Prim p = {PRIM_OBOX, 0, {.obox = b}};
+    PrimHit h;
+    Surface sf;
+    assert_true(prim_intersect(&p, &r, &h));
+    prim_surface(&p, &r, &h, &sf);
+    assert_vec(sf.ng, 0.70710678f, 0, -0.70710678f, 1e-6);
+    r = ray(0, 0, 0, 0, 0, 1); /* from the centre: the far corner at z = 2 */
+    assert_true(prim_obox_hit(&b, &r, &t, &face));
+    assert_float_equal(t, 2, 1e-6);
+    r = ray(0, 0, 5, 0, 0, 1); /* behind */
+    assert_false(prim_obox_hit(&b, &r, &t, &face));
+    r = ray(-5, 0.5f, -5, 1, 0, 1); /* parallel to the u axis, inside the other slabs */
+    assert_true(prim_obox_hit(&b, &r, &t, &face));
+    assert_float_equal(t, 5 * 1.41421356f - 1.41421356f, 1e-5);
+    r = ray(-5, 2, -5, 1, 0, 1); /* parallel and above the v slab */
+    assert_false(prim_obox_hit(&b, &r, &t, &face));
+    r = ray(3, 0, -5, 0, 0, 1); /* passes beside */
+    assert_false(prim_obox_hit(&b, &r, &t, &face));
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_sphere),   cmocka_unit_test(test_sphere_tangent_and_inside),
+        cmocka_unit_test(test_plane),    cmocka_unit_test(test_triangle),
+        cmocka_unit_test(test_smooth_triangle_normal), cmocka_unit_test(test_box),
+        cmocka_unit_test(test_obox_init), cmocka_unit_test(test_obox),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,92 @@
+/* Tests for render.c: the image does not depend on the thread count, every
+ * pixel gets one camera ray, and progress reaches every row in order. */
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <setjmp.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "lancer/render.h"
+
+typedef struct {
+    int calls, last, total;
+    int monotonic;
+} ProgressLog;
+
+static void log_progress(void *ctx, int done, int total)
+{
+    ProgressLog *p = ctx;
+    p->calls++;
+    if (done != p->last + 1)
+        p->monotonic = 0;
+    p->last = done;
+    p->total = total;
+}
+
+static void render_default(int threads, int w, int h, Image *img, RayStats *st, ProgressLog *log)
+{
+    Scene s;
+    Accel a;
+    char err[512];
+    int rc = scene_load("scenes/default.scn", &s, err, sizeof err);
+    if (rc)
+        print_error("%s\n", err);
+    assert_int_equal(rc, 0);
+    s.width = w;
+    s.height = h;
+    assert_int_equal(accel_build(&a, &s), 0);
+    assert_int_equal(image_init(img, w, h), 0);
+    memset(st, 0, sizeof *st);
+    RenderOptions opt = {threads, log ? log_progress : NULL, log};
+    assert_int_equal(render_image(&s, &a, &opt, img, st), 0);
+    accel_free(&a);
+    scene_free(&s);
+}
+
+static void test_thread_count_does_not_change_pixels(void **state)
+{
+    (void)state;
+    Image one, many;
+    RayStats s1, s4;
+    render_default(1, 97, 61, &one, &s1, NULL);
+    render_default(4, 97, 61, &many, &s4, NULL);
+    assert_memory_equal(one.rgb, many.rgb, sizeof(float) * 3 * 97 * 61);
+    /* the same rays were traced, just by other threads */
+    assert_true(s1.camera == s4.camera && s1.shadow == s4.shadow && s1.reflection == s4.reflection);
+    assert_true(s1.isect_tests == s4.isect_tests);
+    image_free(&one);
+    image_free(&many);
+}
+
+static void test_counts_and_progress(void **state)
+{
+    (void)state;
+    Image img;
+    RayStats st;
+    ProgressLog log = {0, 0, 0, 1};
+    render_default(3, 40, 30, &img, &st, &log);
+    assert_int_equal(st.camera, 40 * 30);
+    assert_true(st.shadow > 0 && st.reflection > 0);
+    assert_int_equal(st.refraction, 0);
+    /* 7 primitives: each camera and reflection ray tests all of them */
+    assert_true(st.isect_tests >= 7 * (st.camera + st.reflection));
+    assert_int_equal(log.calls, 30);
+    assert_int_equal(log.last, 30);
+    assert_int_equal(log.total, 30);
+    assert_true(log.monotonic);
+    /* the sky at the top row is the background colour exactly */
+    assert_float_equal(img.rgb[0], 0.55f, 0);
+    assert_float_equal(img.rgb[1], 0.7f, 0);
+    assert_float_equal(img.rgb[2], 0.9f, 0);
+    image_free(&img);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_thread_count_does_not_change_pixels),
+        cmocka_unit_test(test_counts_and_progress),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

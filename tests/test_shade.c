@@ -1,0 +1,191 @@
+/* Shaded values checked against REFERENCE.md section 1 evaluated by hand:
+ * a lit point, fade, a point in shadow, shadowless lights, the phong and
+ * specular peaks, one reflection bounce, and the depth limit. */
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <setjmp.h>
+#include <stdio.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "lancer/shade.h"
+
+static void assert_vec(Vec3 v, float x, float y, float z, float tol)
+{
+    assert_float_equal(v.x, x, tol);
+    assert_float_equal(v.y, y, tol);
+    assert_float_equal(v.z, z, tol);
+}
+
+static const char *floor_scene =
+    "image { background 0.2 0.4 0.6 }\n"
+    "camera { eye 0 1 -5 target 0 0 0 fov 40 }\n"
+    "material m { color 0.5 0.4 0.3 ambient 0.1 diffuse 0.6 }\n"
+    "plane { normal 0 1 0 material m }\n";
+
+/* Parses the floor scene plus `extra` lines. */
+static void load(Scene *s, const char *extra)
+{
+    char text[2048], err[512];
+    snprintf(text, sizeof text, "%s%s", floor_scene, extra);
+    int rc = scene_parse("t.scn", text, strlen(text), s, err, sizeof err);
+    if (rc != 0)
+        print_error("%s\n", err);
+    assert_int_equal(rc, 0);
+}
+
+static Vec3 trace(const Scene *s, Vec3 o, Vec3 d)
+{
+    Accel a;
+    RayStats st;
+    memset(&st, 0, sizeof st);
+    assert_int_equal(accel_build(&a, s), 0);
+    Ray r = ray_make(o, vec_normalize(d), INFINITY);
+    Vec3 c = shade_trace(s, &a, &r, 1, &st);
+    accel_free(&a);
+    return c;
+}
+
+/* Every test looks at the origin from (-3, 4, 0): the floor point (0,0,0). */
+#define EYE vec3(-3, 4, 0)
+#define DIR vec3(3, -4, 0)
+
+static void test_lit_point(void **state)
+{
+    (void)state;
+    Scene s;
+    /* light at distance 5, N.L = 0.8: C = P * (0.1 + 0.6 * 0.8) = P * 0.58 */
+    load(&s, "light { position 3 4 0 }\n");
+    assert_vec(trace(&s, EYE, DIR), 0.5f * 0.58f, 0.4f * 0.58f, 0.3f * 0.58f, 1e-6);
+    scene_free(&s);
+}
+
+static void test_light_colour_and_fade(void **state)
+{
+    (void)state;
+    Scene s;
+    /* att = 2 / (1 + (5/2.5)^2) = 0.4: C = P*0.1 + 0.4 * Lc * P * 0.6 * 0.8 */
+    load(&s, "light { position 3 4 0 color 1 0.5 2 fade_distance 2.5 fade_power 2 }\n");
+    float k = 0.4f * 0.6f * 0.8f;
+    assert_vec(trace(&s, EYE, DIR), 0.5f * (0.1f + k), 0.4f * (0.1f + 0.5f * k), 0.3f * (0.1f + 2 * k), 1e-6);
+    scene_free(&s);
+}
+
+static void test_point_in_shadow(void **state)
+{
+    (void)state;
+    Scene s;
+    /* a sphere on the segment to the light leaves only the ambient term */
+    load(&s, "light { position 3 4 0 }\nsphere { center 1.5 2 0 radius 0.5 material m }\n");
+    assert_vec(trace(&s, EYE, DIR), 0.05f, 0.04f, 0.03f, 1e-6);
+    scene_free(&s);
+    /* an occluder beyond the light does not count */
+    load(&s, "light { position 3 4 0 }\nsphere { center 6 8 0 radius 1 material m }\n");
+    assert_vec(trace(&s, EYE, DIR), 0.5f * 0.58f, 0.4f * 0.58f, 0.3f * 0.58f, 1e-6);
+    scene_free(&s);
+}
+
+static void test_shadowless_light(void **state)
+{
+    (void)state;
+    Scene s;
+    /* no shadow and no highlight, but full diffuse */
+    load(&s,
+         "material shiny { color 0.5 0.4 0.3 ambient 0.1 diffuse 0.6 phong 1 }\n"
+         "light { position 3 4 0 shadowless }\n"
+         "sphere { center 1.5 2 0 radius 0.5 material m }\n");
+    /* the floor keeps material m; the sphere would shadow it */
+    assert_vec(trace(&s, EYE, DIR), 0.5f * 0.58f, 0.4f * 0.58f, 0.3f * 0.58f, 1e-6);
+    scene_free(&s);
+}
+
+static void test_phong_and_specular_peaks(void **state)
+{
+    (void)state;
+    Scene s;
+    /* The eye at (-3,4,0) and the light at (3,4,0) are mirror images in the
+     * floor, so R = L (R.L = 1) and H = N (N.H = 1): both highlights peak,
+     * in the light's colour: C = P*0.1 + Lc*(P*0.6*0.8 + phong + specular). */
+    load(&s, "material h { color 0.5 0.4 0.3 ambient 0.1 diffuse 0.6 phong 0.25 specular 0.5 }\n"
+             "plane { normal 0 1 0 offset 0 material h }\n"
+             "light { position 3 4 0 color 1 1 0.5 }\n");
+    s.prims[0] = s.prims[1]; /* the floor takes material h */
+    s.nprims = 1;
+    assert_vec(trace(&s, EYE, DIR), 0.29f + 0.75f, 0.232f + 0.75f, 0.03f + 0.5f * (0.144f + 0.75f), 1e-5);
+    /* Off the peak, with the light at (0,5,0): L = (0,1,0), N.L = 1,
+     * R = (0.6,0.8,0): R.L = 0.8, phong = 0.25 * 0.8^40;
+     * H = normalize(L + V) = normalize(-0.6, 1.8, 0): N.H = 1.8/sqrt(3.6),
+     * specular = 0.5 * (N.H)^(1/0.05). */
+    s.lights[0].pos = vec3(0, 5, 0);
+    s.lights[0].color = vec3(1, 1, 1);
+    float hl = 0.25f * powf(0.8f, 40) + 0.5f * powf(1.8f / sqrtf(3.6f), 20);
+    assert_vec(trace(&s, EYE, DIR), 0.5f * 0.7f + hl, 0.4f * 0.7f + hl, 0.3f * 0.7f + hl, 1e-5);
+    scene_free(&s);
+}
+
+static void test_reflection_bounce(void **state)
+{
+    (void)state;
+    Scene s;
+    /* A black mirror floor reflects the ray to (0.6, 0.8, 0), which meets a
+     * sphere shaded by its ambient term alone: C = 0.5 * 0.9 * Pq. */
+    load(&s, "material mirror { color 0 0 0 ambient 0 diffuse 0 reflection 0.5 }\n"
+             "material q { color 1 0.5 0.25 ambient 0.9 diffuse 0 }\n"
+             "plane { normal 0 1 0 material mirror }\n"
+             "sphere { center 6 8 0 radius 1 material q }\n");
+    s.prims[0] = s.prims[1];
+    s.prims[1] = s.prims[2];
+    s.nprims = 2;
+    assert_vec(trace(&s, EYE, DIR), 0.45f, 0.225f, 0.1125f, 1e-6);
+    /* aimed elsewhere, the reflected ray meets the background */
+    assert_vec(trace(&s, EYE, vec3(3, -4, 3)), 0.1f, 0.2f, 0.3f, 1e-6);
+    /* max_depth 1 allows no bounce: the cut ray is black, not background */
+    s.max_depth = 1;
+    assert_vec(trace(&s, EYE, DIR), 0, 0, 0, 0);
+    scene_free(&s);
+}
+
+static void test_miss_and_depth_limit(void **state)
+{
+    (void)state;
+    Scene s;
+    load(&s, "");
+    assert_vec(trace(&s, EYE, vec3(0, 1, 0)), 0.2f, 0.4f, 0.6f, 0);
+    Accel a;
+    RayStats st;
+    memset(&st, 0, sizeof st);
+    accel_build(&a, &s);
+    Ray r = ray_make(EYE, vec3(0, 1, 0), INFINITY);
+    assert_vec(shade_trace(&s, &a, &r, s.max_depth + 1, &st), 0, 0, 0, 0);
+    scene_free(&s);
+}
+
+static void test_spawn_origin(void **state)
+{
+    (void)state;
+    Vec3 n = vec3(0, 1, 0);
+    /* the origin moves to the side the new ray leaves towards */
+    Vec3 up = shade_spawn_origin(vec3(0, 0, 0), n, vec3(0, 1, 0), vec3(1, 1, 1));
+    Vec3 down = shade_spawn_origin(vec3(0, 0, 0), n, vec3(0, -1, 0), vec3(1, 1, 1));
+    assert_true(up.y > 0);
+    assert_true(down.y < 0);
+    /* and the offset grows with the magnitude of the coordinates: at 1e5 it
+     * must exceed the float spacing there (2^-7 = 0.0078) */
+    Vec3 far = shade_spawn_origin(vec3(1e5f, 0, 0), n, vec3(0, 1, 0), vec3(1e5f, 1, 0));
+    assert_true(far.y > 0.0078f);
+    assert_true(far.y < 1.0f);
+    Vec3 tiny = shade_spawn_origin(vec3(1e-4f, 0, 0), n, vec3(0, 1, 0), vec3(1e-4f, 1e-4f, 0));
+    assert_true(tiny.y > 0 && tiny.y < 1e-8f);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_lit_point),           cmocka_unit_test(test_light_colour_and_fade),
+        cmocka_unit_test(test_point_in_shadow),     cmocka_unit_test(test_shadowless_light),
+        cmocka_unit_test(test_phong_and_specular_peaks), cmocka_unit_test(test_reflection_bounce),
+        cmocka_unit_test(test_miss_and_depth_limit), cmocka_unit_test(test_spawn_origin),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
