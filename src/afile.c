@@ -22,6 +22,16 @@ int afile_temp(const char *path, char *tmp, size_t tmplen, char *err, size_t err
         snprintf(err, errlen, "%s: cannot create a file there: %s", path, strerror(errno));
         return -1;
     }
+    /* mkstemp creates the file 0600; give it the mode a plain fopen would
+     * (0666 less the umask), since it will become the user's file. */
+    mode_t mask = umask(0);
+    umask(mask);
+    if (fchmod(fd, 0666 & ~mask) != 0) {
+        snprintf(err, errlen, "%s: cannot set permissions: %s", path, strerror(errno));
+        close(fd);
+        remove(tmp);
+        return -1;
+    }
     close(fd);
     return 0;
 }

@@ -81,6 +81,12 @@ for key in '"parse"' '"build"' '"render"' '"write"' '"camera": 768' '"shadow"' '
     '"refraction"' '"intersection_tests"'; do
     has "$T/s.json" "$key"
 done
+# outputs get the mode fopen would give them, not mkstemp's 0600
+if (umask 022 && "$LANCER" render "$T/tiny.scn" -o "$T/mode.exr" -q) && ls -l "$T/mode.exr" | grep -q '^-rw-r--r--'; then
+    ok
+else
+    bad "mode.exr has mode $(ls -l "$T/mode.exr")"
+fi
 if ls "$T" | grep -q '\.tmp\.'; then bad "temporary files left: $(ls "$T")"; else ok; fi
 if [ -s "$T/err" ]; then bad "-q still printed: $(cat "$T/err")"; else ok; fi
 
