@@ -175,9 +175,12 @@ static int parse_render_args(int argc, char **argv, RenderArgs *a)
 }
 
 typedef struct {
-    int last_percent;
+    int last_percent, shown;
     double start;
 } Progress;
+
+/* Seconds a render must run before the bar appears: short renders stay quiet. */
+#define PROGRESS_DELAY 0.3
 
 static void on_progress(void *ctx, int done, int total)
 {
@@ -185,6 +188,9 @@ static void on_progress(void *ctx, int done, int total)
     int percent = (int)(100LL * done / total);
     if (percent == p->last_percent)
         return;
+    if (!p->shown && now() - p->start < PROGRESS_DELAY)
+        return;
+    p->shown = 1;
     p->last_percent = percent;
     char bar[41];
     int filled = percent * 40 / 100;
@@ -312,7 +318,7 @@ static int cmd_render(int argc, char **argv)
     }
     phase[1] = now() - t0;
 
-    Progress prog = {-1, now()};
+    Progress prog = {-1, 0, now()};
     RenderOptions opt = {a.threads, NULL, &prog};
     if (!a.quiet && isatty(STDERR_FILENO))
         opt.progress = on_progress;
@@ -335,8 +341,9 @@ static int cmd_render(int argc, char **argv)
     if (rc == 0 && a.stats && write_stats(a.stats, &a, &s, phase, &st) != 0)
         rc = 1;
     if (rc == 0 && !a.quiet)
-        fprintf(stderr, "lancer: wrote %s%s%s (%dx%d, %d threads, render %.3f s)\n", a.exr, a.png ? " and " : "",
-                a.png ? a.png : "", s.width, s.height, a.threads, phase[2]);
+        fprintf(stderr, "lancer: wrote %s%s%s (%dx%d, %d thread%s, render %.3f s)\n", a.exr,
+                a.png ? " and " : "", a.png ? a.png : "", s.width, s.height, a.threads, a.threads > 1 ? "s" : "",
+                phase[2]);
     accel_free(&acc);
     image_free(&img);
     scene_free(&s);
