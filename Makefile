@@ -27,7 +27,10 @@ BASEFLAGS += -Werror
 endif
 
 PKGS     := OpenEXR libpng
-CPPFLAGS += -Iinclude -D_POSIX_C_SOURCE=200809L $(shell pkg-config --cflags $(PKGS) 2>/dev/null)
+# -isystem: OpenEXRCore's headers use C11 anonymous unions, which -Wpedantic
+# would report in every file that includes them.
+CPPFLAGS += -Iinclude -D_POSIX_C_SOURCE=200809L \
+            $(patsubst -I%,-isystem %,$(shell pkg-config --cflags $(PKGS) 2>/dev/null))
 CFLAGS   ?=
 ALLCFLAGS = $(BASEFLAGS) $(OPTFLAGS) $(CFLAGS)
 LDLIBS   += -Wl,--as-needed $(shell pkg-config --libs $(PKGS) 2>/dev/null) -lm

@@ -4,6 +4,7 @@
 #include "lancer/afile.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -38,6 +39,17 @@ int afile_temp(const char *path, char *tmp, size_t tmplen, char *err, size_t err
 
 int afile_commit(const char *tmp, const char *path, char *err, size_t errlen)
 {
+    /* Flush the data before the rename makes it the user's file, so that a
+     * crash cannot leave a complete-looking name over incomplete contents. */
+    int fd = open(tmp, O_RDONLY);
+    if (fd < 0 || fsync(fd) != 0) {
+        snprintf(err, errlen, "%s: cannot flush to disk: %s", path, strerror(errno));
+        if (fd >= 0)
+            close(fd);
+        remove(tmp);
+        return -1;
+    }
+    close(fd);
     if (rename(tmp, path) != 0) {
         snprintf(err, errlen, "%s: cannot replace file: %s", path, strerror(errno));
         remove(tmp);

@@ -304,6 +304,12 @@ static int cmd_render(int argc, char **argv)
     Image img;
     Accel acc;
     RayStats st = {0, 0, 0, 0, 0};
+    if ((long)s.width * s.height > IMAGE_MAX_PIXELS) {
+        fprintf(stderr, "lancer: a %dx%d image has more than the %ld pixels lancer renders\n", s.width, s.height,
+                IMAGE_MAX_PIXELS);
+        scene_free(&s);
+        return 1;
+    }
     if (image_init(&img, s.width, s.height) != 0) {
         fprintf(stderr, "lancer: out of memory for a %dx%d image\n", s.width, s.height);
         scene_free(&s);

@@ -25,26 +25,38 @@ typedef struct {
 
 typedef enum { IMAGE_HALF, IMAGE_FLOAT } ImagePrecision;
 
-/* Largest accepted side, so that width*height*3 floats never overflows. */
+/* Largest accepted side, and largest pixel count (16384^2, 3 GiB of floats):
+ * beyond that a typo in a scene would only exhaust memory. */
 #define IMAGE_MAX_SIDE 32768
+#define IMAGE_MAX_PIXELS (1L << 28)
 
-/* Allocates a black image. Returns 0, or -1 on a bad size or no memory
+/* Allocates a black image. Returns 0, or -1 on a bad size (a side outside
+ * 1..IMAGE_MAX_SIDE or more than IMAGE_MAX_PIXELS pixels) or no memory
  * (img is then empty and image_free is still safe). */
 int image_init(Image *img, int width, int height);
 void image_free(Image *img);
 
-/* OpenEXR through OpenEXRCore (openexr.h), scanline, ZIP compression. */
+/* OpenEXR through OpenEXRCore (openexr.h): one scanline part, ZIP
+ * compression, channels R, G, B (stored in the file's alphabetical order
+ * B, G, R) as half or 32-bit float. Half rounds to nearest even: magnitudes
+ * from 65520 up become infinity, tiny values become subnormals or zero, NaN
+ * stays NaN. */
 int image_write_exr(const Image *img, const char *path, ImagePrecision prec, char *err, size_t errlen);
 
 /* Reads the R, G and B channels of a scanline or tiled EXR into a new image
- * (img must be uninitialised or freed); missing channels read as 0. */
+ * (img must be uninitialised or freed); missing channels read as 0. The
+ * image is the data window (its offset is dropped); half, float and uint
+ * channels all become float; tiled files give their full-resolution level
+ * and multi-part files their first part. Deep data and subsampled R, G or B
+ * are errors. On failure img is left empty. */
 int image_read_exr(const char *path, Image *img, char *err, size_t errlen);
 
 /* 8-bit RGB PNG: each channel clamped to [0,1] and sRGB-encoded. */
 int image_write_png(const Image *img, const char *path, char *err, size_t errlen);
 
 /* The sRGB transfer function applied to one linear value, clamped, as an
- * 8-bit code value (rounded to nearest). */
+ * 8-bit code value (rounded to nearest): 0 and below, and NaN, give 0; 1 and
+ * above give 255. */
 unsigned char image_srgb8(float linear);
 
 #endif

@@ -1,0 +1,552 @@
+/*
+ * image.c - the framebuffer and its writers (see image.h for the contract).
+ *
+ * EXR goes through OpenEXRCore, the C API of OpenEXR 3.x; PNG through libpng.
+ * Every file is written to an afile.h temporary beside the target and renamed
+ * over it only once complete.
+ */
+#include "lancer/image.h"
+
+#include "lancer/afile.h"
+
+#include <errno.h>
+#include <math.h>
+#include <setjmp.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <openexr.h>
+
+#include <png.h>
+
+int image_init(Image *img, int width, int height)
+{
+    img->width = 0;
+    img->height = 0;
+    img->rgb = NULL;
+    if (width < 1 || height < 1 || width > IMAGE_MAX_SIDE || height > IMAGE_MAX_SIDE ||
+        (long)width * height > IMAGE_MAX_PIXELS)
+        return -1;
+    img->rgb = calloc((size_t)width * (size_t)height * 3, sizeof(float));
+    if (img->rgb == NULL)
+        return -1;
+    img->width = width;
+    img->height = height;
+    return 0;
+}
+
+void image_free(Image *img)
+{
+    if (img == NULL)
+        return;
+    free(img->rgb);
+    img->rgb = NULL;
+    img->width = 0;
+    img->height = 0;
+}
+
+/* Writers accept only what image_init produces, so a stray struct cannot
+ * send a bogus size to the encoders. */
+static int image_valid(const Image *img)
+{
+    return img != NULL && img->rgb != NULL && img->width >= 1 && img->height >= 1 &&
+           img->width <= IMAGE_MAX_SIDE && img->height <= IMAGE_MAX_SIDE;
+}
+
+/* ---- OpenEXR ------------------------------------------------------------ */
+
+/* Where the error callback leaves its message. The first one is kept: later
+ * ones (e.g. from exr_finish cleaning up) are consequences, not causes. */
+typedef struct {
+    char msg[256];
+    int set;
+} ImageExrErr;
+
+static void image_exr_note(ImageExrErr *e, const char *msg)
+{
+    if (e->set)
+        return;
+    snprintf(e->msg, sizeof e->msg, "%s", msg);
+    /* The err buffer holds one line. */
+    for (char *p = e->msg; *p != '\0'; p++)
+        if ((unsigned char)*p < 0x20)
+            *p = ' ';
+    e->set = 1;
+}
+
+/* Replaces OpenEXRCore's default handler, which prints to stderr. The
+ * context's user data is our ImageExrErr (exr_get_user_data returns the
+ * initializer's pointer even when the library does the file I/O itself). */
+static void image_exr_on_error(exr_const_context_t ctxt, exr_result_t code, const char *msg)
+{
+    void *ud = NULL;
+    if (exr_get_user_data(ctxt, &ud) != EXR_ERR_SUCCESS || ud == NULL)
+        return;
+    image_exr_note(ud, msg != NULL ? msg : exr_get_default_error_message(code));
+}
+
+static exr_context_initializer_t image_exr_init(ImageExrErr *e)
+{
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    init.error_handler_fn = image_exr_on_error;
+    init.user_data = e;
+    /* Lets the header parser reject huge images before anything is read. */
+    init.max_image_width = IMAGE_MAX_SIDE;
+    init.max_image_height = IMAGE_MAX_SIDE;
+    return init;
+}
+
+static void image_exr_report(char *err, size_t errlen, const char *path, const char *what,
+                             const ImageExrErr *e, exr_result_t rv)
+{
+    snprintf(err, errlen, "%s: %s: %s", path, what,
+             e->set ? e->msg : exr_get_default_error_message(rv));
+}
+
+/* Offset of a channel inside an interleaved RGB pixel, -1 if not R, G or B. */
+static int image_rgb_offset(const char *name)
+{
+    if (name == NULL || name[0] == '\0' || name[1] != '\0')
+        return -1;
+    switch (name[0]) {
+    case 'R': return 0;
+    case 'G': return 1;
+    case 'B': return 2;
+    default: return -1;
+    }
+}
+
+/* Encodes every scanline chunk. The encoder converts our interleaved floats
+ * to the channel type itself (half: round to nearest even, overflow to inf,
+ * subnormals kept), so no conversion code lives here. */
+static exr_result_t image_exr_encode(exr_context_t ctx, int part, const Image *img)
+{
+    int32_t lpc = 0;
+    exr_result_t rv = exr_get_scanlines_per_chunk(ctx, part, &lpc);
+    if (rv != EXR_ERR_SUCCESS)
+        return rv;
+    if (lpc < 1)
+        return EXR_ERR_INVALID_ARGUMENT;
+
+    exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
+    int started = 0;
+    for (int y = 0; y < img->height; y += lpc) {
+        exr_chunk_info_t ci;
+        rv = exr_write_scanline_chunk_info(ctx, part, y, &ci);
+        if (rv != EXR_ERR_SUCCESS)
+            break;
+        if (started) {
+            rv = exr_encoding_update(ctx, part, &ci, &enc);
+        } else {
+            rv = exr_encoding_initialize(ctx, part, &ci, &enc);
+            started = 1;
+        }
+        if (rv != EXR_ERR_SUCCESS)
+            break;
+        for (int c = 0; c < enc.channel_count && rv == EXR_ERR_SUCCESS; c++) {
+            exr_coding_channel_info_t *ch = &enc.channels[c];
+            int off = image_rgb_offset(ch->channel_name);
+            if (off < 0) {
+                rv = EXR_ERR_INVALID_ARGUMENT; /* cannot happen: we add only R, G, B */
+                break;
+            }
+            ch->encode_from_ptr =
+                (const uint8_t *)(img->rgb + ((size_t)y * (size_t)img->width) * 3 + (size_t)off);
+            ch->user_data_type = EXR_PIXEL_FLOAT;
+            ch->user_bytes_per_element = (int16_t)sizeof(float);
+            ch->user_pixel_stride = (int32_t)(3 * sizeof(float));
+            ch->user_line_stride = (int32_t)(3 * sizeof(float)) * img->width;
+        }
+        if (rv == EXR_ERR_SUCCESS && y == 0)
+            rv = exr_encoding_choose_default_routines(ctx, part, &enc);
+        if (rv == EXR_ERR_SUCCESS)
+            rv = exr_encoding_run(ctx, part, &enc);
+        if (rv != EXR_ERR_SUCCESS)
+            break;
+    }
+    if (started)
+        exr_encoding_destroy(ctx, &enc);
+    return rv;
+}
+
+static exr_result_t image_exr_write_file(const Image *img, const char *file, ImagePrecision prec,
+                                         ImageExrErr *e)
+{
+    exr_context_initializer_t init = image_exr_init(e);
+    exr_context_t ctx = NULL;
+    /* Directly: `file` is already our private temporary; afile renames it. */
+    exr_result_t rv = exr_start_write(&ctx, file, EXR_WRITE_FILE_DIRECTLY, &init);
+    if (rv != EXR_ERR_SUCCESS) {
+        if (ctx != NULL)
+            exr_finish(&ctx);
+        return rv;
+    }
+
+    int part = 0;
+    exr_pixel_type_t type = prec == IMAGE_HALF ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT;
+    static const char *const names[3] = {"B", "G", "R"}; /* the file sorts them anyway */
+    rv = exr_add_part(ctx, NULL, EXR_STORAGE_SCANLINE, &part);
+    if (rv == EXR_ERR_SUCCESS)
+        rv = exr_initialize_required_attr_simple(ctx, part, img->width, img->height,
+                                                 EXR_COMPRESSION_ZIP);
+    /* pLinear 0 ("logarithmic"), as OpenEXR's own RGBA writer marks colour. */
+    for (int c = 0; c < 3 && rv == EXR_ERR_SUCCESS; c++)
+        rv = exr_add_channel(ctx, part, names[c], type, EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
+    if (rv == EXR_ERR_SUCCESS)
+        rv = exr_write_header(ctx);
+    if (rv == EXR_ERR_SUCCESS)
+        rv = image_exr_encode(ctx, part, img);
+    /* exr_finish writes the chunk offset table and closes the file, so its
+     * result decides success too. */
+    exr_result_t frv = exr_finish(&ctx);
+    return rv != EXR_ERR_SUCCESS ? rv : frv;
+}
+
+int image_write_exr(const Image *img, const char *path, ImagePrecision prec, char *err, size_t errlen)
+{
+    if (!image_valid(img)) {
+        snprintf(err, errlen, "%s: cannot write: invalid image", path);
+        return -1;
+    }
+    if (prec != IMAGE_HALF && prec != IMAGE_FLOAT) {
+        snprintf(err, errlen, "%s: cannot write: invalid precision %d", path, (int)prec);
+        return -1;
+    }
+    char tmp[AFILE_PATH_MAX];
+    if (afile_temp(path, tmp, sizeof tmp, err, errlen) != 0)
+        return -1;
+    ImageExrErr e = {{0}, 0};
+    exr_result_t rv = image_exr_write_file(img, tmp, prec, &e);
+    if (rv != EXR_ERR_SUCCESS) {
+        afile_abort(tmp);
+        image_exr_report(err, errlen, path, "cannot write", &e, rv);
+        return -1;
+    }
+    return afile_commit(tmp, path, err, errlen);
+}
+
+/* Decodes one chunk whose top-left pixel is (x0, y0) in image coordinates,
+ * converting R, G and B to float straight into img and skipping the rest. */
+static exr_result_t image_exr_decode_chunk(exr_const_context_t ctx, const exr_chunk_info_t *ci,
+                                           int64_t x0, int64_t y0, Image *img,
+                                           exr_decode_pipeline_t *dec, int *started, ImageExrErr *e)
+{
+    /* A corrupt header or chunk table must not make us write outside img. */
+    if (x0 < 0 || y0 < 0 || ci->width < 0 || ci->height < 0 ||
+        x0 + ci->width > img->width || y0 + ci->height > img->height) {
+        image_exr_note(e, "corrupt file: chunk lies outside the data window");
+        return EXR_ERR_CORRUPT_CHUNK;
+    }
+    exr_result_t rv;
+    if (*started) {
+        rv = exr_decoding_update(ctx, 0, ci, dec);
+    } else {
+        rv = exr_decoding_initialize(ctx, 0, ci, dec);
+        *started = 1;
+    }
+    if (rv != EXR_ERR_SUCCESS)
+        return rv;
+
+    float *origin = img->rgb + ((size_t)y0 * (size_t)img->width + (size_t)x0) * 3;
+    for (int c = 0; c < dec->channel_count; c++) {
+        exr_coding_channel_info_t *ch = &dec->channels[c];
+        int off = image_rgb_offset(ch->channel_name);
+        if (off < 0) {
+            ch->decode_to_ptr = NULL; /* the decoder skips such channels */
+            continue;
+        }
+        ch->decode_to_ptr = (uint8_t *)(origin + off);
+        ch->user_data_type = EXR_PIXEL_FLOAT;
+        ch->user_bytes_per_element = (int16_t)sizeof(float);
+        ch->user_pixel_stride = (int32_t)(3 * sizeof(float));
+        ch->user_line_stride = (int32_t)(3 * sizeof(float)) * img->width;
+    }
+    /* Chosen per chunk: the choice depends on the output pointers. */
+    rv = exr_decoding_choose_default_routines(ctx, 0, dec);
+    if (rv == EXR_ERR_SUCCESS)
+        rv = exr_decoding_run(ctx, 0, dec);
+    return rv;
+}
+
+static exr_result_t image_exr_read_scanlines(exr_const_context_t ctx, const exr_attr_box2i_t *dw,
+                                             Image *img, exr_decode_pipeline_t *dec, int *started,
+                                             ImageExrErr *e)
+{
+    int32_t lpc = 0;
+    exr_result_t rv = exr_get_scanlines_per_chunk(ctx, 0, &lpc);
+    if (rv != EXR_ERR_SUCCESS)
+        return rv;
+    if (lpc < 1) {
+        image_exr_note(e, "corrupt file: bad scanlines per chunk");
+        return EXR_ERR_FILE_BAD_HEADER;
+    }
+    /* Chunks start at the data window's top row, every lpc rows. */
+    for (int64_t row = 0; row < img->height; row += lpc) {
+        exr_chunk_info_t ci;
+        rv = exr_read_scanline_chunk_info(ctx, 0, (int)(dw->min.y + row), &ci);
+        if (rv != EXR_ERR_SUCCESS)
+            return rv;
+        if (ci.width != img->width) {
+            image_exr_note(e, "corrupt file: chunk width differs from the data window");
+            return EXR_ERR_CORRUPT_CHUNK;
+        }
+        rv = image_exr_decode_chunk(ctx, &ci, 0, (int64_t)ci.start_y - dw->min.y, img, dec,
+                                    started, e);
+        if (rv != EXR_ERR_SUCCESS)
+            return rv;
+    }
+    return EXR_ERR_SUCCESS;
+}
+
+/* Reads level 0 (full resolution) of a tiled part. */
+static exr_result_t image_exr_read_tiles(exr_const_context_t ctx, Image *img,
+                                         exr_decode_pipeline_t *dec, int *started, ImageExrErr *e)
+{
+    uint32_t tw = 0, th = 0;
+    exr_tile_level_mode_t level;
+    exr_tile_round_mode_t round;
+    exr_result_t rv = exr_get_tile_descriptor(ctx, 0, &tw, &th, &level, &round);
+    if (rv != EXR_ERR_SUCCESS)
+        return rv;
+    if (tw == 0 || th == 0) {
+        image_exr_note(e, "corrupt file: zero tile size");
+        return EXR_ERR_FILE_BAD_HEADER;
+    }
+    int64_t nx = ((int64_t)img->width + tw - 1) / tw;
+    int64_t ny = ((int64_t)img->height + th - 1) / th;
+    for (int64_t ty = 0; ty < ny; ty++) {
+        for (int64_t tx = 0; tx < nx; tx++) {
+            exr_chunk_info_t ci;
+            /* For tiles, ci.start_x/start_y are tile indices, not pixels. */
+            rv = exr_read_tile_chunk_info(ctx, 0, (int)tx, (int)ty, 0, 0, &ci);
+            if (rv == EXR_ERR_SUCCESS)
+                rv = image_exr_decode_chunk(ctx, &ci, tx * tw, ty * th, img, dec, started, e);
+            if (rv != EXR_ERR_SUCCESS)
+                return rv;
+        }
+    }
+    return EXR_ERR_SUCCESS;
+}
+
+static exr_result_t image_exr_read_part(exr_const_context_t ctx, Image *img, ImageExrErr *e)
+{
+    exr_storage_t storage;
+    exr_result_t rv = exr_get_storage(ctx, 0, &storage);
+    if (rv != EXR_ERR_SUCCESS)
+        return rv;
+    if (storage != EXR_STORAGE_SCANLINE && storage != EXR_STORAGE_TILED) {
+        image_exr_note(e, "deep images are not supported");
+        return EXR_ERR_FEATURE_NOT_IMPLEMENTED;
+    }
+
+    exr_attr_box2i_t dw;
+    rv = exr_get_data_window(ctx, 0, &dw);
+    if (rv != EXR_ERR_SUCCESS)
+        return rv;
+    int64_t w = (int64_t)dw.max.x - dw.min.x + 1;
+    int64_t h = (int64_t)dw.max.y - dw.min.y + 1;
+    if (w < 1 || h < 1 || w > IMAGE_MAX_SIDE || h > IMAGE_MAX_SIDE) {
+        char msg[128];
+        snprintf(msg, sizeof msg, "data window of %lldx%lld pixels is outside 1..%d", (long long)w,
+                 (long long)h, IMAGE_MAX_SIDE);
+        image_exr_note(e, msg);
+        return EXR_ERR_ARGUMENT_OUT_OF_RANGE;
+    }
+
+    const exr_attr_chlist_t *chans = NULL;
+    rv = exr_get_channels(ctx, 0, &chans);
+    if (rv != EXR_ERR_SUCCESS)
+        return rv;
+    int wanted = 0;
+    for (int c = 0; c < chans->num_channels; c++) {
+        const exr_attr_chlist_entry_t *ch = &chans->entries[c];
+        if (image_rgb_offset(ch->name.str) < 0)
+            continue;
+        if (ch->x_sampling != 1 || ch->y_sampling != 1) {
+            image_exr_note(e, "subsampled R, G or B channels are not supported");
+            return EXR_ERR_FEATURE_NOT_IMPLEMENTED;
+        }
+        wanted = 1;
+    }
+
+    if (image_init(img, (int)w, (int)h) != 0) {
+        image_exr_note(e, "out of memory");
+        return EXR_ERR_OUT_OF_MEMORY;
+    }
+    if (!wanted)
+        return EXR_ERR_SUCCESS; /* no R, G or B: all black */
+
+    exr_decode_pipeline_t dec = EXR_DECODE_PIPELINE_INITIALIZER;
+    int started = 0;
+    if (storage == EXR_STORAGE_SCANLINE)
+        rv = image_exr_read_scanlines(ctx, &dw, img, &dec, &started, e);
+    else
+        rv = image_exr_read_tiles(ctx, img, &dec, &started, e);
+    if (started)
+        exr_decoding_destroy(ctx, &dec);
+    return rv;
+}
+
+int image_read_exr(const char *path, Image *img, char *err, size_t errlen)
+{
+    img->width = 0;
+    img->height = 0;
+    img->rgb = NULL;
+    ImageExrErr e = {{0}, 0};
+    exr_context_initializer_t init = image_exr_init(&e);
+    exr_context_t ctx = NULL;
+    exr_result_t rv = exr_start_read(&ctx, path, &init);
+    if (rv == EXR_ERR_SUCCESS)
+        rv = image_exr_read_part(ctx, img, &e);
+    if (ctx != NULL)
+        exr_finish(&ctx);
+    if (rv != EXR_ERR_SUCCESS) {
+        image_free(img);
+        image_exr_report(err, errlen, path, "cannot read", &e, rv);
+        return -1;
+    }
+    return 0;
+}
+
+/* ---- PNG ---------------------------------------------------------------- */
+
+unsigned char image_srgb8(float linear)
+{
+    /* Written so that NaN also lands in the first branch. */
+    if (!(linear > 0.0f))
+        return 0;
+    if (linear >= 1.0f)
+        return 255;
+    double x = linear;
+    double v = x <= 0.0031308 ? 12.92 * x : 1.055 * pow(x, 1.0 / 2.4) - 0.055;
+    return (unsigned char)(v * 255.0 + 0.5);
+}
+
+/* Everything the setjmp-protected code touches lives here, outside the
+ * frame that calls setjmp, so longjmp cannot leave stale locals behind. */
+typedef struct {
+    const Image *img;
+    FILE *fp;
+    unsigned char *row; /* 3 * width bytes */
+    png_structp png;
+    png_infop info;
+    char msg[256];
+    int saved_errno; /* from the failing write, 0 if none */
+} ImagePngJob;
+
+static void image_png_on_error(png_structp png, png_const_charp msg)
+{
+    ImagePngJob *job = png_get_error_ptr(png);
+    if (job->msg[0] == '\0')
+        snprintf(job->msg, sizeof job->msg, "%s",
+                 job->saved_errno != 0 ? strerror(job->saved_errno) : msg);
+    /* Must not return: libpng would then print and abort on its own. */
+    png_longjmp(png, 1);
+}
+
+static void image_png_on_warning(png_structp png, png_const_charp msg)
+{
+    (void)png; /* library code stays silent */
+    (void)msg;
+}
+
+/* Our own write callback keeps errno, so "No space left on device" reaches
+ * the user instead of libpng's bare "Write Error". */
+static void image_png_write(png_structp png, png_bytep data, size_t len)
+{
+    ImagePngJob *job = png_get_io_ptr(png);
+    errno = 0;
+    if (fwrite(data, 1, len, job->fp) != len) {
+        job->saved_errno = errno != 0 ? errno : EIO;
+        png_error(png, "write failed");
+    }
+}
+
+static void image_png_flush(png_structp png)
+{
+    ImagePngJob *job = png_get_io_ptr(png);
+    errno = 0;
+    if (fflush(job->fp) != 0) {
+        job->saved_errno = errno != 0 ? errno : EIO;
+        png_error(png, "flush failed");
+    }
+}
+
+static int image_png_run(ImagePngJob *job)
+{
+    job->png = png_create_write_struct(PNG_LIBPNG_VER_STRING, job, image_png_on_error,
+                                       image_png_on_warning);
+    if (job->png == NULL) {
+        snprintf(job->msg, sizeof job->msg, "out of memory");
+        return -1;
+    }
+    job->info = png_create_info_struct(job->png);
+    if (job->info == NULL) {
+        snprintf(job->msg, sizeof job->msg, "out of memory");
+        return -1;
+    }
+    if (setjmp(png_jmpbuf(job->png)))
+        return -1;
+
+    const Image *img = job->img;
+    png_set_write_fn(job->png, job, image_png_write, image_png_flush);
+    png_set_IHDR(job->png, job->info, (png_uint_32)img->width, (png_uint_32)img->height, 8,
+                 PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
+                 PNG_FILTER_TYPE_DEFAULT);
+    /* Tells viewers the bytes are sRGB-encoded (sRGB, gAMA and cHRM chunks). */
+    png_set_sRGB_gAMA_and_cHRM(job->png, job->info, PNG_sRGB_INTENT_PERCEPTUAL);
+    png_write_info(job->png, job->info);
+    for (int y = 0; y < img->height; y++) {
+        const float *src = img->rgb + (size_t)y * (size_t)img->width * 3;
+        for (size_t i = 0; i < (size_t)img->width * 3; i++)
+            job->row[i] = image_srgb8(src[i]);
+        png_write_row(job->png, job->row);
+    }
+    png_write_end(job->png, job->info);
+    return 0;
+}
+
+int image_write_png(const Image *img, const char *path, char *err, size_t errlen)
+{
+    if (!image_valid(img)) {
+        snprintf(err, errlen, "%s: cannot write: invalid image", path);
+        return -1;
+    }
+    char tmp[AFILE_PATH_MAX];
+    if (afile_temp(path, tmp, sizeof tmp, err, errlen) != 0)
+        return -1;
+
+    ImagePngJob job;
+    memset(&job, 0, sizeof job);
+    job.img = img;
+    job.row = malloc((size_t)img->width * 3);
+    if (job.row == NULL) {
+        afile_abort(tmp);
+        snprintf(err, errlen, "%s: cannot write: out of memory", path);
+        return -1;
+    }
+    job.fp = fopen(tmp, "wb");
+    if (job.fp == NULL) {
+        snprintf(job.msg, sizeof job.msg, "%s", strerror(errno));
+    } else {
+        int rc = image_png_run(&job);
+        if (job.png != NULL)
+            png_destroy_write_struct(&job.png, &job.info);
+        /* fclose flushes the last buffered bytes: a late ENOSPC shows here. */
+        errno = 0;
+        if (fclose(job.fp) != 0 && rc == 0) {
+            snprintf(job.msg, sizeof job.msg, "%s", strerror(errno != 0 ? errno : EIO));
+        } else if (rc != 0 && job.msg[0] == '\0') {
+            snprintf(job.msg, sizeof job.msg, "PNG encoding failed");
+        }
+    }
+    free(job.row);
+    if (job.msg[0] != '\0') {
+        afile_abort(tmp);
+        snprintf(err, errlen, "%s: cannot write: %s", path, job.msg);
+        return -1;
+    }
+    return afile_commit(tmp, path, err, errlen);
+}
