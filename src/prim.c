@@ -112,7 +112,7 @@ int prim_obox_init(OBox *b)
      * two columns over the determinant. */
     Vec3 vw = vec_cross(b->v, b->w), wu = vec_cross(b->w, b->u), uv = vec_cross(b->u, b->v);
     float det = vec_dot(b->u, vw);
-    if (!(fabsf(det) > 0.0f) || !isfinite(1.0f / det))
+    if (!(fabsf(det) > 0.0f) || !isfinite(det) || !isfinite(1.0f / det))
         return -1;
     b->inv[0] = vec_scale(vw, 1.0f / det);
     b->inv[1] = vec_scale(wu, 1.0f / det);

@@ -149,7 +149,8 @@ static int next(Parser *P)
     size_t n = number_len(P->p, P->end);
     if (n > 0) {
         size_t m = n;
-        while (P->p + m < P->end && (is_ident_char(P->p[m]) || P->p[m] == '.'))
+        /* "1.2.3", "3x" and "1-2" are typos, not a number and something after it. */
+        while (P->p + m < P->end && (is_ident_char(P->p[m]) || P->p[m] == '.' || P->p[m] == '+' || P->p[m] == '-'))
             m++;
         if (m != n)
             return fail(P, t->loc, "malformed number '%.*s'", (int)m, P->p);
@@ -195,6 +196,16 @@ static const char *tok_desc(const Token *t, char *buf, size_t len)
     }
     snprintf(buf, len, "'%.*s'", (int)(t->len > 40 ? 40 : t->len), t->start);
     return buf;
+}
+
+static int is_keyword(const Token *t)
+{
+    static const char *const kw[] = {"image", "camera",   "light",           "material", "sphere",
+                                     "plane", "triangle", "smooth_triangle", "box",      "obox"};
+    for (size_t i = 0; i < sizeof kw / sizeof kw[0]; i++)
+        if (tok_is(t, kw[i]))
+            return 1;
+    return 0;
 }
 
 /* ---- block parsing driven by field tables ---- */
@@ -259,15 +270,20 @@ static int parse_block(Parser *P, const char *what, const Field *f, int nf, Valu
     memset(vals, 0, sizeof(Value) * (size_t)nf);
     if (P->tok.kind != TOK_LBRACE)
         return fail(P, P->tok.loc, "%s: expected '{', found %s", what, tok_desc(&P->tok, buf, sizeof buf));
+    Loc open = P->tok.loc;
     if (next(P))
         return -1;
     while (P->tok.kind != TOK_RBRACE) {
         if (P->tok.kind == TOK_EOF)
-            return fail(P, P->tok.loc, "%s: missing '}' before end of file", what);
+            return fail(P, P->tok.loc, "%s: missing '}' before end of file (to close the '{' at %d:%d)", what,
+                        open.line, open.col);
         if (P->tok.kind != TOK_IDENT)
             return fail(P, P->tok.loc, "%s: expected a property name, found %s", what,
                         tok_desc(&P->tok, buf, sizeof buf));
         int i = find_field(f, nf, &P->tok);
+        if (i < 0 && is_keyword(&P->tok))
+            return fail(P, P->tok.loc, "%s: missing '}' before '%.*s' (to close the '{' at %d:%d)", what,
+                        (int)P->tok.len, P->tok.start, open.line, open.col);
         if (i < 0)
             return fail(P, P->tok.loc, "%s: unknown property '%.*s'", what, (int)P->tok.len, P->tok.start);
         Value *v = &vals[i];
@@ -283,7 +299,10 @@ static int parse_block(Parser *P, const char *what, const Field *f, int nf, Valu
         if (f[i].kind == F_NAME) {
             if (P->tok.kind == TOK_RBRACE || P->tok.kind == TOK_EOF)
                 return fail(P, P->tok.loc, "%s: missing value for '%s' (expects a name)", what, f[i].key);
-            if (read_name(P, v->name, f[i].key))
+            if (P->tok.kind != TOK_IDENT)
+                return fail(P, P->tok.loc, "%s: wrong type for '%s': expected a name, found %s", what, f[i].key,
+                            tok_desc(&P->tok, buf, sizeof buf));
+            if (read_name(P, v->name, what))
                 return -1;
         }
         for (int k = 0; k < count; k++) {
@@ -295,15 +314,18 @@ static int parse_block(Parser *P, const char *what, const Field *f, int nf, Valu
             }
             /* A '}' or another property where a value belongs means the value
              * was left out; anything else is a value of the wrong type. */
-            if (P->tok.kind == TOK_RBRACE || P->tok.kind == TOK_EOF || find_field(f, nf, &P->tok) >= 0)
+            if (P->tok.kind == TOK_RBRACE || P->tok.kind == TOK_EOF || find_field(f, nf, &P->tok) >= 0) {
+                if (count == 1)
+                    return fail(P, P->tok.loc, "%s: missing value for '%s' (expects a number)", what, f[i].key);
                 return fail(P, P->tok.loc, "%s: missing value for '%s' (expects %s, got %d)", what, f[i].key,
                             kind_desc(f[i].kind), k);
+            }
             return fail(P, P->tok.loc, "%s: wrong type for '%s': expected a number, found %s", what, f[i].key,
                         tok_desc(&P->tok, buf, sizeof buf));
         }
         if (P->tok.kind == TOK_NUMBER)
-            return fail(P, P->tok.loc, "%s: extra value %s after '%s' (expects %s)", what,
-                        tok_desc(&P->tok, buf, sizeof buf), f[i].key, kind_desc(f[i].kind));
+            return fail(P, P->tok.loc, "%s: extra value '%.*s' after '%s' (expects %s)", what, (int)P->tok.len,
+                        P->tok.start, f[i].key, kind_desc(f[i].kind));
     }
     return next(P);
 }
@@ -370,9 +392,12 @@ static int material_ref(Parser *P, const char *what, const Field *f, const Value
 
 static int nonzero_vec(Parser *P, const char *what, const char *key, const Value *v)
 {
-    if (vec_length(vec_of(v)) > 0.0f && isfinite(vec_length(vec_of(v))))
+    float len = vec_length(vec_of(v));
+    if (len > 0.0f && isfinite(len))
         return 0;
-    return fail(P, v->value, "%s: '%s' must have non-zero length", what, key);
+    if (v->v[0] == 0.0f && v->v[1] == 0.0f && v->v[2] == 0.0f)
+        return fail(P, v->value, "%s: '%s' must have non-zero length", what, key);
+    return fail(P, v->value, "%s: '%s' is too small or too large to normalize", what, key);
 }
 
 /* ---- statements ---- */
@@ -400,6 +425,9 @@ static int parse_image(Parser *P, Loc at)
     P->s->height = (int)num_or(&v[HEIGHT], (float)P->s->height);
     P->s->max_depth = (int)num_or(&v[MAX_DEPTH], (float)P->s->max_depth);
     P->s->background = vec_or(&v[BACKGROUND], P->s->background);
+    if ((long)P->s->width * P->s->height > IMAGE_MAX_PIXELS)
+        return fail(P, at, "image: %d x %d is more than the %ld pixels lancer renders", P->s->width, P->s->height,
+                    IMAGE_MAX_PIXELS);
     return 0;
 }
 
@@ -422,12 +450,15 @@ static int parse_camera(Parser *P, Loc at)
     c->up = vec_or(&v[UP], vec3(0, 1, 0));
     c->fovy = v[FOV].v[0];
     Vec3 fwd = vec_sub(c->target, c->eye);
-    if (!(vec_length(fwd) > 0.0f))
+    if (c->target.x == c->eye.x && c->target.y == c->eye.y && c->target.z == c->eye.z)
         return fail(P, v[TARGET].value, "camera: 'target' must differ from 'eye'");
+    if (!(vec_length(fwd) > 0.0f && isfinite(vec_length(fwd))))
+        return fail(P, v[TARGET].value, "camera: 'target' is too close to or too far from 'eye'");
     if (v[UP].set && nonzero_vec(P, "camera", "up", &v[UP]))
         return -1;
     if (!(vec_length(vec_cross(vec_normalize(fwd), vec_normalize(c->up))) > 1e-6f))
-        return fail(P, v[UP].set ? v[UP].value : at, "camera: 'up' must not be parallel to the view direction");
+        return fail(P, v[UP].set ? v[UP].value : at, "camera: 'up'%s must not be parallel to the view direction",
+                    v[UP].set ? "" : " (by default 0 1 0)");
     if (!(c->fovy > 0.0f && c->fovy < 180.0f))
         return fail(P, v[FOV].value, "camera: 'fov' must be between 0 and 180 degrees");
     return 0;
@@ -636,7 +667,7 @@ static int parse_obox(Parser *P, Loc at)
     b.v = vec_of(&v[V]);
     b.w = vec_of(&v[W]);
     if (prim_obox_init(&b) != 0)
-        return fail(P, at, "obox: axes 'u', 'v' and 'w' are linearly dependent (the box is flat)");
+        return fail(P, at, "obox: axes 'u', 'v' and 'w' are linearly dependent (the box is flat) or too large");
     Prim *p = new_prim(P, PRIM_OBOX, at);
     if (!p)
         return -1;
@@ -651,6 +682,8 @@ static int parse_statement(Parser *P)
     char buf[64];
     if (kw.kind != TOK_IDENT)
         return fail(P, kw.loc, "expected a keyword, found %s", tok_desc(&kw, buf, sizeof buf));
+    if (!is_keyword(&kw))
+        return fail(P, kw.loc, "unknown keyword %s", tok_desc(&kw, buf, sizeof buf));
     if (next(P))
         return -1;
     if (tok_is(&kw, "image"))
@@ -673,7 +706,7 @@ static int parse_statement(Parser *P)
         return parse_box(P, kw.loc);
     if (tok_is(&kw, "obox"))
         return parse_obox(P, kw.loc);
-    return fail(P, kw.loc, "unknown keyword %s", tok_desc(&kw, buf, sizeof buf));
+    return fail(P, kw.loc, "unknown keyword %s", tok_desc(&kw, buf, sizeof buf)); /* not reached */
 }
 
 void scene_free(Scene *s)
@@ -692,6 +725,8 @@ int scene_parse(const char *name, const char *text, size_t len, Scene *s, char *
     P.name = name;
     P.p = text;
     P.end = text + len;
+    if (len >= 3 && memcmp(text, "\xef\xbb\xbf", 3) == 0)
+        P.p += 3; /* a UTF-8 byte-order mark is not part of the scene */
     P.at.line = 1;
     P.at.col = 1;
     P.err = err;

@@ -194,6 +194,9 @@ static void test_obox_init(void **state)
             assert_float_equal(vec_dot(b.inv[i], ax[j]), i == j ? 1 : 0, 1e-6);
     OBox flat = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}, {{0, 0, 0}}};
     assert_int_equal(prim_obox_init(&flat), -1);
+    /* axes of 1e13 overflow the determinant: the inverse would be all zero */
+    OBox huge = {{0, 0, 0}, {1e13f, 0, 0}, {0, 1e13f, 0}, {0, 0, 1e13f}, {{0, 0, 0}}};
+    assert_int_equal(prim_obox_init(&huge), -1);
 }
 
 static void test_obox(void **state)

@@ -1,0 +1,971 @@
+/*
+ * Tests of the scene parser (scene.h): every kind of bad input, each with its
+ * exact message and the line:col of the offending token; that nothing is
+ * returned on error; and that a good scene yields the values (and defaults)
+ * it spells out, whatever its comments, line endings and number spellings.
+ * Run from the repository root (scene_load reads scenes/default.scn).
+ */
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <setjmp.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "lancer/scene.h"
+
+/* ---- helpers ---- */
+
+static int parse(const char *text, Scene *s, char *err, size_t errlen)
+{
+    return scene_parse("t.scn", text, strlen(text), s, err, errlen);
+}
+
+/* Parses text that must be valid; fails the test with the parser's message if not. */
+static void parse_ok(const char *text, Scene *s)
+{
+    char err[512] = "";
+    if (parse(text, s, err, sizeof err) != 0)
+        fail_msg("unexpected parse error: %s", err);
+}
+
+/* 1 when the Scene holds nothing: no arrays, no counts, no settings. */
+static int scene_is_empty(const Scene *s)
+{
+    Scene zero;
+    memset(&zero, 0, sizeof zero);
+    return s->materials == NULL && s->nmaterials == 0 && s->lights == NULL && s->nlights == 0 &&
+           s->prims == NULL && s->nprims == 0 && s->width == 0 && s->height == 0 && s->max_depth == 0 &&
+           memcmp(s, &zero, sizeof zero) == 0;
+}
+
+/* text[0..len) with control and non-ASCII bytes as \xNN, for failure reports. */
+static const char *escaped(const char *text, size_t len, char *buf, size_t buflen)
+{
+    size_t o = 0;
+    for (size_t i = 0; i < len && o + 5 < buflen; i++) {
+        unsigned char c = (unsigned char)text[i];
+        if (c == '\n')
+            o += (size_t)snprintf(buf + o, buflen - o, "\\n");
+        else if (c >= 0x20 && c < 0x7f)
+            buf[o++] = (char)c;
+        else
+            o += (size_t)snprintf(buf + o, buflen - o, "\\x%02x", c);
+    }
+    buf[o] = '\0';
+    return buf;
+}
+
+static void assert_vec_eq(Vec3 v, float x, float y, float z, float tol)
+{
+    assert_float_equal(v.x, x, tol);
+    assert_float_equal(v.y, y, tol);
+    assert_float_equal(v.z, z, tol);
+}
+
+/* ---- bad inputs ---- */
+
+/* A valid camera (line 1) and material 'm' (line 2), so that the fault that
+ * follows stands on line 3. */
+#define CAM "camera { eye 0 0 -5 target 0 0 0 fov 40 }\n"
+#define PRE CAM "material m { }\n"
+
+typedef struct {
+    const char *name;
+    const char *text;
+    size_t len; /* the text may hold a NUL byte */
+    const char *want;
+} BadCase;
+
+#define BAD(name, text, want) {name, text, sizeof(text) - 1, want}
+
+static const BadCase bad_cases[] = {
+    BAD("unexpected character",
+        PRE "sphere { center 0 0 0 radius @ material m }\n",
+        "t.scn:3:30: unexpected character '@'"),
+    BAD("unexpected character at top level",
+        PRE "$\n",
+        "t.scn:3:1: unexpected character '$'"),
+    BAD("NUL byte",
+        PRE "sphere { center 0 0 \x00" " radius 1 material m }\n",
+        "t.scn:3:21: unexpected byte 0x00"),
+    BAD("non-ASCII byte in a name",
+        PRE "material caf\xc3" "\xa9" " { }\n",
+        "t.scn:3:13: unexpected byte 0xc3"),
+    BAD("control byte",
+        PRE "sphere { center 0 0 0\x0b" " radius 1 material m }\n",
+        "t.scn:3:22: unexpected byte 0x0b"),
+    BAD("lone dot",
+        PRE "sphere { center 0 0 0 radius . material m }\n",
+        "t.scn:3:30: unexpected character '.'"),
+    BAD("lone minus",
+        PRE "sphere { center 0 0 - 1 radius 1 material m }\n",
+        "t.scn:3:21: unexpected character '-'"),
+    BAD("non-finite 1e999",
+        PRE "sphere { center 0 0 0 radius 1e999 material m }\n",
+        "t.scn:3:30: non-finite number '1e999' (out of single-precision range)"),
+    BAD("float overflow 1e39",
+        PRE "sphere { center 0 1e39 0 radius 1 material m }\n",
+        "t.scn:3:19: non-finite number '1e39' (out of single-precision range)"),
+    BAD("float overflow -1e39",
+        PRE "sphere { center 0 0 -1e39 radius 1 material m }\n",
+        "t.scn:3:21: non-finite number '-1e39' (out of single-precision range)"),
+    BAD("malformed 1.2.3",
+        PRE "sphere { center 0 1.2.3 0 radius 1 material m }\n",
+        "t.scn:3:19: malformed number '1.2.3'"),
+    BAD("malformed 3x",
+        PRE "sphere { center 0 0 0 radius 3x material m }\n",
+        "t.scn:3:30: malformed number '3x'"),
+    BAD("malformed 1e",
+        PRE "sphere { center 0 0 0 radius 1e material m }\n",
+        "t.scn:3:30: malformed number '1e'"),
+    BAD("malformed 1e+",
+        PRE "sphere { center 0 0 0 radius 1e+ material m }\n",
+        "t.scn:3:30: malformed number '1e+'"),
+    BAD("malformed 1-2",
+        PRE "sphere { center 0 1-2 0 radius 1 material m }\n",
+        "t.scn:3:19: malformed number '1-2'"),
+    BAD("malformed 0x10",
+        PRE "sphere { center 0 0 0 radius 0x10 material m }\n",
+        "t.scn:3:30: malformed number '0x10'"),
+    BAD("number too long",
+        PRE "sphere { center 0 0 0 radius 1.0000000000000000000000000000000000000000000000000000000000000000000000 material m }\n",
+        "t.scn:3:30: number too long"),
+    BAD("unknown keyword",
+        PRE "spheer { center 0 0 0 radius 1 material m }\n",
+        "t.scn:3:1: unknown keyword 'spheer'"),
+    BAD("keywords are case-sensitive",
+        PRE "Sphere { center 0 0 0 radius 1 material m }\n",
+        "t.scn:3:1: unknown keyword 'Sphere'"),
+    BAD("unknown keyword before a bad token",
+        PRE "foo 1.2.3\n",
+        "t.scn:3:1: unknown keyword 'foo'"),
+    BAD("brace at top level",
+        PRE "{ }\n",
+        "t.scn:3:1: expected a keyword, found '{'"),
+    BAD("closing brace at top level",
+        PRE "}\n",
+        "t.scn:3:1: expected a keyword, found '}'"),
+    BAD("number at top level",
+        PRE "42\n",
+        "t.scn:3:1: expected a keyword, found number '42'"),
+    BAD("keyword without block",
+        PRE "sphere center 0 0 0\n",
+        "t.scn:3:8: sphere: expected '{', found 'center'"),
+    BAD("keyword at end of file",
+        PRE "sphere\n",
+        "t.scn:4:1: sphere: expected '{', found end of file"),
+    BAD("material without name",
+        PRE "material { }\n",
+        "t.scn:3:10: material: expected a name, found '{'"),
+    BAD("material with a number for a name",
+        PRE "material 3 { }\n",
+        "t.scn:3:10: material: expected a name, found number '3'"),
+    BAD("material name too long",
+        PRE "material aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaa { }\n",
+        "t.scn:3:10: material: name longer than 63 characters"),
+    BAD("material name without block",
+        PRE "material n material o { }\n",
+        "t.scn:3:12: material: expected '{', found 'material'"),
+    BAD("unknown property",
+        PRE "sphere { centre 0 0 0 radius 1 material m }\n",
+        "t.scn:3:10: sphere: unknown property 'centre'"),
+    BAD("normal on a flat triangle",
+        PRE "triangle { a 0 0 0 b 1 0 0 c 0 1 0 na 0 0 1 material m }\n",
+        "t.scn:3:36: triangle: unknown property 'na'"),
+    BAD("number for a property name",
+        PRE "sphere { 1 }\n",
+        "t.scn:3:10: sphere: expected a property name, found number '1'"),
+    BAD("brace for a property name",
+        PRE "sphere { { }\n",
+        "t.scn:3:10: sphere: expected a property name, found '{'"),
+    BAD("missing value before }",
+        PRE "sphere { center 0 0 0 material m radius }\n",
+        "t.scn:3:41: sphere: missing value for 'radius' (expects a number)"),
+    BAD("missing value before next property",
+        PRE "sphere { center 0 0 0 radius material m }\n",
+        "t.scn:3:30: sphere: missing value for 'radius' (expects a number)"),
+    BAD("missing vector component before next property",
+        PRE "sphere { center 0 0 radius 1 material m }\n",
+        "t.scn:3:21: sphere: missing value for 'center' (expects three numbers, got 2)"),
+    BAD("missing whole vector before }",
+        PRE "sphere { radius 1 material m center }\n",
+        "t.scn:3:37: sphere: missing value for 'center' (expects three numbers, got 0)"),
+    BAD("missing name before }",
+        PRE "sphere { center 0 0 0 radius 1 material }\n",
+        "t.scn:3:41: sphere: missing value for 'material' (expects a name)"),
+    BAD("missing value at end of file",
+        PRE "sphere { center 0 0 0 radius ",
+        "t.scn:3:30: sphere: missing value for 'radius' (expects a number)"),
+    BAD("extra number",
+        PRE "sphere { center 0 0 0 radius 1 2 material m }\n",
+        "t.scn:3:32: sphere: extra value '2' after 'radius' (expects a number)"),
+    BAD("extra vector component",
+        PRE "sphere { center 0 0 0 0 radius 1 material m }\n",
+        "t.scn:3:23: sphere: extra value '0' after 'center' (expects three numbers)"),
+    BAD("extra value after a name",
+        PRE "sphere { center 0 0 0 radius 1 material m 7 }\n",
+        "t.scn:3:43: sphere: extra value '7' after 'material' (expects a name)"),
+    BAD("value after a flag",
+        PRE "light { position 0 0 0 shadowless 1 }\n",
+        "t.scn:3:35: light: extra value '1' after 'shadowless' (expects no value)"),
+    BAD("name for a number",
+        PRE "sphere { center 0 0 0 radius big material m }\n",
+        "t.scn:3:30: sphere: wrong type for 'radius': expected a number, found 'big'"),
+    BAD("name in a vector",
+        PRE "sphere { center 0 y 0 radius 1 material m }\n",
+        "t.scn:3:19: sphere: wrong type for 'center': expected a number, found 'y'"),
+    BAD("brace for a number",
+        PRE "sphere { center 0 0 0 radius { } }\n",
+        "t.scn:3:30: sphere: wrong type for 'radius': expected a number, found '{'"),
+    BAD("number for a name",
+        PRE "sphere { center 0 0 0 radius 1 material 1 }\n",
+        "t.scn:3:41: sphere: wrong type for 'material': expected a name, found number '1'"),
+    BAD("material name too long in a reference",
+        PRE "sphere { center 0 0 0 radius 1 material aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaa }\n",
+        "t.scn:3:41: sphere: name longer than 63 characters"),
+    BAD("duplicate property",
+        PRE "sphere { center 0 0 0 radius 1 radius 2 material m }\n",
+        "t.scn:3:32: sphere: duplicate property 'radius' (first given at 3:23)"),
+    BAD("duplicate flag",
+        PRE "light { position 0 0 0 shadowless shadowless }\n",
+        "t.scn:3:35: light: duplicate property 'shadowless' (first given at 3:24)"),
+    BAD("missing } at end of file",
+        PRE "sphere { center 0 0 0 radius 1 material m",
+        "t.scn:3:42: sphere: missing '}' before end of file (to close the '{' at 3:8)"),
+    BAD("missing } at end of file after newline and comment",
+        PRE "sphere { center 0 0 0 radius 1 material m\n# the end\n",
+        "t.scn:5:1: sphere: missing '}' before end of file (to close the '{' at 3:8)"),
+    BAD("missing } before the next statement",
+        PRE "sphere { center 0 0 0 radius 1 material m\nplane { normal 0 1 0 material m }\n",
+        "t.scn:4:1: sphere: missing '}' before 'plane' (to close the '{' at 3:8)"),
+    BAD("missing } before a material",
+        PRE "light { position 0 0 0\nmaterial n { }\n",
+        "t.scn:4:1: light: missing '}' before 'material' (to close the '{' at 3:7)"),
+    BAD("missing } in the camera",
+        "camera { eye 0 0 -5 target 0 0 0 fov 40\nmaterial m { }\n",
+        "t.scn:2:1: camera: missing '}' before 'material' (to close the '{' at 1:8)"),
+    BAD("duplicate camera",
+        CAM "camera { eye 0 0 0 target 0 0 1 fov 30 }\n",
+        "t.scn:2:1: duplicate 'camera' block"),
+    BAD("duplicate image",
+        CAM "image { width 10 }\nimage { height 10 }\n",
+        "t.scn:3:1: duplicate 'image' block"),
+    BAD("missing camera",
+        "material m { }\nsphere { center 0 0 0 radius 1 material m }\n",
+        "t.scn:3:1: the scene has no 'camera' block"),
+    BAD("missing camera in an empty file",
+        "",
+        "t.scn:1:1: the scene has no 'camera' block"),
+    BAD("missing camera in a file of comments",
+        "# nothing\n# here",
+        "t.scn:2:7: the scene has no 'camera' block"),
+    BAD("undefined material",
+        PRE "sphere { center 0 0 0 radius 1 material n }\n",
+        "t.scn:3:41: sphere: undefined material 'n'"),
+    BAD("material used before its definition",
+        CAM "sphere { center 0 0 0 radius 1 material m }\nmaterial m { }\n",
+        "t.scn:2:41: sphere: undefined material 'm'"),
+    BAD("undefined material in a plane",
+        PRE "plane { material M normal 0 1 0 }\n",
+        "t.scn:3:18: plane: undefined material 'M'"),
+    BAD("duplicate material name",
+        PRE "material m { color 1 0 0 }\n",
+        "t.scn:3:10: duplicate material name 'm'"),
+    BAD("sphere without radius",
+        PRE "sphere { center 0 0 0 material m }\n",
+        "t.scn:3:1: sphere: missing property 'radius'"),
+    BAD("sphere without center",
+        PRE "  sphere { radius 1 material m }\n",
+        "t.scn:3:3: sphere: missing property 'center'"),
+    BAD("sphere without material",
+        PRE "sphere { center 0 0 0 radius 1 }\n",
+        "t.scn:3:1: sphere: missing property 'material'"),
+    BAD("plane without normal",
+        PRE "plane { offset 1 material m }\n",
+        "t.scn:3:1: plane: missing property 'normal'"),
+    BAD("triangle without c",
+        PRE "triangle { a 0 0 0 b 1 0 0 material m }\n",
+        "t.scn:3:1: triangle: missing property 'c'"),
+    BAD("smooth_triangle without nc",
+        PRE "smooth_triangle { a 0 0 0 b 1 0 0 c 0 1 0 na 0 0 1 nb 0 0 1 material m }\n",
+        "t.scn:3:1: smooth_triangle: missing property 'nc'"),
+    BAD("box without max",
+        PRE "box { min 0 0 0 material m }\n",
+        "t.scn:3:1: box: missing property 'max'"),
+    BAD("obox without w",
+        PRE "obox { center 0 0 0 u 1 0 0 v 0 1 0 material m }\n",
+        "t.scn:3:1: obox: missing property 'w'"),
+    BAD("light without position",
+        PRE "light { color 1 1 1 }\n",
+        "t.scn:3:1: light: missing property 'position'"),
+    BAD("camera without fov",
+        "camera { eye 0 0 0 target 0 0 1 }\n",
+        "t.scn:1:1: camera: missing property 'fov'"),
+    BAD("camera without eye",
+        "camera { target 0 0 1 fov 40 }\n",
+        "t.scn:1:1: camera: missing property 'eye'"),
+    BAD("camera without target",
+        "camera { eye 0 0 1 fov 40 }\n",
+        "t.scn:1:1: camera: missing property 'target'"),
+    BAD("negative radius",
+        PRE "sphere { center 0 0 0 radius -1 material m }\n",
+        "t.scn:3:30: sphere: 'radius' must be positive"),
+    BAD("zero radius",
+        PRE "sphere { center 0 0 0 radius 0 material m }\n",
+        "t.scn:3:30: sphere: 'radius' must be positive"),
+    BAD("radius that underflows to zero",
+        PRE "sphere { center 0 0 0 radius 1e-50 material m }\n",
+        "t.scn:3:30: sphere: 'radius' must be positive"),
+    BAD("zero plane normal",
+        PRE "plane { normal 0 0 0 material m }\n",
+        "t.scn:3:16: plane: 'normal' must have non-zero length"),
+    BAD("plane normal too large",
+        PRE "plane { normal 1e30 0 0 material m }\n",
+        "t.scn:3:16: plane: 'normal' is too small or too large to normalize"),
+    BAD("plane normal too small",
+        PRE "plane { normal 0 1e-30 0 material m }\n",
+        "t.scn:3:16: plane: 'normal' is too small or too large to normalize"),
+    BAD("zero obox u",
+        PRE "obox { center 0 0 0 u 0 0 0 v 0 1 0 w 0 0 1 material m }\n",
+        "t.scn:3:23: obox: 'u' must have non-zero length"),
+    BAD("zero obox v",
+        PRE "obox { center 0 0 0 u 1 0 0 v 0 0 0 w 0 0 1 material m }\n",
+        "t.scn:3:31: obox: 'v' must have non-zero length"),
+    BAD("zero obox w",
+        PRE "obox { center 0 0 0 u 1 0 0 v 0 1 0 w 0 0 0 material m }\n",
+        "t.scn:3:39: obox: 'w' must have non-zero length"),
+    BAD("coplanar obox axes",
+        PRE "obox { center 0 0 0 u 1 0 0 v 0 1 0 w 1 1 0 material m }\n",
+        "t.scn:3:1: obox: axes 'u', 'v' and 'w' are linearly dependent (the box is flat) or too large"),
+    BAD("parallel obox axes",
+        PRE "obox { center 0 0 0 u 1 0 0 v -2 0 0 w 0 0 1 material m }\n",
+        "t.scn:3:1: obox: axes 'u', 'v' and 'w' are linearly dependent (the box is flat) or too large"),
+    BAD("zero smooth_triangle normal",
+        PRE "smooth_triangle { a 0 0 0 b 1 0 0 c 0 1 0 na 0 0 1 nb 0 0 0 nc 0 0 1 material m }\n",
+        "t.scn:3:55: smooth_triangle: 'nb' must have non-zero length"),
+    BAD("collinear triangle",
+        PRE "triangle { a 0 0 0 b 1 1 1 c 2 2 2 material m }\n",
+        "t.scn:3:1: triangle: the three vertices are collinear (zero area)"),
+    BAD("triangle with two equal vertices",
+        PRE "triangle { a 1 2 3 b 4 5 6 c 1 2 3 material m }\n",
+        "t.scn:3:1: triangle: the three vertices are collinear (zero area)"),
+    BAD("collinear smooth_triangle",
+        PRE "smooth_triangle { a 0 0 0 b 0 1 0 c 0 3 0 na 1 0 0 nb 1 0 0 nc 1 0 0 material m }\n",
+        "t.scn:3:1: smooth_triangle: the three vertices are collinear (zero area)"),
+    BAD("box flat in y",
+        PRE "box { min 0 0 0 max 1 0 1 material m }\n",
+        "t.scn:3:21: box: 'max' must exceed 'min' on every axis"),
+    BAD("box inverted in z",
+        PRE "box { max 1 1 -1 min 0 0 0 material m }\n",
+        "t.scn:3:11: box: 'max' must exceed 'min' on every axis"),
+    BAD("fov 0",
+        "camera { eye 0 0 -5 target 0 0 0 fov 0 }\n",
+        "t.scn:1:38: camera: 'fov' must be between 0 and 180 degrees"),
+    BAD("fov 180",
+        "camera { eye 0 0 -5 target 0 0 0 fov 180 }\n",
+        "t.scn:1:38: camera: 'fov' must be between 0 and 180 degrees"),
+    BAD("negative fov",
+        "camera { fov -10 eye 0 0 -5 target 0 0 0 }\n",
+        "t.scn:1:14: camera: 'fov' must be between 0 and 180 degrees"),
+    BAD("target equal to eye",
+        "camera { eye 1 2 3 target 1 2 3 fov 40 }\n",
+        "t.scn:1:27: camera: 'target' must differ from 'eye'"),
+    BAD("target too close to eye",
+        "camera { eye 0 0 0 target 0 0 1e-30 fov 40 }\n",
+        "t.scn:1:27: camera: 'target' is too close to or too far from 'eye'"),
+    BAD("target too far from eye",
+        "camera { eye 0 0 -3e38 target 0 0 3e38 fov 40 }\n",
+        "t.scn:1:31: camera: 'target' is too close to or too far from 'eye'"),
+    BAD("up parallel to the view",
+        "camera { eye 0 0 0 target 0 0 1 up 0 0 2 fov 40 }\n",
+        "t.scn:1:36: camera: 'up' must not be parallel to the view direction"),
+    BAD("up opposite to the view",
+        "camera { eye 0 0 0 target 0 0 1 up 0 0 -1 fov 40 }\n",
+        "t.scn:1:36: camera: 'up' must not be parallel to the view direction"),
+    BAD("default up parallel to the view",
+        "camera { eye 0 0 0 target 0 5 0 fov 40 }\n",
+        "t.scn:1:1: camera: 'up' (by default 0 1 0) must not be parallel to the view direction"),
+    BAD("zero up",
+        "camera { eye 0 0 0 target 0 0 1 up 0 0 0 fov 40 }\n",
+        "t.scn:1:36: camera: 'up' must have non-zero length"),
+    BAD("image width 0",
+        "image { width 0 }\ncamera { eye 0 0 -5 target 0 0 0 fov 40 }\n",
+        "t.scn:1:15: image: 'width' must be a whole number from 1 to 32768"),
+    BAD("image width not an integer",
+        "image { width 640.5 }\ncamera { eye 0 0 -5 target 0 0 0 fov 40 }\n",
+        "t.scn:1:15: image: 'width' must be a whole number from 1 to 32768"),
+    BAD("image height too large",
+        "image { width 640 height 32769 }\ncamera { eye 0 0 -5 target 0 0 0 fov 40 }\n",
+        "t.scn:1:26: image: 'height' must be a whole number from 1 to 32768"),
+    BAD("image too many pixels",
+        "image { width 32768 height 16385 }\ncamera { eye 0 0 -5 target 0 0 0 fov 40 }\n",
+        "t.scn:1:1: image: 32768 x 16385 is more than the 268435456 pixels lancer renders"),
+    BAD("image height negative",
+        "image { height -480 }\ncamera { eye 0 0 -5 target 0 0 0 fov 40 }\n",
+        "t.scn:1:16: image: 'height' must be a whole number from 1 to 32768"),
+    BAD("max_depth 0",
+        "image { max_depth 0 }\ncamera { eye 0 0 -5 target 0 0 0 fov 40 }\n",
+        "t.scn:1:19: image: 'max_depth' must be a whole number from 1 to 256"),
+    BAD("max_depth not an integer",
+        "image { max_depth 2.5 }\ncamera { eye 0 0 -5 target 0 0 0 fov 40 }\n",
+        "t.scn:1:19: image: 'max_depth' must be a whole number from 1 to 256"),
+    BAD("max_depth too large",
+        "image { max_depth 257 }\ncamera { eye 0 0 -5 target 0 0 0 fov 40 }\n",
+        "t.scn:1:19: image: 'max_depth' must be a whole number from 1 to 256"),
+    BAD("roughness 0",
+        PRE "material r { roughness 0 }\n",
+        "t.scn:3:24: material: 'roughness' must be positive"),
+    BAD("negative roughness",
+        PRE "material r { roughness -0.5 }\n",
+        "t.scn:3:24: material: 'roughness' must not be negative"),
+    BAD("negative ambient",
+        PRE "material r { ambient -0.1 }\n",
+        "t.scn:3:22: material: 'ambient' must not be negative"),
+    BAD("negative diffuse",
+        PRE "material r { diffuse -1 }\n",
+        "t.scn:3:22: material: 'diffuse' must not be negative"),
+    BAD("negative phong",
+        PRE "material r { phong -1 }\n",
+        "t.scn:3:20: material: 'phong' must not be negative"),
+    BAD("negative phong_size",
+        PRE "material r { phong_size -40 }\n",
+        "t.scn:3:25: material: 'phong_size' must not be negative"),
+    BAD("negative specular",
+        PRE "material r { specular -0.2 }\n",
+        "t.scn:3:23: material: 'specular' must not be negative"),
+    BAD("negative reflection",
+        PRE "material r { reflection -0.5 }\n",
+        "t.scn:3:25: material: 'reflection' must not be negative"),
+    BAD("negative colour",
+        PRE "material r { color 0.5 -0.1 0 }\n",
+        "t.scn:3:20: material: 'color' must not be negative"),
+    BAD("fade_power without fade_distance",
+        PRE "light { position 0 0 0 fade_power 2 }\n",
+        "t.scn:3:24: light: 'fade_power' needs 'fade_distance'"),
+    BAD("fade_distance 0",
+        PRE "light { position 0 0 0 fade_distance 0 fade_power 2 }\n",
+        "t.scn:3:38: light: 'fade_distance' must be positive"),
+    BAD("negative fade_distance",
+        PRE "light { position 0 0 0 fade_distance -1 }\n",
+        "t.scn:3:38: light: 'fade_distance' must be positive"),
+    BAD("negative fade_power",
+        PRE "light { position 0 0 0 fade_distance 5 fade_power -1 }\n",
+        "t.scn:3:51: light: 'fade_power' must not be negative"),
+    BAD("CRLF line endings",
+        "camera { eye 0 0 -5 target 0 0 0 fov 40 }\r\nmaterial m { }\r\nsphere { center 0 0 0 radius -1 material m }\r\n",
+        "t.scn:3:30: sphere: 'radius' must be positive"),
+    BAD("tabs count one column",
+        PRE "\tsphere {\tcenter 0 0 0\tradius\t-1 material m }\n",
+        "t.scn:3:31: sphere: 'radius' must be positive"),
+    BAD("comments before the fault",
+        PRE "# a comment with } { @ 1.2.3 \xff\nsphere { # radius 1\n  center 0 0 0 # }\n  radius -1 material m }\n",
+        "t.scn:6:10: sphere: 'radius' must be positive"),
+    BAD("missing } after a trailing comment",
+        PRE "sphere { center 0 0 0 radius 1 material m # no brace",
+        "t.scn:3:53: sphere: missing '}' before end of file (to close the '{' at 3:8)"),
+    BAD("error after many objects",
+        PRE "sphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nbogus\n",
+        "t.scn:23:1: unknown keyword 'bogus'"),
+};
+
+static void test_bad_inputs(void **state)
+{
+    (void)state;
+    size_t n = sizeof bad_cases / sizeof bad_cases[0];
+    int failures = 0;
+    for (size_t i = 0; i < n; i++) {
+        const BadCase *c = &bad_cases[i];
+        Scene s;
+        memset(&s, 0xa5, sizeof s); /* garbage in: the parser must clear it */
+        char err[512] = "";
+        int rc = scene_parse("t.scn", c->text, c->len, &s, err, sizeof err);
+        int empty = scene_is_empty(&s);
+        if (rc != -1 || strcmp(err, c->want) != 0 || !empty) {
+            char buf[4096];
+            print_error("bad case %zu (%s): text \"%s\"\n  want: rc -1, \"%s\"\n  got:  rc %d, \"%s\"%s\n", i,
+                        c->name, escaped(c->text, c->len, buf, sizeof buf), c->want, rc, err,
+                        empty ? "" : ", and the scene is not empty");
+            failures++;
+        }
+        scene_free(&s);
+        scene_free(&s); /* harmless twice */
+    }
+    if (failures)
+        fail_msg("%d of %zu bad-input cases failed", failures, n);
+}
+
+/* Every bad case, cut short at each byte, still fails cleanly or parses:
+ * no crash, no leak, and an empty Scene whenever the answer is an error. */
+static void test_bad_inputs_truncated(void **state)
+{
+    (void)state;
+    size_t n = sizeof bad_cases / sizeof bad_cases[0];
+    for (size_t i = 0; i < n; i++) {
+        const BadCase *c = &bad_cases[i];
+        for (size_t len = 0; len <= c->len; len++) {
+            char *copy = malloc(len ? len : 1); /* exactly len bytes: ASan catches reads past the end */
+            assert_non_null(copy);
+            memcpy(copy, c->text, len);
+            Scene s;
+            char err[512] = "";
+            int rc = scene_parse("t.scn", copy, len, &s, err, sizeof err);
+            if (rc != 0) {
+                assert_int_equal(rc, -1);
+                assert_true(scene_is_empty(&s));
+                assert_true(strncmp(err, "t.scn:", 6) == 0);
+            }
+            scene_free(&s);
+            free(copy);
+        }
+    }
+}
+
+/* The message is cut to the buffer given and stays a C string. */
+static void test_error_buffer_truncation(void **state)
+{
+    (void)state;
+    Scene s;
+    char small[8];
+    memset(small, 'x', sizeof small);
+    assert_int_equal(scene_parse("t.scn", "@", 1, &s, small, sizeof small), -1);
+    assert_string_equal(small, "t.scn:1");
+    char mid[24];
+    assert_int_equal(scene_parse("t.scn", "@", 1, &s, mid, sizeof mid), -1);
+    assert_string_equal(mid, "t.scn:1:1: unexpected c");
+    char one[1] = {'x'};
+    assert_int_equal(scene_parse("t.scn", "@", 1, &s, one, sizeof one), -1);
+    assert_int_equal(one[0], '\0');
+    assert_true(scene_is_empty(&s));
+    /* the file name stands as given */
+    char err[256];
+    assert_int_equal(scene_parse("dir/My Scene.scn", "\n\n  @", 5, &s, err, sizeof err), -1);
+    assert_string_equal(err, "dir/My Scene.scn:3:3: unexpected character '@'");
+}
+
+/* ---- good inputs ---- */
+
+static const char full_scene[] =
+    "# every statement and every property\n"
+    "image { width 320 height 200 background 0.1 0.2 0.3 max_depth 7 }\n"
+    "camera { fov 55.5 up 0 0 1 eye 1 2 -3 target 0 1 0 }\n"
+    "light { position -6 9 -6 color 0.8 0.7 0.6 fade_distance 10 fade_power 2 shadowless }\n"
+    "light { position 1 2 3 }\n"
+    "light { position 4 5 6 fade_distance 3 }\n"
+    "material full { color 0.9 0.5 0.1 ambient 0.2 diffuse 0.7 phong 0.5 phong_size 60\n"
+    "                specular 0.3 roughness 0.02 reflection 0.25 }\n"
+    "material plain { }\n"
+    "material zero { ambient 0 diffuse 0 phong 0 phong_size 0 specular 0 reflection 0 color 0 0 0 }\n"
+    "sphere { material full center 1 2 3 radius 0.5 }\n"
+    "plane { normal 0 2 0 offset -1 material plain }\n"
+    "plane { normal 3 0 -4 material zero }\n"
+    "triangle { a 0 0 0 b 1 0 0 c 0 1 0 material plain }\n"
+    "smooth_triangle { a 0 0 1 b 1 0 1 c 0 1 1 na 0 0 2 nb 0 3 4 nc -1 0 0 material full }\n"
+    "box { min -1 -2 -3 max 1 2 3 material plain }\n"
+    "obox { center 1 1 1 u 0.4 0 0.25 v 0 0.35 0 w -0.15 0 0.24 material full }\n";
+
+static void test_full_scene(void **state)
+{
+    (void)state;
+    Scene s;
+    parse_ok(full_scene, &s);
+
+    assert_int_equal(s.width, 320);
+    assert_int_equal(s.height, 200);
+    assert_int_equal(s.max_depth, 7);
+    assert_vec_eq(s.background, 0.1f, 0.2f, 0.3f, 0);
+
+    assert_vec_eq(s.camera.eye, 1, 2, -3, 0);
+    assert_vec_eq(s.camera.target, 0, 1, 0, 0);
+    assert_vec_eq(s.camera.up, 0, 0, 1, 0);
+    assert_float_equal(s.camera.fovy, 55.5f, 0);
+
+    assert_int_equal(s.nlights, 3);
+    assert_vec_eq(s.lights[0].pos, -6, 9, -6, 0);
+    assert_vec_eq(s.lights[0].color, 0.8f, 0.7f, 0.6f, 0);
+    assert_float_equal(s.lights[0].fade_distance, 10, 0);
+    assert_float_equal(s.lights[0].fade_power, 2, 0);
+    assert_true(s.lights[0].shadowless);
+    assert_vec_eq(s.lights[1].pos, 1, 2, 3, 0);
+    assert_vec_eq(s.lights[1].color, 1, 1, 1, 0); /* defaults */
+    assert_float_equal(s.lights[1].fade_distance, 0, 0);
+    assert_float_equal(s.lights[1].fade_power, 0, 0);
+    assert_false(s.lights[1].shadowless);
+    assert_float_equal(s.lights[2].fade_distance, 3, 0); /* a distance alone: still no fade */
+    assert_float_equal(s.lights[2].fade_power, 0, 0);
+
+    assert_int_equal(s.nmaterials, 3);
+    const Material *m = &s.materials[0];
+    assert_string_equal(m->name, "full");
+    assert_vec_eq(m->color, 0.9f, 0.5f, 0.1f, 0);
+    assert_float_equal(m->ambient, 0.2f, 0);
+    assert_float_equal(m->diffuse, 0.7f, 0);
+    assert_float_equal(m->phong, 0.5f, 0);
+    assert_float_equal(m->phong_size, 60, 0);
+    assert_float_equal(m->specular, 0.3f, 0);
+    assert_float_equal(m->roughness, 0.02f, 0);
+    assert_float_equal(m->reflection, 0.25f, 0);
+    m = &s.materials[1]; /* POV-Ray 3.7's defaults */
+    assert_string_equal(m->name, "plain");
+    assert_vec_eq(m->color, 1, 1, 1, 0);
+    assert_float_equal(m->ambient, 0.1f, 0);
+    assert_float_equal(m->diffuse, 0.6f, 0);
+    assert_float_equal(m->phong, 0, 0);
+    assert_float_equal(m->phong_size, 40, 0);
+    assert_float_equal(m->specular, 0, 0);
+    assert_float_equal(m->roughness, 0.05f, 0);
+    assert_float_equal(m->reflection, 0, 0);
+    m = &s.materials[2]; /* zero is allowed wherever negative is the limit */
+    assert_string_equal(m->name, "zero");
+    assert_vec_eq(m->color, 0, 0, 0, 0);
+    assert_float_equal(m->ambient, 0, 0);
+    assert_float_equal(m->diffuse, 0, 0);
+    assert_float_equal(m->phong_size, 0, 0);
+    assert_float_equal(m->roughness, 0.05f, 0);
+
+    assert_int_equal(s.nprims, 7);
+    const Prim *p = s.prims;
+    assert_int_equal(p[0].kind, PRIM_SPHERE);
+    assert_int_equal(p[0].material, 0);
+    assert_vec_eq(p[0].g.sphere.c, 1, 2, 3, 0);
+    assert_float_equal(p[0].g.sphere.r, 0.5f, 0);
+
+    assert_int_equal(p[1].kind, PRIM_PLANE);
+    assert_int_equal(p[1].material, 1);
+    assert_vec_eq(p[1].g.plane.n, 0, 1, 0, 0); /* normalised */
+    assert_float_equal(p[1].g.plane.d, -1, 0);
+    assert_int_equal(p[2].kind, PRIM_PLANE);
+    assert_int_equal(p[2].material, 2);
+    assert_vec_eq(p[2].g.plane.n, 0.6f, 0, -0.8f, 1e-6f);
+    assert_float_equal(p[2].g.plane.d, 0, 0); /* default offset */
+
+    assert_int_equal(p[3].kind, PRIM_TRIANGLE);
+    assert_int_equal(p[3].material, 1);
+    assert_vec_eq(p[3].g.tri.a, 0, 0, 0, 0);
+    assert_vec_eq(p[3].g.tri.b, 1, 0, 0, 0);
+    assert_vec_eq(p[3].g.tri.c, 0, 1, 0, 0);
+
+    assert_int_equal(p[4].kind, PRIM_SMOOTH_TRIANGLE);
+    assert_int_equal(p[4].material, 0);
+    assert_vec_eq(p[4].g.tri.a, 0, 0, 1, 0);
+    assert_vec_eq(p[4].g.tri.b, 1, 0, 1, 0);
+    assert_vec_eq(p[4].g.tri.c, 0, 1, 1, 0);
+    assert_vec_eq(p[4].g.tri.na, 0, 0, 1, 1e-6f); /* normalised */
+    assert_vec_eq(p[4].g.tri.nb, 0, 0.6f, 0.8f, 1e-6f);
+    assert_vec_eq(p[4].g.tri.nc, -1, 0, 0, 1e-6f);
+
+    assert_int_equal(p[5].kind, PRIM_BOX);
+    assert_int_equal(p[5].material, 1);
+    assert_vec_eq(p[5].g.box.lo, -1, -2, -3, 0);
+    assert_vec_eq(p[5].g.box.hi, 1, 2, 3, 0);
+
+    assert_int_equal(p[6].kind, PRIM_OBOX);
+    assert_int_equal(p[6].material, 0);
+    const OBox *b = &p[6].g.obox;
+    assert_vec_eq(b->c, 1, 1, 1, 0);
+    assert_vec_eq(b->u, 0.4f, 0, 0.25f, 0);
+    assert_vec_eq(b->v, 0, 0.35f, 0, 0);
+    assert_vec_eq(b->w, -0.15f, 0, 0.24f, 0);
+    const Vec3 axes[3] = {b->u, b->v, b->w};
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            assert_float_equal(vec_dot(b->inv[i], axes[j]), i == j ? 1.0f : 0.0f, 1e-6f);
+
+    scene_free(&s);
+    assert_true(scene_is_empty(&s));
+}
+
+/* A camera alone: the image defaults, the default up, and nothing else. */
+static void test_defaults(void **state)
+{
+    (void)state;
+    Scene s;
+    parse_ok("camera { eye 0 0 -5 target 0 0 0 fov 40 }", &s);
+    assert_int_equal(s.width, 640);
+    assert_int_equal(s.height, 480);
+    assert_int_equal(s.max_depth, 5);
+    assert_vec_eq(s.background, 0, 0, 0, 0);
+    assert_vec_eq(s.camera.up, 0, 1, 0, 0);
+    assert_int_equal(s.nmaterials, 0);
+    assert_int_equal(s.nlights, 0);
+    assert_int_equal(s.nprims, 0);
+    assert_null(s.materials);
+    assert_null(s.lights);
+    assert_null(s.prims);
+    scene_free(&s);
+
+    /* an image block sets only what it names, wherever it stands */
+    parse_ok("camera { eye 0 0 -5 target 0 0 0 fov 40 }\nimage { height 100 }\n", &s);
+    assert_int_equal(s.width, 640);
+    assert_int_equal(s.height, 100);
+    assert_int_equal(s.max_depth, 5);
+    scene_free(&s);
+    parse_ok("image { }\ncamera { eye 0 0 -5 target 0 0 0 fov 40 }\n", &s);
+    assert_int_equal(s.width, 640);
+    assert_int_equal(s.height, 480);
+    scene_free(&s);
+
+    /* the limits themselves are allowed */
+    parse_ok("image { width 1 height 32768 max_depth 256 }\n"
+             "camera { eye 0 0 0 target 0 0 1 fov 179.9 }\n",
+             &s);
+    assert_int_equal(s.width, 1);
+    assert_int_equal(s.height, 32768);
+    assert_int_equal(s.max_depth, 256);
+    scene_free(&s);
+}
+
+static void test_comments(void **state)
+{
+    (void)state;
+    Scene s;
+    parse_ok("# leading comment\n"
+             "camera # after a keyword\n"
+             "{ # after a brace\n"
+             "  eye 0 0 -5 # after a vector\n"
+             "  target # between a key and its value\n"
+             "  0 # between components\n"
+             "  0 0\n"
+             "  fov 40}# glued to a brace\n"
+             "#\n"
+             "material m{}#glued { sphere @ 1.2.3 \xff\n"
+             "sphere{center 0 0 0 radius 2#glued to a number\n"
+             "material m}\n"
+             "light { position 1 2 3 shadowless# glued to a flag\n"
+             "}\n"
+             "# trailing comment without a newline",
+             &s);
+    assert_vec_eq(s.camera.eye, 0, 0, -5, 0);
+    assert_vec_eq(s.camera.target, 0, 0, 0, 0);
+    assert_float_equal(s.camera.fovy, 40, 0);
+    assert_int_equal(s.nmaterials, 1);
+    assert_int_equal(s.nprims, 1);
+    assert_float_equal(s.prims[0].g.sphere.r, 2, 0);
+    assert_int_equal(s.nlights, 1);
+    assert_true(s.lights[0].shadowless);
+    scene_free(&s);
+}
+
+static void test_crlf_and_tabs(void **state)
+{
+    (void)state;
+    Scene s;
+    parse_ok("camera {\teye 0 0 -5\r\n\ttarget\t0 0 0\r\n\tfov 40 }\r\n"
+             "material\tm\t{\tcolor\t0.5\t0.25\t1\t}\r\n"
+             "\r\n"
+             "sphere { center 1 2 3 radius 1 material m } # comment\r\n"
+             "  \t  \r\n",
+             &s);
+    assert_vec_eq(s.camera.target, 0, 0, 0, 0);
+    assert_float_equal(s.camera.fovy, 40, 0);
+    assert_int_equal(s.nmaterials, 1);
+    assert_vec_eq(s.materials[0].color, 0.5f, 0.25f, 1, 0);
+    assert_int_equal(s.nprims, 1);
+    assert_vec_eq(s.prims[0].g.sphere.c, 1, 2, 3, 0);
+    scene_free(&s);
+}
+
+static void test_utf8_bom(void **state)
+{
+    (void)state;
+    Scene s;
+    /* editors on some systems start files with a byte-order mark */
+    parse_ok("\xef\xbb\xbf" "camera { eye 0 0 -5 target 0 0 0 fov 40 }\n", &s);
+    assert_float_equal(s.camera.fovy, 40, 0);
+    scene_free(&s);
+    char err[256];
+    const char *bad = "\xef\xbb\xbf" "@";
+    assert_int_equal(scene_parse("t.scn", bad, strlen(bad), &s, err, sizeof err), -1);
+    assert_string_equal(err, "t.scn:1:1: unexpected character '@'");
+}
+
+static void test_number_forms(void **state)
+{
+    (void)state;
+    Scene s;
+    parse_ok("camera { eye 0 0 -5 target 0 0 0 fov 40 }\n"
+             "material m { }\n"
+             "sphere { center -1 +2.5 .5 radius 3. material m }\n"
+             "light { position 1e-3 2E+2 -.5 color 1.5e1 0.0 00012 }\n"
+             "box { min -1E1 -0 -1e-0 max +.25e+1 7. 1e5 material m }\n",
+             &s);
+    assert_vec_eq(s.prims[0].g.sphere.c, -1, 2.5f, 0.5f, 0);
+    assert_float_equal(s.prims[0].g.sphere.r, 3, 0);
+    assert_true(s.lights[0].pos.x == 1e-3f);
+    assert_true(s.lights[0].pos.y == 200.0f);
+    assert_true(s.lights[0].pos.z == -0.5f);
+    assert_vec_eq(s.lights[0].color, 15, 0, 12, 0);
+    assert_vec_eq(s.prims[1].g.box.lo, -10, 0, -1, 0);
+    assert_vec_eq(s.prims[1].g.box.hi, 2.5f, 7, 1e5f, 0);
+    scene_free(&s);
+}
+
+/* Names: letters, digits and underscores, up to 63 characters; a material
+ * may share its name with a keyword or a property. */
+static void test_names(void **state)
+{
+    (void)state;
+    char text[512];
+    char name63[64];
+    memset(name63, 'n', 63);
+    name63[63] = '\0';
+    snprintf(text, sizeof text,
+             "camera { eye 0 0 -5 target 0 0 0 fov 40 }\n"
+             "material _Mat_2 { }\n"
+             "material sphere { }\n"
+             "material radius { }\n"
+             "material %s { }\n"
+             "sphere { center 0 0 0 radius 1 material radius }\n"
+             "sphere { material sphere center 0 0 0 radius 1 }\n"
+             "sphere { center 0 0 0 radius 1 material %s }\n"
+             "sphere { center 0 0 0 radius 1 material _Mat_2 }\n",
+             name63, name63);
+    Scene s;
+    parse_ok(text, &s);
+    assert_int_equal(s.nmaterials, 4);
+    assert_string_equal(s.materials[3].name, name63);
+    assert_int_equal(s.nprims, 4);
+    assert_int_equal(s.prims[0].material, 2);
+    assert_int_equal(s.prims[1].material, 1);
+    assert_int_equal(s.prims[2].material, 3);
+    assert_int_equal(s.prims[3].material, 0);
+    scene_free(&s);
+}
+
+/* Enough of everything that the arrays grow several times. */
+static void test_many_objects(void **state)
+{
+    (void)state;
+    size_t cap = 1 << 16, len = 0;
+    char *text = malloc(cap);
+    assert_non_null(text);
+    len += (size_t)snprintf(text + len, cap - len, "camera { eye 0 0 -5 target 0 0 0 fov 40 }\n");
+    for (int i = 0; i < 40; i++)
+        len += (size_t)snprintf(text + len, cap - len, "material m%d { ambient %d }\n", i, i);
+    for (int i = 0; i < 30; i++)
+        len += (size_t)snprintf(text + len, cap - len, "light { position %d 0 0 }\n", i);
+    for (int i = 0; i < 100; i++)
+        len += (size_t)snprintf(text + len, cap - len, "sphere { center %d 0 0 radius 1 material m%d }\n", i, i % 40);
+    assert_true(len < cap);
+    Scene s;
+    parse_ok(text, &s);
+    assert_int_equal(s.nmaterials, 40);
+    assert_int_equal(s.nlights, 30);
+    assert_int_equal(s.nprims, 100);
+    for (int i = 0; i < 40; i++)
+        assert_float_equal(s.materials[i].ambient, (float)i, 0);
+    for (int i = 0; i < 30; i++)
+        assert_float_equal(s.lights[i].pos.x, (float)i, 0);
+    for (int i = 0; i < 100; i++) {
+        assert_float_equal(s.prims[i].g.sphere.c.x, (float)i, 0);
+        assert_int_equal(s.prims[i].material, i % 40);
+    }
+    scene_free(&s);
+
+    /* the same, with a fault at the end: everything is freed, nothing returned */
+    len += (size_t)snprintf(text + len, cap - len, "sphere { center 0 0 0 radius 1 material nope }\n");
+    char err[512];
+    int rc = scene_parse("t.scn", text, len, &s, err, sizeof err);
+    free(text);
+    assert_int_equal(rc, -1);
+    assert_string_equal(err, "t.scn:172:41: sphere: undefined material 'nope'");
+    assert_true(scene_is_empty(&s));
+}
+
+/* ---- scene_load ---- */
+
+static void test_load_missing_file(void **state)
+{
+    (void)state;
+    Scene s;
+    memset(&s, 0xa5, sizeof s);
+    char err[512];
+    assert_int_equal(scene_load("scenes/no-such-scene.scn", &s, err, sizeof err), -1);
+    assert_string_equal(err, "scenes/no-such-scene.scn: cannot open: No such file or directory");
+    assert_true(scene_is_empty(&s));
+    scene_free(&s);
+}
+
+static void test_load_directory(void **state)
+{
+    (void)state;
+    Scene s;
+    char err[512];
+    assert_int_equal(scene_load("scenes", &s, err, sizeof err), -1);
+    assert_string_equal(err, "scenes: read error: Is a directory");
+    assert_true(scene_is_empty(&s));
+}
+
+/* Messages from a file carry its path as given. */
+static void test_load_bad_file(void **state)
+{
+    (void)state;
+    char path[] = "/tmp/lancer-test-scene-XXXXXX";
+    int fd = mkstemp(path);
+    assert_true(fd >= 0);
+    static const char text[] = "camera { eye 0 0 -5 target 0 0 0 fov 40 }\n\nsphere { radius -1 }\n";
+    assert_int_equal(write(fd, text, sizeof text - 1), (ssize_t)(sizeof text - 1));
+    close(fd);
+    Scene s;
+    char err[512], want[600];
+    int rc = scene_load(path, &s, err, sizeof err);
+    unlink(path);
+    assert_int_equal(rc, -1);
+    snprintf(want, sizeof want, "%s:3:1: sphere: missing property 'center'", path);
+    assert_string_equal(err, want);
+    assert_true(scene_is_empty(&s));
+}
+
+static void test_load_default_scene(void **state)
+{
+    (void)state;
+    Scene s;
+    char err[512] = "";
+    if (scene_load("scenes/default.scn", &s, err, sizeof err) != 0)
+        fail_msg("scenes/default.scn: %s", err);
+    assert_int_equal(s.width, 640);
+    assert_int_equal(s.height, 480);
+    assert_int_equal(s.max_depth, 5);
+    assert_vec_eq(s.background, 0.55f, 0.7f, 0.9f, 0);
+    assert_vec_eq(s.camera.eye, 0, 2.2f, -7.5f, 0);
+    assert_float_equal(s.camera.fovy, 40, 0);
+    assert_int_equal(s.nlights, 2);
+    assert_int_equal(s.nmaterials, 6);
+    assert_string_equal(s.materials[0].name, "floor");
+    assert_string_equal(s.materials[5].name, "green");
+    assert_int_equal(s.nprims, 7);
+    assert_int_equal(s.prims[0].kind, PRIM_PLANE);
+    assert_int_equal(s.prims[1].kind, PRIM_SPHERE);
+    assert_int_equal(s.prims[1].material, 2); /* mirror */
+    assert_int_equal(s.prims[4].kind, PRIM_BOX);
+    assert_int_equal(s.prims[5].kind, PRIM_OBOX);
+    assert_int_equal(s.prims[6].kind, PRIM_TRIANGLE);
+    scene_free(&s);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_bad_inputs),
+        cmocka_unit_test(test_bad_inputs_truncated),
+        cmocka_unit_test(test_error_buffer_truncation),
+        cmocka_unit_test(test_full_scene),
+        cmocka_unit_test(test_defaults),
+        cmocka_unit_test(test_comments),
+        cmocka_unit_test(test_crlf_and_tabs),
+        cmocka_unit_test(test_utf8_bom),
+        cmocka_unit_test(test_number_forms),
+        cmocka_unit_test(test_names),
+        cmocka_unit_test(test_many_objects),
+        cmocka_unit_test(test_load_missing_file),
+        cmocka_unit_test(test_load_directory),
+        cmocka_unit_test(test_load_bad_file),
+        cmocka_unit_test(test_load_default_scene),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
