@@ -60,6 +60,30 @@ int afile_commit(const char *tmp, const char *path, char *err, size_t errlen)
 
 void afile_abort(const char *tmp) { remove(tmp); }
 
+FILE *afile_fopen(const char *path, char *tmp, size_t tmplen, char *err, size_t errlen)
+{
+    if (afile_temp(path, tmp, tmplen, err, errlen) != 0)
+        return NULL;
+    FILE *f = fopen(tmp, "w");
+    if (!f) {
+        snprintf(err, errlen, "%s: cannot write: %s", path, strerror(errno));
+        afile_abort(tmp);
+    }
+    return f;
+}
+
+int afile_fclose(FILE *f, const char *tmp, const char *path, char *err, size_t errlen)
+{
+    int bad = ferror(f);
+    int saved = errno;
+    if (fclose(f) != 0 || bad) {
+        snprintf(err, errlen, "%s: cannot write: %s", path, strerror(bad ? saved : errno));
+        afile_abort(tmp);
+        return -1;
+    }
+    return afile_commit(tmp, path, err, errlen);
+}
+
 int afile_check_writable(const char *path, char *err, size_t errlen)
 {
     struct stat st;

@@ -5,6 +5,7 @@
  * usage error.
  */
 #include <errno.h>
+#include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -14,6 +15,8 @@
 #include <unistd.h>
 
 #include "lancer/afile.h"
+#include "lancer/compare.h"
+#include "lancer/pov.h"
 #include "lancer/render.h"
 
 #define LANCER_VERSION "0.1.0"
@@ -24,12 +27,14 @@ static const char *usage_main =
     "lancer is a Whitted ray tracer that renders scene files to OpenEXR.\n"
     "\n"
     "commands:\n"
-    "  render SCENE   render a scene file to an EXR image (and a PNG preview)\n"
-    "  help [COMMAND] show this help, or a command's\n"
+    "  render SCENE      render a scene file to an EXR image (and a PNG preview)\n"
+    "  export-pov SCENE  write the POV-Ray 3.7 scene that renders the same picture\n"
+    "  diff A.exr B.exr  compare two images pixel by pixel\n"
+    "  help [COMMAND]    show this help, or a command's\n"
     "\n"
     "options:\n"
-    "  --help         show this help\n"
-    "  --version      print the version\n"
+    "  --help            show this help\n"
+    "  --version         print the version\n"
     "\n"
     "'lancer COMMAND --help' describes a command's options.\n";
 
@@ -45,17 +50,43 @@ static const char *usage_render =
     "      --png OUT.png     also write an 8-bit sRGB PNG preview\n"
     "      --width W         image width in pixels (overrides the scene)\n"
     "      --height H        image height in pixels (overrides the scene)\n"
+    "      --spp K           K x K samples per pixel, box-filtered (overrides the scene)\n"
     "      --threads N       render threads (default: every core)\n"
     "      --float           write 32-bit float channels (default: half)\n"
     "      --stats FILE.json write timings and ray counts as JSON\n"
     "  -q, --quiet           no progress bar or summary on stderr\n"
     "  -h, --help            show this help\n";
 
-typedef struct {
-    const char *scene, *exr, *png, *stats;
-    int width, height, threads, quiet;
-    ImagePrecision precision;
-} RenderArgs;
+static const char *usage_export =
+    "usage: lancer export-pov SCENE [options]\n"
+    "\n"
+    "Writes the POV-Ray 3.7 scene that renders the same picture as SCENE:\n"
+    "camera, lights, materials and every primitive. Its first lines give the\n"
+    "povray command line for the reference render.\n"
+    "\n"
+    "options:\n"
+    "  -o, --output OUT.pov  the file to write, or - for standard output\n"
+    "                        (default: out/<scene name>.pov)\n"
+    "      --width W         image width in pixels (overrides the scene)\n"
+    "      --height H        image height in pixels (overrides the scene)\n"
+    "  -h, --help            show this help\n";
+
+static const char *usage_diff =
+    "usage: lancer diff A.exr B.exr [options]\n"
+    "\n"
+    "Compares two EXR images channel by channel and prints one line:\n"
+    "  max=<max abs diff> mean=<mean abs diff> rms=<rms> psnr=<dB>\n"
+    "  over=<pixels with a channel differing by more than the threshold> pixels=<total>\n"
+    "PSNR takes 1.0 as the peak. The exit status is 0 whatever the difference.\n"
+    "\n"
+    "options:\n"
+    "      --heatmap OUT.png  write a false-colour map of the differences: black\n"
+    "                         up to 1e-5, blue 1e-4, cyan 1e-3, yellow at the\n"
+    "                         threshold, red from 100 times the threshold\n"
+    "      --downsample K     average B in K x K blocks first (B is a render at\n"
+    "                         K times the size of A)\n"
+    "      --threshold T      the difference that counts as over (default 2e-3)\n"
+    "  -h, --help             show this help\n";
 
 static double now(void)
 {
@@ -75,28 +106,90 @@ static int usage_error(const char *cmd, const char *fmt, ...)
     return 2;
 }
 
-/* Parses a whole number in [lo, hi]; returns 0 or -1. */
-static int parse_int(const char *s, int lo, int hi, int *out)
+/* ---- options, shared by every command ---- */
+
+typedef enum { OPT_FLAG, OPT_STRING, OPT_INT, OPT_DOUBLE } OptKind;
+
+typedef struct {
+    const char *name, *alias; /* "--output", "-o" */
+    OptKind kind;
+    void *dst; /* int* for flags and ints, const char** for strings, double* */
+    int lo, hi; /* the range of an int */
+} Opt;
+
+#define HELP_SHOWN 3 /* parse_opts showed --help: exit 0 */
+
+/* Parses argv against opts; other arguments are positional, at most maxpos
+ * of them. Returns 0, HELP_SHOWN, or 2 after a usage message. */
+static int parse_opts(const char *cmd, const char *usage, int argc, char **argv, const Opt *opts, int nopts,
+                      const char **pos, int maxpos, int *npos)
 {
-    char *end;
-    errno = 0;
-    long v = strtol(s, &end, 10);
-    if (errno || end == s || *end != '\0' || v < lo || v > hi)
-        return -1;
-    *out = (int)v;
+    *npos = 0;
+    for (int i = 0; i < argc; i++) {
+        const char *arg = argv[i];
+        if (!strcmp(arg, "-h") || !strcmp(arg, "--help")) {
+            fputs(usage, stdout);
+            return HELP_SHOWN;
+        }
+        if (arg[0] != '-' || arg[1] == '\0') {
+            if (*npos == maxpos)
+                return usage_error(cmd, "unexpected argument '%s'", arg);
+            pos[(*npos)++] = arg;
+            continue;
+        }
+        const char *eq = arg[1] == '-' ? strchr(arg, '=') : NULL;
+        size_t len = eq ? (size_t)(eq - arg) : strlen(arg);
+        const Opt *o = NULL;
+        for (int k = 0; k < nopts && !o; k++)
+            if ((strlen(opts[k].name) == len && !strncmp(arg, opts[k].name, len)) ||
+                (opts[k].alias && !eq && !strcmp(arg, opts[k].alias)))
+                o = &opts[k];
+        if (!o)
+            return usage_error(cmd, "unknown option '%s'", arg);
+        if (o->kind == OPT_FLAG) {
+            if (eq)
+                return usage_error(cmd, "option '%s' takes no value", o->name);
+            *(int *)o->dst = 1;
+            continue;
+        }
+        const char *val = eq ? eq + 1 : NULL;
+        if (!val) {
+            if (i + 1 >= argc)
+                return usage_error(cmd, "option '%s' needs a value", arg);
+            val = argv[++i];
+        }
+        char *end;
+        errno = 0;
+        if (o->kind == OPT_STRING) {
+            *(const char **)o->dst = val;
+        } else if (o->kind == OPT_INT) {
+            long v = strtol(val, &end, 10);
+            if (errno || end == val || *end || v < o->lo || v > o->hi)
+                return usage_error(cmd, "%s needs a whole number from %d to %d, not '%s'", o->name, o->lo, o->hi,
+                                   val);
+            *(int *)o->dst = (int)v;
+        } else {
+            double v = strtod(val, &end);
+            if (errno || end == val || *end || !(v > 0) || !isfinite(v))
+                return usage_error(cmd, "%s needs a positive number, not '%s'", o->name, val);
+            *(double *)o->dst = v;
+        }
+    }
     return 0;
 }
 
-/* "out/<basename of scene without extension>.exr" */
-static int default_output(const char *scene, char *buf, size_t len)
+/* "out/<basename of path without extension><ext>", creating out/. */
+static int default_output(const char *path, const char *ext, char *buf, size_t len)
 {
-    const char *base = strrchr(scene, '/');
-    base = base ? base + 1 : scene;
+    const char *base = strrchr(path, '/');
+    base = base ? base + 1 : path;
     const char *dot = strrchr(base, '.');
     int n = dot && dot != base ? (int)(dot - base) : (int)strlen(base);
-    int w = snprintf(buf, len, "out/%.*s.exr", n, base);
-    if (w < 0 || (size_t)w >= len)
+    int w = snprintf(buf, len, "out/%.*s%s", n, base, ext);
+    if (w < 0 || (size_t)w >= len) {
+        fprintf(stderr, "lancer: %s: path too long\n", path);
         return -1;
+    }
     if (mkdir("out", 0777) != 0 && errno != EEXIST) {
         fprintf(stderr, "lancer: cannot create directory 'out': %s\n", strerror(errno));
         return -1;
@@ -104,73 +197,34 @@ static int default_output(const char *scene, char *buf, size_t len)
     return 0;
 }
 
-static int parse_render_args(int argc, char **argv, RenderArgs *a)
+static int check_output(const char *path)
 {
-    memset(a, 0, sizeof *a);
-    a->precision = IMAGE_HALF;
-    long cores = sysconf(_SC_NPROCESSORS_ONLN);
-    a->threads = cores > 0 ? (int)(cores < 1024 ? cores : 1024) : 1;
-    for (int i = 0; i < argc; i++) {
-        const char *arg = argv[i];
-        if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0) {
-            fputs(usage_render, stdout);
-            exit(0);
-        }
-        if (strcmp(arg, "-q") == 0 || strcmp(arg, "--quiet") == 0) {
-            a->quiet = 1;
-            continue;
-        }
-        if (strcmp(arg, "--float") == 0) {
-            a->precision = IMAGE_FLOAT;
-            continue;
-        }
-        if (arg[0] != '-' || arg[1] == '\0') {
-            if (a->scene)
-                return usage_error("render", "unexpected argument '%s' (only one SCENE)", arg);
-            a->scene = arg;
-            continue;
-        }
-        /* Every other option takes a value: "--opt value" or "--opt=value". */
-        const char *val = NULL;
-        char name[32];
-        const char *eq = strchr(arg, '=');
-        if (eq && arg[1] == '-') {
-            size_t n = (size_t)(eq - arg);
-            if (n >= sizeof name)
-                return usage_error("render", "unknown option '%s'", arg);
-            memcpy(name, arg, n);
-            name[n] = '\0';
-            val = eq + 1;
-        } else {
-            snprintf(name, sizeof name, "%s", arg);
-        }
-        int known = !strcmp(name, "-o") || !strcmp(name, "--output") || !strcmp(name, "--png") ||
-                    !strcmp(name, "--width") || !strcmp(name, "--height") || !strcmp(name, "--threads") ||
-                    !strcmp(name, "--stats");
-        if (!known)
-            return usage_error("render", "unknown option '%s'", arg);
-        if (!val) {
-            if (i + 1 >= argc)
-                return usage_error("render", "option '%s' needs a value", arg);
-            val = argv[++i];
-        }
-        if (!strcmp(name, "-o") || !strcmp(name, "--output"))
-            a->exr = val;
-        else if (!strcmp(name, "--png"))
-            a->png = val;
-        else if (!strcmp(name, "--stats"))
-            a->stats = val;
-        else if (!strcmp(name, "--threads")) {
-            if (parse_int(val, 1, 1024, &a->threads))
-                return usage_error("render", "--threads needs a whole number from 1 to 1024, not '%s'", val);
-        } else {
-            int *dst = !strcmp(name, "--width") ? &a->width : &a->height;
-            if (parse_int(val, 1, IMAGE_MAX_SIDE, dst))
-                return usage_error("render", "size must be a whole number from 1 to 32768, not '%s'", val);
-        }
+    char err[512];
+    if (path && afile_check_writable(path, err, sizeof err) != 0) {
+        fprintf(stderr, "lancer: %s\n", err);
+        return -1;
     }
-    if (!a->scene)
-        return usage_error("render", "%s", "missing SCENE");
+    return 0;
+}
+
+/* Loads a scene and applies size overrides (0: keep the scene's). */
+static int load_scene(const char *path, int width, int height, Scene *s)
+{
+    char err[1024];
+    if (scene_load(path, s, err, sizeof err) != 0) {
+        fprintf(stderr, "%s\n", err);
+        return -1;
+    }
+    if (width)
+        s->width = width;
+    if (height)
+        s->height = height;
+    if ((long)s->width * s->height > IMAGE_MAX_PIXELS) {
+        fprintf(stderr, "lancer: a %dx%d image has more than the %ld pixels lancer renders\n", s->width, s->height,
+                IMAGE_MAX_PIXELS);
+        scene_free(s);
+        return -1;
+    }
     return 0;
 }
 
@@ -220,24 +274,24 @@ static void json_string(FILE *f, const char *s)
     fputc('"', f);
 }
 
+typedef struct {
+    const char *scene, *exr, *png, *stats;
+    int width, height, spp, threads, quiet, use_float;
+} RenderArgs;
+
 static int write_stats(const char *path, const RenderArgs *a, const Scene *s, const double phase[4],
                        const RayStats *st)
 {
     char tmp[AFILE_PATH_MAX], err[512];
-    if (afile_temp(path, tmp, sizeof tmp, err, sizeof err) != 0) {
-        fprintf(stderr, "lancer: %s\n", err);
-        return -1;
-    }
-    FILE *f = fopen(tmp, "w");
+    FILE *f = afile_fopen(path, tmp, sizeof tmp, err, sizeof err);
     if (!f) {
-        fprintf(stderr, "lancer: %s: %s\n", path, strerror(errno));
-        afile_abort(tmp);
+        fprintf(stderr, "lancer: %s\n", err);
         return -1;
     }
     fprintf(f, "{\n  \"scene\": ");
     json_string(f, a->scene);
-    fprintf(f, ",\n  \"width\": %d,\n  \"height\": %d,\n  \"threads\": %d,\n  \"primitives\": %d,\n",
-            s->width, s->height, a->threads, s->nprims);
+    fprintf(f, ",\n  \"width\": %d,\n  \"height\": %d,\n  \"spp\": %d,\n  \"threads\": %d,\n  \"primitives\": %d,\n",
+            s->width, s->height, s->spp, a->threads, s->nprims);
     fprintf(f, "  \"phases_s\": {\"parse\": %.6f, \"build\": %.6f, \"render\": %.6f, \"write\": %.6f},\n",
             phase[0], phase[1], phase[2], phase[3]);
     fprintf(f,
@@ -246,23 +300,7 @@ static int write_stats(const char *path, const RenderArgs *a, const Scene *s, co
             st->camera, st->shadow, st->reflection, st->refraction,
             st->camera + st->shadow + st->reflection + st->refraction);
     fprintf(f, "  \"intersection_tests\": %llu\n}\n", st->isect_tests);
-    int bad = ferror(f);
-    if (fclose(f) != 0 || bad) {
-        fprintf(stderr, "lancer: %s: write failed\n", path);
-        afile_abort(tmp);
-        return -1;
-    }
-    if (afile_commit(tmp, path, err, sizeof err) != 0) {
-        fprintf(stderr, "lancer: %s\n", err);
-        return -1;
-    }
-    return 0;
-}
-
-static int check_output(const char *path)
-{
-    char err[512];
-    if (path && afile_check_writable(path, err, sizeof err) != 0) {
+    if (afile_fclose(f, tmp, path, err, sizeof err) != 0) {
         fprintf(stderr, "lancer: %s\n", err);
         return -1;
     }
@@ -272,24 +310,38 @@ static int check_output(const char *path)
 static int cmd_render(int argc, char **argv)
 {
     RenderArgs a;
-    int rc = parse_render_args(argc, argv, &a);
+    memset(&a, 0, sizeof a);
+    long cores = sysconf(_SC_NPROCESSORS_ONLN);
+    a.threads = cores > 0 ? (int)(cores < 1024 ? cores : 1024) : 1;
+    const Opt opts[] = {
+        {"--output", "-o", OPT_STRING, &a.exr, 0, 0},
+        {"--png", NULL, OPT_STRING, &a.png, 0, 0},
+        {"--stats", NULL, OPT_STRING, &a.stats, 0, 0},
+        {"--width", NULL, OPT_INT, &a.width, 1, IMAGE_MAX_SIDE},
+        {"--height", NULL, OPT_INT, &a.height, 1, IMAGE_MAX_SIDE},
+        {"--spp", NULL, OPT_INT, &a.spp, 1, SCENE_MAX_SPP},
+        {"--threads", NULL, OPT_INT, &a.threads, 1, 1024},
+        {"--float", NULL, OPT_FLAG, &a.use_float, 0, 0},
+        {"--quiet", "-q", OPT_FLAG, &a.quiet, 0, 0},
+    };
+    int npos;
+    int rc = parse_opts("render", usage_render, argc, argv, opts, (int)(sizeof opts / sizeof opts[0]), &a.scene, 1,
+                        &npos);
     if (rc)
-        return rc;
+        return rc == HELP_SHOWN ? 0 : rc;
+    if (npos == 0)
+        return usage_error("render", "missing SCENE");
+
     char exr_default[AFILE_PATH_MAX], err[1024];
     double phase[4] = {0, 0, 0, 0}, t0 = now();
-
     Scene s;
-    if (scene_load(a.scene, &s, err, sizeof err) != 0) {
-        fprintf(stderr, "%s\n", err);
+    if (load_scene(a.scene, a.width, a.height, &s) != 0)
         return 1;
-    }
     phase[0] = now() - t0;
-    if (a.width)
-        s.width = a.width;
-    if (a.height)
-        s.height = a.height;
+    if (a.spp)
+        s.spp = a.spp;
     if (!a.exr) {
-        if (default_output(a.scene, exr_default, sizeof exr_default) != 0) {
+        if (default_output(a.scene, ".exr", exr_default, sizeof exr_default) != 0) {
             scene_free(&s);
             return 1;
         }
@@ -304,12 +356,6 @@ static int cmd_render(int argc, char **argv)
     Image img;
     Accel acc;
     RayStats st = {0, 0, 0, 0, 0};
-    if ((long)s.width * s.height > IMAGE_MAX_PIXELS) {
-        fprintf(stderr, "lancer: a %dx%d image has more than the %ld pixels lancer renders\n", s.width, s.height,
-                IMAGE_MAX_PIXELS);
-        scene_free(&s);
-        return 1;
-    }
     if (image_init(&img, s.width, s.height) != 0) {
         fprintf(stderr, "lancer: out of memory for a %dx%d image\n", s.width, s.height);
         scene_free(&s);
@@ -332,10 +378,10 @@ static int cmd_render(int argc, char **argv)
     rc = render_image(&s, &acc, &opt, &img, &st);
     phase[2] = now() - t0;
     if (rc != 0)
-        fprintf(stderr, "lancer: could not start the render threads\n");
+        fprintf(stderr, "lancer: could not set up the render threads\n");
 
     t0 = now();
-    if (rc == 0 && image_write_exr(&img, a.exr, a.precision, err, sizeof err) != 0) {
+    if (rc == 0 && image_write_exr(&img, a.exr, a.use_float ? IMAGE_FLOAT : IMAGE_HALF, err, sizeof err) != 0) {
         fprintf(stderr, "lancer: %s\n", err);
         rc = 1;
     }
@@ -356,8 +402,122 @@ static int cmd_render(int argc, char **argv)
     return rc ? 1 : 0;
 }
 
+static int cmd_export_pov(int argc, char **argv)
+{
+    const char *scene = NULL, *out = NULL;
+    int width = 0, height = 0, npos;
+    const Opt opts[] = {
+        {"--output", "-o", OPT_STRING, &out, 0, 0},
+        {"--width", NULL, OPT_INT, &width, 1, IMAGE_MAX_SIDE},
+        {"--height", NULL, OPT_INT, &height, 1, IMAGE_MAX_SIDE},
+    };
+    int rc = parse_opts("export-pov", usage_export, argc, argv, opts, (int)(sizeof opts / sizeof opts[0]), &scene,
+                        1, &npos);
+    if (rc)
+        return rc == HELP_SHOWN ? 0 : rc;
+    if (npos == 0)
+        return usage_error("export-pov", "missing SCENE");
+    Scene s;
+    if (load_scene(scene, width, height, &s) != 0)
+        return 1;
+    char path[AFILE_PATH_MAX], tmp[AFILE_PATH_MAX], err[512];
+    rc = 0;
+    if (out && !strcmp(out, "-")) {
+        if (pov_export(&s, stdout) != 0 || fflush(stdout) != 0) {
+            fprintf(stderr, "lancer: writing to standard output failed\n");
+            rc = 1;
+        }
+    } else if (!out && default_output(scene, ".pov", path, sizeof path) != 0) {
+        rc = 1;
+    } else {
+        out = out ? out : path;
+        FILE *f = afile_fopen(out, tmp, sizeof tmp, err, sizeof err);
+        if (!f || (pov_export(&s, f), afile_fclose(f, tmp, out, err, sizeof err)) != 0) {
+            fprintf(stderr, "lancer: %s\n", err);
+            rc = 1;
+        }
+    }
+    scene_free(&s);
+    return rc;
+}
+
+static int read_exr(const char *path, Image *img)
+{
+    char err[512];
+    if (image_read_exr(path, img, err, sizeof err) != 0) {
+        fprintf(stderr, "lancer: %s\n", err);
+        return -1;
+    }
+    return 0;
+}
+
+static int cmd_diff(int argc, char **argv)
+{
+    const char *pos[2], *heatmap = NULL;
+    int down = 1, npos;
+    double threshold = COMPARE_THRESHOLD;
+    const Opt opts[] = {
+        {"--heatmap", NULL, OPT_STRING, &heatmap, 0, 0},
+        {"--downsample", NULL, OPT_INT, &down, 1, 64},
+        {"--threshold", NULL, OPT_DOUBLE, &threshold, 0, 0},
+    };
+    int rc = parse_opts("diff", usage_diff, argc, argv, opts, (int)(sizeof opts / sizeof opts[0]), pos, 2, &npos);
+    if (rc)
+        return rc == HELP_SHOWN ? 0 : rc;
+    if (npos < 2)
+        return usage_error("diff", "needs two images, A and B");
+    if (check_output(heatmap))
+        return 1;
+    Image a, b, small, heat;
+    char err[512];
+    if (read_exr(pos[0], &a) != 0)
+        return 1;
+    if (read_exr(pos[1], &b) != 0) {
+        image_free(&a);
+        return 1;
+    }
+    if (down > 1) {
+        if (compare_downsample(&b, down, &small, err, sizeof err) != 0) {
+            fprintf(stderr, "lancer: %s: %s\n", pos[1], err);
+            image_free(&a);
+            image_free(&b);
+            return 1;
+        }
+        image_free(&b);
+        b = small;
+    }
+    CompareStats st;
+    rc = compare_images(&a, &b, threshold, &st, err, sizeof err);
+    if (rc == 0) {
+        printf("max=%.6g mean=%.6g rms=%.6g psnr=%.2f over=%ld pixels=%ld\n", st.max, st.mean, st.rms, st.psnr,
+               st.over, st.pixels);
+        if (heatmap) {
+            rc = compare_heatmap(&a, &b, threshold, &heat, err, sizeof err);
+            if (rc == 0) {
+                rc = image_write_png(&heat, heatmap, err, sizeof err);
+                image_free(&heat);
+            }
+        }
+    }
+    if (rc != 0)
+        fprintf(stderr, "lancer: %s\n", err);
+    image_free(&a);
+    image_free(&b);
+    return rc ? 1 : 0;
+}
+
 int main(int argc, char **argv)
 {
+    static const struct {
+        const char *name;
+        int (*run)(int, char **);
+        const char **usage;
+    } cmds[] = {
+        {"render", cmd_render, &usage_render},
+        {"export-pov", cmd_export_pov, &usage_export},
+        {"diff", cmd_diff, &usage_diff},
+    };
+    const int ncmds = (int)(sizeof cmds / sizeof cmds[0]);
     if (argc < 2) {
         fputs(usage_main, stderr);
         return 2;
@@ -371,16 +531,17 @@ int main(int argc, char **argv)
         printf("lancer %s\n", LANCER_VERSION);
         return 0;
     }
-    if (!strcmp(cmd, "help")) {
-        if (!strcmp(argv[2], "render")) {
-            fputs(usage_render, stdout);
+    int help = !strcmp(cmd, "help");
+    const char *name = help ? argv[2] : cmd;
+    for (int i = 0; i < ncmds; i++) {
+        if (strcmp(name, cmds[i].name) != 0)
+            continue;
+        if (help) {
+            fputs(*cmds[i].usage, stdout);
             return 0;
         }
-        fprintf(stderr, "lancer: no help for unknown command '%s'\n", argv[2]);
-        return 2;
+        return cmds[i].run(argc - 2, argv + 2);
     }
-    if (!strcmp(cmd, "render"))
-        return cmd_render(argc - 2, argv + 2);
-    fprintf(stderr, "lancer: unknown command '%s' (see 'lancer --help')\n", cmd);
+    fprintf(stderr, "lancer: unknown command '%s' (see 'lancer --help')\n", name);
     return 2;
 }

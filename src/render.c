@@ -21,9 +21,20 @@ typedef struct {
 
 Vec3 render_pixel(const Scene *s, const Accel *a, const Camera *cam, int x, int y, RayStats *st)
 {
-    Ray r = camera_ray(cam, (float)x + 0.5f, (float)y + 0.5f);
-    st->camera++;
-    return shade_trace(s, a, &r, 1, st);
+    /* k x k sub-pixel centres, the same points as the pixel centres of a
+     * render at k times the size: that render, averaged in k x k blocks, is
+     * the box-filtered reference. */
+    int k = s->spp;
+    Vec3 sum = vec3(0, 0, 0);
+    for (int j = 0; j < k; j++)
+        for (int i = 0; i < k; i++) {
+            float px = (float)x + ((float)i + 0.5f) / (float)k;
+            float py = (float)y + ((float)j + 0.5f) / (float)k;
+            Ray r = camera_ray(cam, px, py);
+            sum = vec_add(sum, shade_trace(s, a, &r, 1, st));
+        }
+    st->camera += (unsigned long long)(k * k);
+    return k == 1 ? sum : vec_scale(sum, 1.0f / (float)(k * k));
 }
 
 static void *worker(void *arg)

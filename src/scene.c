@@ -404,9 +404,9 @@ static int nonzero_vec(Parser *P, const char *what, const char *key, const Value
 
 static int parse_image(Parser *P, Loc at)
 {
-    enum { WIDTH, HEIGHT, BACKGROUND, MAX_DEPTH, N };
+    enum { WIDTH, HEIGHT, BACKGROUND, MAX_DEPTH, SPP, N };
     static const Field f[N] = {
-        {"width", F_NUM}, {"height", F_NUM}, {"background", F_VEC}, {"max_depth", F_NUM}};
+        {"width", F_NUM}, {"height", F_NUM}, {"background", F_VEC}, {"max_depth", F_NUM}, {"spp", F_NUM}};
     Value v[N];
     if (P->have_image)
         return fail(P, at, "duplicate 'image' block");
@@ -421,6 +421,10 @@ static int parse_image(Parser *P, Loc at)
     float d = v[MAX_DEPTH].v[0];
     if (v[MAX_DEPTH].set && !(d == floorf(d) && d >= 1 && d <= 256))
         return fail(P, v[MAX_DEPTH].value, "image: 'max_depth' must be a whole number from 1 to 256");
+    float k = v[SPP].v[0];
+    if (v[SPP].set && !(k == floorf(k) && k >= 1 && k <= SCENE_MAX_SPP))
+        return fail(P, v[SPP].value, "image: 'spp' must be a whole number from 1 to %d", SCENE_MAX_SPP);
+    P->s->spp = (int)num_or(&v[SPP], (float)P->s->spp);
     P->s->width = (int)num_or(&v[WIDTH], (float)P->s->width);
     P->s->height = (int)num_or(&v[HEIGHT], (float)P->s->height);
     P->s->max_depth = (int)num_or(&v[MAX_DEPTH], (float)P->s->max_depth);
@@ -735,6 +739,7 @@ int scene_parse(const char *name, const char *text, size_t len, Scene *s, char *
     s->width = 640;
     s->height = 480;
     s->max_depth = 5; /* POV-Ray's default max_trace_level */
+    s->spp = 1;
     int rc = next(&P);
     while (rc == 0 && P.tok.kind != TOK_EOF)
         rc = parse_statement(&P);

@@ -101,5 +101,39 @@ expect 0 "$LANCER" render "$ROOT/scenes/default.scn" -o "$T/t2.exr" --width 80 -
 # (the EXR writer stores no timestamp, so equal pixels mean equal bytes)
 if cmp -s "$T/t1.exr" "$T/t2.exr"; then ok; else bad "1 and 2 threads differ"; fi
 
+# export-pov: to standard output, to a file, and the default out/<name>.pov
+expect 0 "$LANCER" export-pov "$T/tiny.scn" -o -
+has "$T/out" "#version 3.7;"
+has "$T/out" "sphere { <0, 0, 0>, 1 texture { M_m } }"
+expect 0 "$LANCER" export-pov "$T/tiny.scn" -o "$T/tiny.pov" --width 64 --height 48
+has "$T/tiny.pov" "+W64 +H48"
+(cd "$T/cwd" && "$LANCER" export-pov tiny.scn) >"$T/out" 2>"$T/err"
+if [ -s "$T/cwd/out/tiny.pov" ]; then ok; else bad "no out/tiny.pov: $(cat "$T/err")"; fi
+expect 1 "$LANCER" export-pov "$T/bad.scn" -o "$T/keep.pov"
+if [ -e "$T/keep.pov" ]; then bad "export of a bad scene wrote a file"; else ok; fi
+expect 2 "$LANCER" export-pov
+expect 0 "$LANCER" export-pov --help
+has "$T/out" "usage: lancer export-pov SCENE"
+
+# diff: identical images, a heat map, size mismatch, unreadable input
+expect 0 "$LANCER" diff "$T/t1.exr" "$T/t2.exr" --heatmap "$T/heat.png"
+has "$T/out" "max=0 mean=0 rms=0 psnr=inf over=0 pixels=4800"
+if head -c 8 "$T/heat.png" | od -An -c | grep -q "P   N   G"; then ok; else bad "no heat map"; fi
+expect 1 "$LANCER" diff "$T/t1.exr" "$T/cwd/out/tiny.exr"
+has "$T/err" "the images differ in size: 80x60 and 8x6"
+expect 1 "$LANCER" diff "$T/t1.exr" "$T/nothing.exr"
+has "$T/err" "$T/nothing.exr"
+expect 2 "$LANCER" diff "$T/t1.exr"
+expect 2 "$LANCER" diff "$T/t1.exr" "$T/t2.exr" --threshold -1
+
+# --spp K is the box filter of a render at K times the size
+expect 0 "$LANCER" render "$ROOT/scenes/default.scn" -o "$T/aa.exr" --width 40 --height 30 --spp 3 --float -q
+expect 0 "$LANCER" render "$ROOT/scenes/default.scn" -o "$T/big.exr" --width 120 --height 90 --float -q
+expect 0 "$LANCER" diff "$T/aa.exr" "$T/big.exr" --downsample 3
+# (float sums in another order: a few ulps apart, nothing more)
+if grep -Eq "^max=(0|[0-9.]+e-0[6-9]) " "$T/out"; then ok; else bad "spp 3 differs from the averaged 3x render: $(cat "$T/out")"; fi
+expect 1 "$LANCER" diff "$T/aa.exr" "$T/big.exr" --downsample 7
+has "$T/err" "cannot be averaged in 7x7 blocks"
+
 echo "cli: $pass passed, $fail failed"
 [ "$fail" -eq 0 ]

@@ -15,6 +15,7 @@
 #define LANCER_AFILE_H
 
 #include <stddef.h>
+#include <stdio.h>
 
 #define AFILE_PATH_MAX 4096
 
@@ -28,6 +29,14 @@ int afile_commit(const char *tmp, const char *path, char *err, size_t errlen);
 
 /* Removes tmp after a failed write. */
 void afile_abort(const char *tmp);
+
+/* Text files through stdio: afile_temp plus fopen. Returns the stream, or
+ * NULL with a message in err. */
+FILE *afile_fopen(const char *path, char *tmp, size_t tmplen, char *err, size_t errlen);
+
+/* Closes f and commits tmp over path if every write to f succeeded;
+ * otherwise removes tmp. Returns 0 or -1 with a message in err. */
+int afile_fclose(FILE *f, const char *tmp, const char *path, char *err, size_t errlen);
 
 /* Checks, without touching path, that a file could be written there: path is
  * not a directory and its directory accepts new files. Returns 0 or -1. */

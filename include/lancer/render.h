@@ -30,7 +30,8 @@ typedef struct {
  * counts to *stats. Returns 0, or -1 if no thread could be started. */
 int render_image(const Scene *s, const Accel *a, const RenderOptions *opt, Image *img, RayStats *stats);
 
-/* The colour of pixel (x, y): one camera ray through its centre. */
+/* The colour of pixel (x, y): the mean of s->spp x s->spp camera rays through
+ * a regular grid of sub-pixel centres (one ray through the centre for 1). */
 Vec3 render_pixel(const Scene *s, const Accel *a, const Camera *cam, int x, int y, RayStats *st);
 
 #endif

@@ -23,6 +23,8 @@
 #include "lancer/prim.h"
 
 #define SCENE_NAME_MAX 64
+/* Largest anti-aliasing grid: 16 x 16 samples per pixel. */
+#define SCENE_MAX_SPP 16
 /* Scene files larger than this are refused rather than read into memory. */
 #define SCENE_MAX_BYTES (64L << 20)
 
@@ -50,6 +52,7 @@ typedef struct {
 typedef struct {
     int width, height;
     int max_depth; /* POV-Ray's max_trace_level: the camera ray is level 1 */
+    int spp;       /* spp x spp regular samples per pixel, box-filtered */
     Vec3 background;
     CameraSpec camera;
     Material *materials;

@@ -1,0 +1,27 @@
+/*
+ * pov.h - export a scene as the POV-Ray 3.7 scene that renders the same
+ * picture, so that POV-Ray can serve as the reference renderer.
+ *
+ *     FILE *f = ...;
+ *     if (pov_export(&scene, f) != 0) ... a write failed ...
+ *
+ * The mapping follows REFERENCE.md section 1: linear output (assumed_gamma
+ * 1), no ambient light beyond each finish's own, adc_bailout 0 so that no
+ * reflection is cut early, max_trace_level = max_depth, and the right-handed
+ * camera as `right -x*a` with the horizontal angle. Every finish value is
+ * written out, so POV-Ray's defaults never matter. Numbers are printed with
+ * 9 significant digits, which round-trips every float exactly. The output
+ * has no timestamp: the same scene always gives the same bytes, which lets
+ * references be cached by a hash of the .pov file.
+ */
+#ifndef LANCER_POV_H
+#define LANCER_POV_H
+
+#include <stdio.h>
+
+#include "lancer/scene.h"
+
+/* Writes the scene to f. Returns 0, or -1 if a write to f failed. */
+int pov_export(const Scene *s, FILE *f);
+
+#endif

@@ -1,0 +1,120 @@
+/*
+ * compare.c - image differences (see compare.h).
+ */
+#include "lancer/compare.h"
+
+#include <math.h>
+#include <stdio.h>
+
+static int same_size(const Image *a, const Image *b, char *err, size_t errlen)
+{
+    if (a->width == b->width && a->height == b->height)
+        return 0;
+    snprintf(err, errlen, "the images differ in size: %dx%d and %dx%d", a->width, a->height, b->width, b->height);
+    return -1;
+}
+
+static double absdiff(float x, float y)
+{
+    if (x == y)
+        return 0.0;
+    double d = fabs((double)x - (double)y);
+    return isnan(d) ? INFINITY : d;
+}
+
+/* The largest channel difference of pixel i. */
+static double pixel_diff(const Image *a, const Image *b, size_t i, double *sum, double *sum2)
+{
+    double m = 0.0;
+    for (int c = 0; c < 3; c++) {
+        double d = absdiff(a->rgb[3 * i + c], b->rgb[3 * i + c]);
+        *sum += d;
+        *sum2 += d * d;
+        if (d > m)
+            m = d;
+    }
+    return m;
+}
+
+int compare_images(const Image *a, const Image *b, double threshold, CompareStats *st, char *err, size_t errlen)
+{
+    if (same_size(a, b, err, errlen))
+        return -1;
+    size_t n = (size_t)a->width * (size_t)a->height;
+    double sum = 0.0, sum2 = 0.0;
+    st->max = 0.0;
+    st->over = 0;
+    st->max_x = st->max_y = 0;
+    for (size_t i = 0; i < n; i++) {
+        double m = pixel_diff(a, b, i, &sum, &sum2);
+        if (m > threshold)
+            st->over++;
+        if (m > st->max) {
+            st->max = m;
+            st->max_x = (int)(i % (size_t)a->width);
+            st->max_y = (int)(i / (size_t)a->width);
+        }
+    }
+    st->pixels = (long)n;
+    st->mean = sum / (3.0 * (double)n);
+    double mse = sum2 / (3.0 * (double)n);
+    st->rms = sqrt(mse);
+    st->psnr = mse > 0.0 ? 10.0 * log10(1.0 / mse) : INFINITY;
+    return 0;
+}
+
+int compare_downsample(const Image *src, int k, Image *dst, char *err, size_t errlen)
+{
+    if (k < 1 || src->width % k != 0 || src->height % k != 0) {
+        snprintf(err, errlen, "a %dx%d image cannot be averaged in %dx%d blocks", src->width, src->height, k, k);
+        return -1;
+    }
+    if (image_init(dst, src->width / k, src->height / k) != 0) {
+        snprintf(err, errlen, "out of memory");
+        return -1;
+    }
+    for (int y = 0; y < dst->height; y++)
+        for (int x = 0; x < dst->width; x++)
+            for (int c = 0; c < 3; c++) {
+                double s = 0.0; /* double: k*k float terms summed without drift */
+                for (int j = 0; j < k; j++)
+                    for (int i = 0; i < k; i++)
+                        s += src->rgb[3 * ((size_t)(y * k + j) * (size_t)src->width + (size_t)(x * k + i)) + c];
+                dst->rgb[3 * ((size_t)y * (size_t)dst->width + (size_t)x) + c] = (float)(s / (k * k));
+            }
+    return 0;
+}
+
+/* Colour ramp over log10 of the difference. */
+static void ramp(double d, double threshold, float *rgb)
+{
+    static const float stops[5][3] = {{0, 0, 0}, {0, 0, 1}, {0, 1, 1}, {1, 1, 0}, {1, 0, 0}};
+    const double at[5] = {1e-5, 1e-4, 1e-3, threshold, 100.0 * threshold};
+    double x = d;
+    int s = 0;
+    while (s < 4 && x > at[s + 1])
+        s++;
+    if (s == 4 || x <= at[0]) {
+        for (int c = 0; c < 3; c++)
+            rgb[c] = stops[x <= at[0] ? 0 : 4][c];
+        return;
+    }
+    double f = (log10(x) - log10(at[s])) / (log10(at[s + 1]) - log10(at[s]));
+    for (int c = 0; c < 3; c++)
+        rgb[c] = (float)((1.0 - f) * stops[s][c] + f * stops[s + 1][c]);
+}
+
+int compare_heatmap(const Image *a, const Image *b, double threshold, Image *dst, char *err, size_t errlen)
+{
+    if (same_size(a, b, err, errlen))
+        return -1;
+    if (image_init(dst, a->width, a->height) != 0) {
+        snprintf(err, errlen, "out of memory");
+        return -1;
+    }
+    size_t n = (size_t)a->width * (size_t)a->height;
+    double sum = 0.0, sum2 = 0.0;
+    for (size_t i = 0; i < n; i++)
+        ramp(pixel_diff(a, b, i, &sum, &sum2), threshold, &dst->rgb[3 * i]);
+    return 0;
+}

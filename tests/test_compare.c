@@ -1,0 +1,130 @@
+/* Tests for compare.c against differences worked out by hand. */
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <setjmp.h>
+#include <math.h>
+#include <cmocka.h>
+
+#include "lancer/compare.h"
+
+static void fill(Image *img, int w, int h, float v)
+{
+    assert_int_equal(image_init(img, w, h), 0);
+    for (int i = 0; i < 3 * w * h; i++)
+        img->rgb[i] = v;
+}
+
+static void test_identical(void **state)
+{
+    (void)state;
+    Image a, b;
+    fill(&a, 4, 3, 0.5f);
+    fill(&b, 4, 3, 0.5f);
+    b.rgb[0] = a.rgb[0] = INFINITY; /* equal infinities differ by nothing */
+    CompareStats st;
+    char err[128];
+    assert_int_equal(compare_images(&a, &b, COMPARE_THRESHOLD, &st, err, sizeof err), 0);
+    assert_true(st.max == 0 && st.mean == 0 && st.rms == 0 && st.over == 0);
+    assert_true(isinf(st.psnr));
+    assert_int_equal(st.pixels, 12);
+    image_free(&a);
+    image_free(&b);
+}
+
+static void test_known_differences(void **state)
+{
+    (void)state;
+    Image a, b;
+    fill(&a, 2, 2, 0.0f);
+    fill(&b, 2, 2, 0.0f);
+    /* pixel (1,0): green off by 0.01; pixel (0,1): all three off by 0.001 */
+    b.rgb[3 * 1 + 1] = 0.01f;
+    for (int c = 0; c < 3; c++)
+        b.rgb[3 * 2 + c] = 0.001f;
+    CompareStats st;
+    char err[128];
+    assert_int_equal(compare_images(&a, &b, COMPARE_THRESHOLD, &st, err, sizeof err), 0);
+    assert_float_equal(st.max, 0.01, 1e-9);
+    assert_int_equal(st.max_x, 1);
+    assert_int_equal(st.max_y, 0);
+    assert_int_equal(st.over, 1); /* 0.001 is under the threshold */
+    assert_float_equal(st.mean, (0.01 + 3 * 0.001) / 12, 1e-9);
+    double mse = (1e-4 + 3e-6) / 12;
+    assert_float_equal(st.rms, sqrt(mse), 1e-9);
+    assert_float_equal(st.psnr, 10 * log10(1 / mse), 1e-4);
+    image_free(&a);
+    image_free(&b);
+}
+
+static void test_nan_and_size_mismatch(void **state)
+{
+    (void)state;
+    Image a, b, c;
+    fill(&a, 2, 1, 0.0f);
+    fill(&b, 2, 1, 0.0f);
+    fill(&c, 1, 2, 0.0f);
+    b.rgb[4] = NAN;
+    CompareStats st;
+    char err[128];
+    assert_int_equal(compare_images(&a, &b, COMPARE_THRESHOLD, &st, err, sizeof err), 0);
+    assert_true(isinf(st.max));
+    assert_int_equal(st.over, 1);
+    assert_int_equal(compare_images(&a, &c, COMPARE_THRESHOLD, &st, err, sizeof err), -1);
+    assert_string_equal(err, "the images differ in size: 2x1 and 1x2");
+    image_free(&a);
+    image_free(&b);
+    image_free(&c);
+}
+
+static void test_downsample(void **state)
+{
+    (void)state;
+    Image big, small;
+    char err[128];
+    assert_int_equal(image_init(&big, 4, 2), 0);
+    for (int i = 0; i < 4 * 2; i++)
+        for (int c = 0; c < 3; c++)
+            big.rgb[3 * i + c] = (float)(i * (c + 1)); /* value: pixel index times channel */
+    assert_int_equal(compare_downsample(&big, 2, &small, err, sizeof err), 0);
+    assert_int_equal(small.width, 2);
+    assert_int_equal(small.height, 1);
+    /* block 0 holds pixels 0, 1, 4, 5: mean index 2.5; block 1: 2, 3, 6, 7: 4.5 */
+    assert_float_equal(small.rgb[0], 2.5f, 0);
+    assert_float_equal(small.rgb[2], 7.5f, 0);
+    assert_float_equal(small.rgb[3], 4.5f, 0);
+    image_free(&small);
+    assert_int_equal(compare_downsample(&big, 3, &small, err, sizeof err), -1);
+    assert_string_equal(err, "a 4x2 image cannot be averaged in 3x3 blocks");
+    image_free(&big);
+}
+
+static void test_heatmap_colours(void **state)
+{
+    (void)state;
+    Image a, b, h;
+    char err[128];
+    fill(&a, 4, 1, 0.0f);
+    fill(&b, 4, 1, 0.0f);
+    b.rgb[3] = 1e-4f;                      /* blue */
+    b.rgb[6] = (float)COMPARE_THRESHOLD;   /* yellow */
+    b.rgb[9] = 1.0f;                       /* red */
+    assert_int_equal(compare_heatmap(&a, &b, COMPARE_THRESHOLD, &h, err, sizeof err), 0);
+    const float want[4][3] = {{0, 0, 0}, {0, 0, 1}, {1, 1, 0}, {1, 0, 0}};
+    for (int i = 0; i < 4; i++)
+        for (int c = 0; c < 3; c++)
+            assert_float_equal(h.rgb[3 * i + c], want[i][c], 1e-4);
+    image_free(&a);
+    image_free(&b);
+    image_free(&h);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_identical),      cmocka_unit_test(test_known_differences),
+        cmocka_unit_test(test_nan_and_size_mismatch), cmocka_unit_test(test_downsample),
+        cmocka_unit_test(test_heatmap_colours),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,94 @@
+/* Tests for pov.c: the exported text carries the settings parity depends on.
+ * (Whether POV-Ray renders it to the same picture is the parity suite's job.) */
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <setjmp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "lancer/pov.h"
+
+static const char *scene_text =
+    "image { width 200 height 100 background 0.25 0.5 1 max_depth 3 }\n"
+    "camera { eye 1 2 3 target 1 2 4 up 0 1 0 fov 90 }\n"
+    "light { position 0 10 0 color 1 0.5 0.25 fade_distance 5 fade_power 2 }\n"
+    "light { position 1 1 1 shadowless }\n"
+    "material red { color 1 0 0 ambient 0.2 diffuse 0.7 phong 0.5 phong_size 30 specular 0.25 roughness 0.01 "
+    "reflection 0.3 }\n"
+    "sphere { center 0 1 0 radius 0.5 material red }\n"
+    "plane { normal 0 2 0 offset -1 material red }\n"
+    "obox { center 1 2 3 u 1 0 0 v 0 2 0 w 0 0 3 material red }\n"
+    "smooth_triangle { a 0 0 0 b 1 0 0 c 0 1 0 na 0 0 1 nb 0 0 1 nc 0 0 1 material red }\n";
+
+/* The export of scene_text, as a string the caller frees. */
+static char *export(void)
+{
+    Scene s;
+    char err[256];
+    assert_int_equal(scene_parse("t.scn", scene_text, strlen(scene_text), &s, err, sizeof err), 0);
+    char *buf = NULL;
+    size_t len = 0;
+    FILE *f = open_memstream(&buf, &len);
+    assert_non_null(f);
+    assert_int_equal(pov_export(&s, f), 0);
+    fclose(f);
+    scene_free(&s);
+    return buf;
+}
+
+static void expect(const char *text, const char *piece)
+{
+    if (!strstr(text, piece)) {
+        print_error("missing: %s\n--- in:\n%s\n", piece, text);
+        fail();
+    }
+}
+
+static void test_globals_and_camera(void **state)
+{
+    (void)state;
+    char *t = export();
+    expect(t, "#version 3.7;");
+    expect(t, "assumed_gamma 1.0");
+    expect(t, "max_trace_level 3");
+    expect(t, "adc_bailout 0");
+    expect(t, "background { color rgb <0.25, 0.5, 1> }");
+    expect(t, "location <1, 2, 3>");
+    /* a = 2, fovy 90: the horizontal angle is 2 atan(2) = 126.869897645844 degrees */
+    expect(t, "right -x*2\n");
+    expect(t, "angle 126.8698976458440");
+    expect(t, "look_at <1, 2, 4>");
+    expect(t, "+W200 +H100");
+    free(t);
+}
+
+static void test_lights_materials_objects(void **state)
+{
+    (void)state;
+    char *t = export();
+    expect(t, "color rgb <1, 0.5, 0.25>\n  fade_distance 5\n  fade_power 2\n}");
+    expect(t, "<1, 1, 1>\n  color rgb <1, 1, 1>\n  shadowless\n}");
+    expect(t, "#declare M_red = texture {\n  pigment { color rgb <1, 0, 0> }");
+    expect(t, "ambient 0.2 diffuse 0.7");
+    expect(t, "phong 0.5 phong_size 30");
+    expect(t, "specular 0.25 roughness 0.01");
+    expect(t, "reflection { 0.3 }");
+    expect(t, "sphere { <0, 1, 0>, 0.5 texture { M_red } }");
+    /* the normal is exported normalised, with the offset along it */
+    expect(t, "plane { <0, 1, 0>, -1 texture { M_red } }");
+    expect(t, "matrix <1, 0, 0,  0, 2, 0,  0, 0, 3,  1, 2, 3>");
+    expect(t, "smooth_triangle {\n  <0, 0, 0>, <0, 0, 1>,\n  <1, 0, 0>, <0, 0, 1>,");
+    free(t);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_globals_and_camera),
+        cmocka_unit_test(test_lights_materials_objects),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
