@@ -160,9 +160,18 @@ static void prim(FILE *f, const Scene *s, const Prim *p)
 
 int pov_export(const Scene *s, FILE *f)
 {
+    /* For k x k anti-aliasing the reference is a plain render at k times the
+     * size, averaged in k x k blocks (lancer diff --downsample k): POV-Ray's
+     * own +A filter is not a box filter. */
+    int k = s->spp;
     fprintf(f, "// Exported by lancer: the POV-Ray 3.7 twin of a lancer scene.\n"
-               "// Render: povray -D -V -GA +GF +GW -A +W%d +H%d +FE +Oout.exr +Ithis.pov\n\n",
-            s->width, s->height);
+               "// lancer-reference: width %d height %d spp %d\n"
+               "// Render: povray -D -V -GA +GF +GW -A +W%d +H%d +FE +Oout.exr +Ithis.pov\n",
+            s->width, s->height, k, k * s->width, k * s->height);
+    if (k > 1)
+        fprintf(f, "// then average out.exr in %d x %d blocks: lancer diff lancer.exr out.exr --downsample %d\n", k, k,
+                k);
+    fprintf(f, "\n");
     fprintf(f, "#version 3.7;\n\nglobal_settings {\n  assumed_gamma 1.0\n  max_trace_level %d\n  adc_bailout 0\n"
                "  ambient_light rgb <1, 1, 1>\n}\n\n",
             s->max_depth);
