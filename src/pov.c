@@ -68,6 +68,15 @@ static void light(FILE *f, const Light *l)
         key(f, "\n  fade_distance", l->fade_distance);
         key(f, "\n  fade_power", l->fade_power);
     }
+    if (l->area_n1 * l->area_n2 > 1) {
+        /* No jitter and no adaptive: POV-Ray's default (adaptive 100) always
+         * subdivides fully, which is what lancer's weights reproduce. */
+        fprintf(f, "\n  area_light ");
+        vec(f, l->area_u);
+        fprintf(f, ", ");
+        vec(f, l->area_v);
+        fprintf(f, ", %d, %d", l->area_n1, l->area_n2);
+    }
     if (l->shadowless)
         fprintf(f, "\n  shadowless");
     fprintf(f, "\n}\n");
@@ -77,8 +86,17 @@ static void light(FILE *f, const Light *l)
  * "red" or "floor" clear of POV-Ray's keywords. */
 static void material(FILE *f, const Material *m)
 {
-    fprintf(f, "#declare M_%s = texture {\n  pigment { color rgb ", m->name);
-    vec(f, m->color);
+    fprintf(f, "#declare M_%s = texture {\n  pigment { color rgbft <", m->name);
+    num(f, m->color.x);
+    fputs(", ", f);
+    num(f, m->color.y);
+    fputs(", ", f);
+    num(f, m->color.z);
+    fputs(", ", f);
+    num(f, m->filter);
+    fputs(", ", f);
+    num(f, m->transmit);
+    fputc('>', f);
     fprintf(f, " }\n  finish {\n   ");
     key(f, " ambient", m->ambient);
     key(f, " diffuse", m->diffuse);
@@ -103,12 +121,22 @@ static void prim(FILE *f, const Scene *s, const Prim *p)
         fprintf(f, ", ");
         num(f, p->g.sphere.r);
         break;
-    case PRIM_PLANE:
+    case PRIM_PLANE: {
+        /* POV-Ray's plane is the solid n.p < d, and a camera inside it
+         * changes how refraction starts; lancer's plane is a surface only.
+         * Facing n towards the camera keeps the camera outside, and draws
+         * the same surface. */
+        Plane pl = p->g.plane;
+        if (vec_dot(pl.n, s->camera.eye) < pl.d) {
+            pl.n = vec_neg(pl.n);
+            pl.d = -pl.d;
+        }
         fprintf(f, "plane { ");
-        vec(f, p->g.plane.n);
+        vec(f, pl.n);
         fprintf(f, ", ");
-        num(f, p->g.plane.d);
+        num(f, pl.d);
         break;
+    }
     case PRIM_TRIANGLE:
         fprintf(f, "triangle { ");
         vec(f, t->a);
@@ -118,19 +146,21 @@ static void prim(FILE *f, const Scene *s, const Prim *p)
         vec(f, t->c);
         break;
     case PRIM_SMOOTH_TRIANGLE:
-        fprintf(f, "smooth_triangle {\n  ");
+        /* As a one-face mesh2: POV-Ray silently drops a smooth_triangle
+         * whose vertex normals are not all on one side of its face. */
+        fprintf(f, "mesh2 {\n  vertex_vectors { 3, ");
         vec(f, t->a);
         fprintf(f, ", ");
-        vec(f, t->na);
-        fprintf(f, ",\n  ");
         vec(f, t->b);
         fprintf(f, ", ");
-        vec(f, t->nb);
-        fprintf(f, ",\n  ");
         vec(f, t->c);
+        fprintf(f, " }\n  normal_vectors { 3, ");
+        vec(f, t->na);
+        fprintf(f, ", ");
+        vec(f, t->nb);
         fprintf(f, ", ");
         vec(f, t->nc);
-        fprintf(f, "\n ");
+        fprintf(f, " }\n  face_indices { 1, <0, 1, 2> }\n  normal_indices { 1, <0, 1, 2> }\n ");
         break;
     case PRIM_BOX:
         fprintf(f, "box { ");
@@ -155,7 +185,13 @@ static void prim(FILE *f, const Scene *s, const Prim *p)
         break;
     }
     }
-    fprintf(f, " texture { M_%s } }\n", s->materials[p->material].name);
+    const Material *m = &s->materials[p->material];
+    fprintf(f, " texture { M_%s }", m->name);
+    if (m->filter + m->transmit > 0.0f) {
+        key(f, " interior { ior", m->ior);
+        fputs(" }", f);
+    }
+    fputs(" }\n", f);
 }
 
 int pov_export(const Scene *s, FILE *f)

@@ -205,21 +205,40 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, Surface *s)
         break;
     }
     ng = vec_normalize(ng);
-    /* Two-sided surfaces: both normals face the incoming ray, flipped
-     * together so that a smooth normal keeps its side of the surface. */
-    float flip = vec_dot(ng, r->d) > 0.0f ? -1.0f : 1.0f;
     ns = ng;
     if (p->kind == PRIM_SMOOTH_TRIANGLE) {
         const Triangle *tr = &p->g.tri;
         float w = 1.0f - h->u - h->v;
         ns = vec_add(vec_add(vec_scale(tr->na, w), vec_scale(tr->nb, h->u)), vec_scale(tr->nc, h->v));
         ns = vec_normalize(ns);
-        /* Interpolated normals are defined on the side of the vertex
-         * normals; orient the geometric normal to agree before flipping. */
-        if (vec_dot(ng, ns) < 0.0f)
-            ng = vec_neg(ng);
-        flip = vec_dot(ng, r->d) > 0.0f ? -1.0f : 1.0f;
     }
-    s->ng = vec_scale(ng, flip);
-    s->ns = vec_scale(ns, flip);
+    /* Two-sided surfaces: each normal faces the incoming ray. */
+    s->ng = vec_dot(ng, r->d) > 0.0f ? vec_neg(ng) : ng;
+    s->ns = vec_dot(ns, r->d) > 0.0f ? vec_neg(ns) : ns;
+}
+
+int prim_inside(const Prim *p, Vec3 q)
+{
+    switch (p->kind) {
+    case PRIM_SPHERE: {
+        Vec3 d = vec_sub(q, p->g.sphere.c);
+        return vec_dot(d, d) < p->g.sphere.r * p->g.sphere.r;
+    }
+    case PRIM_BOX: {
+        const Box *b = &p->g.box;
+        return q.x > b->lo.x && q.x < b->hi.x && q.y > b->lo.y && q.y < b->hi.y && q.z > b->lo.z && q.z < b->hi.z;
+    }
+    case PRIM_OBOX: {
+        Vec3 rel = vec_sub(q, p->g.obox.c);
+        for (int i = 0; i < 3; i++)
+            if (!(fabsf(vec_dot(p->g.obox.inv[i], rel)) < 1.0f))
+                return 0;
+        return 1;
+    }
+    case PRIM_PLANE:
+    case PRIM_TRIANGLE:
+    case PRIM_SMOOTH_TRIANGLE:
+        break;
+    }
+    return 0;
 }

@@ -12,6 +12,7 @@ typedef struct {
     const Scene *s;
     const Accel *a;
     Camera cam;
+    Interiors in; /* the solids the camera is inside */
     Image *img;
     const RenderOptions *opt;
     pthread_mutex_t lock; /* guards next_row, rows_done, stats and progress */
@@ -19,7 +20,8 @@ typedef struct {
     RayStats stats;
 } Job;
 
-Vec3 render_pixel(const Scene *s, const Accel *a, const Camera *cam, int x, int y, RayStats *st)
+Vec3 render_pixel(const Scene *s, const Accel *a, const Camera *cam, const Interiors *in, int x, int y,
+                  RayStats *st)
 {
     /* k x k sub-pixel centres, the same points as the pixel centres of a
      * render at k times the size: that render, averaged in k x k blocks, is
@@ -31,7 +33,7 @@ Vec3 render_pixel(const Scene *s, const Accel *a, const Camera *cam, int x, int 
             float px = (float)x + ((float)i + 0.5f) / (float)k;
             float py = (float)y + ((float)j + 0.5f) / (float)k;
             Ray r = camera_ray(cam, px, py);
-            sum = vec_add(sum, shade_trace(s, a, &r, 1, st));
+            sum = vec_add(sum, shade_trace(s, a, &r, in, st));
         }
     st->camera += (unsigned long long)(k * k);
     return k == 1 ? sum : vec_scale(sum, 1.0f / (float)(k * k));
@@ -50,7 +52,7 @@ static void *worker(void *arg)
             break;
         float *row = job->img->rgb + (size_t)y * (size_t)w * 3;
         for (int x = 0; x < w; x++) {
-            Vec3 c = render_pixel(job->s, job->a, &job->cam, x, y, &st);
+            Vec3 c = render_pixel(job->s, job->a, &job->cam, &job->in, x, y, &st);
             row[3 * x] = c.x;
             row[3 * x + 1] = c.y;
             row[3 * x + 2] = c.z;
@@ -78,6 +80,7 @@ int render_image(const Scene *s, const Accel *a, const RenderOptions *opt, Image
     job.rows_done = 0;
     job.stats = (RayStats){0, 0, 0, 0, 0};
     camera_init(&job.cam, &s->camera, img->width, img->height);
+    shade_interiors_at(s, s->camera.eye, &job.in);
     if (pthread_mutex_init(&job.lock, NULL) != 0)
         return -1;
     int extra = opt->threads > 1 ? opt->threads - 1 : 0;

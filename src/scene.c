@@ -210,7 +210,7 @@ static int is_keyword(const Token *t)
 
 /* ---- block parsing driven by field tables ---- */
 
-typedef enum { F_NUM, F_VEC, F_FLAG, F_NAME } FieldKind;
+typedef enum { F_NUM, F_PAIR, F_VEC, F_FLAG, F_NAME } FieldKind;
 
 typedef struct {
     const char *key;
@@ -231,6 +231,8 @@ static const char *kind_desc(FieldKind k)
     switch (k) {
     case F_NUM:
         return "a number";
+    case F_PAIR:
+        return "two numbers";
     case F_VEC:
         return "three numbers";
     case F_NAME:
@@ -295,7 +297,7 @@ static int parse_block(Parser *P, const char *what, const Field *f, int nf, Valu
         if (next(P))
             return -1;
         v->value = P->tok.loc;
-        int count = f[i].kind == F_VEC ? 3 : f[i].kind == F_NUM ? 1 : 0;
+        int count = f[i].kind == F_VEC ? 3 : f[i].kind == F_PAIR ? 2 : f[i].kind == F_NUM ? 1 : 0;
         if (f[i].kind == F_NAME) {
             if (P->tok.kind == TOK_RBRACE || P->tok.kind == TOK_EOF)
                 return fail(P, P->tok.loc, "%s: missing value for '%s' (expects a name)", what, f[i].key);
@@ -468,11 +470,19 @@ static int parse_camera(Parser *P, Loc at)
     return 0;
 }
 
+/* A whole number in [lo, hi]. */
+static int whole(const Value *v, int k, float lo, float hi)
+{
+    float x = v->v[k];
+    return x == floorf(x) && x >= lo && x <= hi;
+}
+
 static int parse_light(Parser *P, Loc at)
 {
-    enum { POSITION, COLOR, FADE_DISTANCE, FADE_POWER, SHADOWLESS, N };
-    static const Field f[N] = {{"position", F_VEC},      {"color", F_VEC},     {"fade_distance", F_NUM},
-                               {"fade_power", F_NUM},    {"shadowless", F_FLAG}};
+    enum { POSITION, COLOR, FADE_DISTANCE, FADE_POWER, SHADOWLESS, AREA_U, AREA_V, AREA_SAMPLES, N };
+    static const Field f[N] = {{"position", F_VEC},   {"color", F_VEC},   {"fade_distance", F_NUM},
+                               {"fade_power", F_NUM}, {"shadowless", F_FLAG}, {"area_u", F_VEC},
+                               {"area_v", F_VEC},     {"area_samples", F_PAIR}};
     Value v[N];
     if (parse_block(P, "light", f, N, v) || require(P, "light", f, v, POSITION, at))
         return -1;
@@ -488,6 +498,21 @@ static int parse_light(Parser *P, Loc at)
         return fail(P, v[FADE_POWER].value, "light: 'fade_power' must not be negative");
     if (l.fade_power > 0.0f && !v[FADE_DISTANCE].set)
         return fail(P, v[FADE_POWER].key, "light: 'fade_power' needs 'fade_distance'");
+    /* An area light needs all three of its properties, as in POV-Ray. */
+    int area = v[AREA_U].set + v[AREA_V].set + v[AREA_SAMPLES].set;
+    if (area > 0 && area < 3)
+        return fail(P, at, "light: an area light needs 'area_u', 'area_v' and 'area_samples'");
+    l.area_u = vec_or(&v[AREA_U], vec3(0, 0, 0));
+    l.area_v = vec_or(&v[AREA_V], vec3(0, 0, 0));
+    l.area_n1 = l.area_n2 = 1;
+    if (area) {
+        if (!whole(&v[AREA_SAMPLES], 0, 1, SCENE_MAX_AREA_SAMPLES) ||
+            !whole(&v[AREA_SAMPLES], 1, 1, SCENE_MAX_AREA_SAMPLES))
+            return fail(P, v[AREA_SAMPLES].value, "light: 'area_samples' must be two whole numbers from 1 to %d",
+                        SCENE_MAX_AREA_SAMPLES);
+        l.area_n1 = (int)v[AREA_SAMPLES].v[0];
+        l.area_n2 = (int)v[AREA_SAMPLES].v[1];
+    }
     Light *arr = grow(P->s->lights, &P->cap_lights, P->s->nlights, sizeof(Light));
     if (!arr)
         return fail(P, at, "out of memory");
@@ -498,15 +523,11 @@ static int parse_light(Parser *P, Loc at)
 
 static int parse_material(Parser *P, Loc at)
 {
-    enum { COLOR, AMBIENT, DIFFUSE, PHONG, PHONG_SIZE, SPECULAR, ROUGHNESS, REFLECTION, N };
-    static const Field f[N] = {{"color", F_VEC},
-                               {"ambient", F_NUM},
-                               {"diffuse", F_NUM},
-                               {"phong", F_NUM},
-                               {"phong_size", F_NUM},
-                               {"specular", F_NUM},
-                               {"roughness", F_NUM},
-                               {"reflection", F_NUM}};
+    enum { COLOR, AMBIENT, DIFFUSE, PHONG, PHONG_SIZE, SPECULAR, ROUGHNESS, REFLECTION, FILTER, TRANSMIT, IOR, N };
+    static const Field f[N] = {{"color", F_VEC},      {"ambient", F_NUM},    {"diffuse", F_NUM},
+                               {"phong", F_NUM},      {"phong_size", F_NUM}, {"specular", F_NUM},
+                               {"roughness", F_NUM},  {"reflection", F_NUM}, {"filter", F_NUM},
+                               {"transmit", F_NUM},   {"ior", F_NUM}};
     Value v[N];
     Material m;
     Loc name_at = P->tok.loc;
@@ -526,6 +547,9 @@ static int parse_material(Parser *P, Loc at)
     m.specular = num_or(&v[SPECULAR], 0.0f);
     m.roughness = num_or(&v[ROUGHNESS], 0.05f);
     m.reflection = num_or(&v[REFLECTION], 0.0f);
+    m.filter = num_or(&v[FILTER], 0.0f);
+    m.transmit = num_or(&v[TRANSMIT], 0.0f);
+    m.ior = num_or(&v[IOR], 1.0f);
     for (int i = AMBIENT; i < N; i++)
         if (v[i].v[0] < 0.0f)
             return fail(P, v[i].value, "material: '%s' must not be negative", f[i].key);
@@ -533,6 +557,13 @@ static int parse_material(Parser *P, Loc at)
         return fail(P, v[COLOR].value, "material: 'color' must not be negative");
     if (v[ROUGHNESS].set && !(m.roughness > 0.0f))
         return fail(P, v[ROUGHNESS].value, "material: 'roughness' must be positive");
+    if (m.filter + m.transmit > 1.0f)
+        return fail(P, v[v[TRANSMIT].set ? TRANSMIT : FILTER].value,
+                    "material: 'filter' and 'transmit' must add up to at most 1");
+    if (v[IOR].set && !(m.ior > 0.0f))
+        return fail(P, v[IOR].value, "material: 'ior' must be positive");
+    if (m.filter + m.transmit > 0.0f)
+        P->s->transparent = 1;
     Material *arr = grow(P->s->materials, &P->cap_materials, P->s->nmaterials, sizeof(Material));
     if (!arr)
         return fail(P, at, "out of memory");

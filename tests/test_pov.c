@@ -16,12 +16,15 @@ static const char *scene_text =
     "camera { eye 1 2 3 target 1 2 4 up 0 1 0 fov 90 }\n"
     "light { position 0 10 0 color 1 0.5 0.25 fade_distance 5 fade_power 2 }\n"
     "light { position 1 1 1 shadowless }\n"
+    "light { position 0 5 0 area_u 2 0 0 area_v 0 0 1 area_samples 5 3 }\n"
     "material red { color 1 0 0 ambient 0.2 diffuse 0.7 phong 0.5 phong_size 30 specular 0.25 roughness 0.01 "
     "reflection 0.3 }\n"
     "sphere { center 0 1 0 radius 0.5 material red }\n"
     "plane { normal 0 2 0 offset -1 material red }\n"
     "obox { center 1 2 3 u 1 0 0 v 0 2 0 w 0 0 3 material red }\n"
-    "smooth_triangle { a 0 0 0 b 1 0 0 c 0 1 0 na 0 0 1 nb 0 0 1 nc 0 0 1 material red }\n";
+    "smooth_triangle { a 0 0 0 b 1 0 0 c 0 1 0 na 0 0 1 nb 0 0 1 nc 0 0 1 material red }\n"
+    "material glass { color 0.9 1 0.8 filter 0.5 transmit 0.25 ior 1.5 }\n"
+    "sphere { center 0 1 0 radius 0.5 material glass }\n";
 
 /* The export of scene_text, as a string the caller frees. */
 static char *export(void)
@@ -71,16 +74,24 @@ static void test_lights_materials_objects(void **state)
     char *t = export();
     expect(t, "color rgb <1, 0.5, 0.25>\n  fade_distance 5\n  fade_power 2\n}");
     expect(t, "<1, 1, 1>\n  color rgb <1, 1, 1>\n  shadowless\n}");
-    expect(t, "#declare M_red = texture {\n  pigment { color rgb <1, 0, 0> }");
+    expect(t, "#declare M_red = texture {\n  pigment { color rgbft <1, 0, 0, 0, 0> }");
     expect(t, "ambient 0.2 diffuse 0.7");
     expect(t, "phong 0.5 phong_size 30");
     expect(t, "specular 0.25 roughness 0.01");
     expect(t, "reflection { 0.3 }");
     expect(t, "sphere { <0, 1, 0>, 0.5 texture { M_red } }");
-    /* the normal is exported normalised, with the offset along it */
+    /* the normal is exported normalised, with the offset along it, and
+     * turned to face the camera at y = 2 (which is then outside POV-Ray's
+     * solid n.p < d) */
     expect(t, "plane { <0, 1, 0>, -1 texture { M_red } }");
+    expect(t, "area_light <2, 0, 0>, <0, 0, 1>, 5, 3\n}");
+    expect(t, "pigment { color rgbft <0.9, 1, 0.8, 0.5, 0.25> }");
+    expect(t, "sphere { <0, 1, 0>, 0.5 texture { M_glass } interior { ior 1.5 } }");
     expect(t, "matrix <1, 0, 0,  0, 2, 0,  0, 0, 3,  1, 2, 3>");
-    expect(t, "smooth_triangle {\n  <0, 0, 0>, <0, 0, 1>,\n  <1, 0, 0>, <0, 0, 1>,");
+    /* a smooth triangle goes out as a one-face mesh2 */
+    expect(t, "mesh2 {\n  vertex_vectors { 3, <0, 0, 0>, <1, 0, 0>, <0, 1, 0> }\n"
+              "  normal_vectors { 3, <0, 0, 1>, <0, 0, 1>, <0, 0, 1> }\n"
+              "  face_indices { 1, <0, 1, 2> }\n  normal_indices { 1, <0, 1, 2> }\n  texture { M_red } }");
     free(t);
 }
 

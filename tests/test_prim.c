@@ -143,6 +143,41 @@ static void test_smooth_triangle_normal(void **state)
     assert_vec(sf.ng, 0, 0, 1, 1e-6);
 }
 
+static void test_smooth_normal_flips_on_its_own(void **state)
+{
+    (void)state;
+    /* Vertex normals leaning far over: at a grazing view the interpolated
+     * normal faces away from the ray while the face itself faces it. Each
+     * is turned to face the ray on its own, as POV-Ray does. */
+    Prim p = {PRIM_SMOOTH_TRIANGLE, 0, {.tri = tri}};
+    p.g.tri.na = p.g.tri.nb = p.g.tri.nc = vec_normalize(vec3(1, 0, 0.2f));
+    Ray r = ray(-1.75f, 0.25f, 0.5f, 4, 0, -1); /* meets (0.25, 0.25, 0); d.ng < 0 but d.ns > 0 */
+    PrimHit h;
+    Surface sf;
+    assert_true(prim_intersect(&p, &r, &h));
+    prim_surface(&p, &r, &h, &sf);
+    assert_vec(sf.ng, 0, 0, 1, 1e-6);
+    Vec3 n = vec_normalize(vec3(-1, 0, -0.2f));
+    assert_vec(sf.ns, n.x, n.y, n.z, 1e-6);
+}
+
+static void test_inside(void **state)
+{
+    (void)state;
+    Prim s = {PRIM_SPHERE, 0, {.sphere = {{0, 0, 0}, 1}}};
+    assert_true(prim_inside(&s, vec3(0.5f, 0.5f, 0.5f)));
+    assert_false(prim_inside(&s, vec3(1, 0, 0))); /* the surface is not inside */
+    Prim b = {PRIM_BOX, 0, {.box = {{-1, -1, -1}, {1, 1, 1}}}};
+    assert_true(prim_inside(&b, vec3(0.9f, -0.9f, 0)));
+    assert_false(prim_inside(&b, vec3(1.1f, 0, 0)));
+    Prim o = {PRIM_OBOX, 0, {.obox = {{0, 0, 0}, {1, 0, 1}, {0, 1, 0}, {-1, 0, 1}, {{0, 0, 0}}}}};
+    assert_int_equal(prim_obox_init(&o.g.obox), 0);
+    assert_true(prim_inside(&o, vec3(0, 0, 1.9f)));
+    assert_false(prim_inside(&o, vec3(1.9f, 0, 1.9f)));
+    Prim pl = {PRIM_PLANE, 0, {.plane = {{0, 1, 0}, 0}}};
+    assert_false(prim_inside(&pl, vec3(0, -5, 0))); /* planes are surfaces only */
+}
+
 /* ---- axis-aligned box ---- */
 
 static const Box cube = {{-1, -1, -1}, {1, 1, 1}};
@@ -238,6 +273,7 @@ int main(void)
         cmocka_unit_test(test_plane),    cmocka_unit_test(test_triangle),
         cmocka_unit_test(test_smooth_triangle_normal), cmocka_unit_test(test_box),
         cmocka_unit_test(test_obox_init), cmocka_unit_test(test_obox),
+        cmocka_unit_test(test_smooth_normal_flips_on_its_own), cmocka_unit_test(test_inside),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -42,7 +42,7 @@ static Vec3 trace(const Scene *s, Vec3 o, Vec3 d)
     memset(&st, 0, sizeof st);
     assert_int_equal(accel_build(&a, s), 0);
     Ray r = ray_make(o, vec_normalize(d), INFINITY);
-    Vec3 c = shade_trace(s, &a, &r, 1, &st);
+    Vec3 c = shade_trace(s, &a, &r, NULL, &st);
     accel_free(&a);
     return c;
 }
@@ -152,12 +152,153 @@ static void test_miss_and_depth_limit(void **state)
     Scene s;
     load(&s, "");
     assert_vec(trace(&s, EYE, vec3(0, 1, 0)), 0.2f, 0.4f, 0.6f, 0);
+    scene_free(&s);
+}
+
+static void test_light_behind_surface_adds_nothing(void **state)
+{
+    (void)state;
+    Scene s;
+    /* The light is just below the floor's horizon: N.L < 0, yet R.L > 0.
+     * POV-Ray skips such a light entirely, highlight included. */
+    load(&s, "material h { color 0.5 0.4 0.3 ambient 0.1 diffuse 0.6 phong 1 phong_size 1 }\n"
+             "plane { normal 0 1 0 material h }\n"
+             "light { position 100 -1 0 }\n");
+    s.prims[0] = s.prims[1];
+    s.nprims = 1;
+    assert_vec(trace(&s, EYE, DIR), 0.05f, 0.04f, 0.03f, 1e-7);
+    scene_free(&s);
+}
+
+static void test_area_weights(void **state)
+{
+    (void)state;
+    /* POV-Ray's recursive halving: a plain mean only for powers of two */
+    const float w3[] = {0.25f, 0.5f, 0.25f};
+    const float w4[] = {0.25f, 0.25f, 0.25f, 0.25f};
+    const float w5[] = {0.125f, 0.25f, 0.25f, 0.25f, 0.125f};
+    const float w6[] = {0.125f, 0.25f, 0.125f, 0.125f, 0.25f, 0.125f};
+    const float *want[] = {w3, w4, w5, w6};
+    float w[SCENE_MAX_AREA_SAMPLES];
+    shade_area_weights(1, w);
+    assert_float_equal(w[0], 1, 0);
+    for (int n = 3; n <= 6; n++) {
+        shade_area_weights(n, w);
+        for (int i = 0; i < n; i++)
+            assert_float_equal(w[i], want[n - 3][i], 0);
+    }
+    shade_area_weights(SCENE_MAX_AREA_SAMPLES, w);
+    float sum = 0;
+    for (int i = 0; i < SCENE_MAX_AREA_SAMPLES; i++)
+        sum += w[i];
+    assert_float_equal(sum, 1, 1e-6);
+}
+
+static void test_area_light_penumbra(void **state)
+{
+    (void)state;
+    Scene s;
+    /* Samples at x = -1, 0, 1 above the origin (weights 1/4, 1/2, 1/4); a
+     * small sphere hides only the x = 1 sample. Lighting is computed from
+     * the centre (N.L = 1): C = P*0.1 + 0.75*P*0.6. */
+    load(&s, "light { position 0 10 0 area_u 2 0 0 area_v 0 0 0 area_samples 3 1 }\n"
+             "sphere { center 0.5 5 0 radius 0.1 material m }\n");
+    float k = 0.1f + 0.75f * 0.6f;
+    assert_vec(trace(&s, EYE, DIR), 0.5f * k, 0.4f * k, 0.3f * k, 1e-6);
+    scene_free(&s);
+}
+
+static void test_transparent_surface(void **state)
+{
+    (void)state;
+    Scene s;
+    /* A floor with filter 0.5 and transmit 0.25 over nothing: opacity 0.25
+     * scales ambient and diffuse, and the transmitted ray brings the
+     * background times F = P*0.5 + 0.25. Light at distance 5, N.L = 0.8. */
+    load(&s, "material g { color 0.5 0.4 0.3 ambient 0.1 diffuse 0.6 filter 0.5 transmit 0.25 }\n"
+             "plane { normal 0 1 0 material g }\n"
+             "light { position 3 4 0 }\n");
+    s.prims[0] = s.prims[1];
+    s.nprims = 1;
+    float k = 0.25f * (0.1f + 0.6f * 0.8f);
+    Vec3 f = vec3(0.5f * 0.5f + 0.25f, 0.4f * 0.5f + 0.25f, 0.3f * 0.5f + 0.25f);
+    assert_vec(trace(&s, EYE, DIR), 0.5f * k + f.x * 0.2f, 0.4f * k + f.y * 0.4f, 0.3f * k + f.z * 0.6f, 1e-6);
+    /* max_depth 1: the transmitted ray is cut, only the surface remains */
+    s.max_depth = 1;
+    assert_vec(trace(&s, EYE, DIR), 0.5f * k, 0.4f * k, 0.3f * k, 1e-6);
+    scene_free(&s);
+}
+
+static void test_shadow_through_glass(void **state)
+{
+    (void)state;
+    Scene s;
+    /* A transparent sphere on the way to the light filters it twice, on the
+     * way in and on the way out: the diffuse term carries F^2. */
+    load(&s, "material g { color 0.8 0.5 0.25 ambient 0 diffuse 0 filter 0.5 transmit 0.25 ior 1.5 }\n"
+             "light { position 3 4 0 }\n"
+             "sphere { center 1.5 2 0 radius 0.5 material g }\n");
+    Vec3 f = vec3(0.8f * 0.5f + 0.25f, 0.5f * 0.5f + 0.25f, 0.25f * 0.5f + 0.25f);
+    Vec3 d = vec3(0.5f * 0.48f, 0.4f * 0.48f, 0.3f * 0.48f); /* P * 0.6 * 0.8 */
+    assert_vec(trace(&s, EYE, DIR), 0.05f + d.x * f.x * f.x, 0.04f + d.y * f.y * f.y, 0.03f + d.z * f.z * f.z,
+               1e-6);
+    scene_free(&s);
+}
+
+static void test_refraction_through_slab(void **state)
+{
+    (void)state;
+    Scene s;
+    /* A clear slab (ior 1.5) fills -1 < y < 0. A ray entering at the origin
+     * at 45 degrees bends to sin(t) = sin(45)/1.5 and leaves at
+     * x = tan(t) = 0.5345, then goes on at 45 degrees to y = -2 at
+     * x = 1.5345. A tile there (x 1.4 to 1.7) is only seen through the bend:
+     * unbent, the ray would reach x = 2 and the background. */
+    load(&s, "material clear { color 1 1 1 ambient 0 diffuse 0 transmit 1 ior 1.5 }\n"
+             "material tile { color 0.9 0.6 0.3 ambient 1 diffuse 0 }\n"
+             "box { min -10 -1 -10 max 10 0 10 material clear }\n"
+             "box { min 1.4 -2.1 -1 max 1.7 -2 1 material tile }\n");
+    s.prims[0] = s.prims[1];
+    s.prims[1] = s.prims[2];
+    s.nprims = 2;
+    assert_vec(trace(&s, vec3(-1, 1, 0), vec3(1, -1, 0)), 0.9f, 0.6f, 0.3f, 1e-6);
+    /* with ior 1 the ray goes straight on to the background */
+    s.materials[1].ior = 1.0f;
+    assert_vec(trace(&s, vec3(-1, 1, 0), vec3(1, -1, 0)), 0.2f, 0.4f, 0.6f, 1e-6);
+    scene_free(&s);
+}
+
+static void test_total_internal_reflection(void **state)
+{
+    (void)state;
+    Scene s;
+    /* Inside a glass ball (the camera starts inside it), a ray meeting the
+     * surface at 60 degrees from the normal cannot leave (sin 60 * 1.5 > 1):
+     * it is reflected, unfiltered, and keeps bouncing at 60 degrees; each
+     * bounce is a level, and with max_depth 3 the third ray is black. So
+     * the colour is only the surface's own (here nothing) plus black. */
+    load(&s, "material glass { color 1 1 1 ambient 0 diffuse 0 transmit 1 ior 1.5 }\n"
+             "sphere { center 0 0 0 radius 1 material glass }\n");
+    s.prims[0] = s.prims[1];
+    s.nprims = 1;
+    s.max_depth = 3;
     Accel a;
     RayStats st;
     memset(&st, 0, sizeof st);
     accel_build(&a, &s);
-    Ray r = ray_make(EYE, vec3(0, 1, 0), INFINITY);
-    assert_vec(shade_trace(&s, &a, &r, s.max_depth + 1, &st), 0, 0, 0, 0);
+    Interiors in;
+    shade_interiors_at(&s, vec3(0, 0, 0), &in);
+    assert_int_equal(in.n, 1);
+    /* from (0, -0.866, 0) along +x: hits at (0.5, -0.866, 0), 60 degrees off the normal */
+    Ray r = ray_make(vec3(0, -0.8660254f, 0), vec3(1, 0, 0), INFINITY);
+    assert_vec(shade_trace(&s, &a, &r, &in, &st), 0, 0, 0, 0);
+    assert_int_equal(st.refraction, 0);
+    assert_int_equal(st.reflection, 2);
+    /* the same ray from outside the list's point of view would refract out */
+    memset(&st, 0, sizeof st);
+    r = ray_make(vec3(0, 0, 0), vec3(1, 0, 0), INFINITY); /* head-on: leaves, to the background */
+    assert_vec(shade_trace(&s, &a, &r, &in, &st), 0.2f, 0.4f, 0.6f, 1e-6);
+    assert_int_equal(st.refraction, 1);
     scene_free(&s);
 }
 
@@ -186,6 +327,10 @@ int main(void)
         cmocka_unit_test(test_point_in_shadow),     cmocka_unit_test(test_shadowless_light),
         cmocka_unit_test(test_phong_and_specular_peaks), cmocka_unit_test(test_reflection_bounce),
         cmocka_unit_test(test_miss_and_depth_limit), cmocka_unit_test(test_spawn_origin),
+        cmocka_unit_test(test_light_behind_surface_adds_nothing), cmocka_unit_test(test_area_weights),
+        cmocka_unit_test(test_area_light_penumbra), cmocka_unit_test(test_transparent_surface),
+        cmocka_unit_test(test_shadow_through_glass), cmocka_unit_test(test_refraction_through_slab),
+        cmocka_unit_test(test_total_internal_reflection),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

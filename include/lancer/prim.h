@@ -79,7 +79,9 @@ typedef struct {
 } PrimHit;
 
 /* Shading information at the closest hit. ng is the unit geometric normal
- * and ns the unit shading normal, both flipped to face the incoming ray. */
+ * and ns the unit shading normal, each flipped on its own to face the
+ * incoming ray (as POV-Ray does: an interpolated normal that faces away is
+ * turned round even where the geometric normal faces the ray). */
 typedef struct {
     Vec3 p, ng, ns;
 } Surface;
@@ -103,6 +105,10 @@ int prim_obox_init(OBox *b);
 
 /* Dispatches to the routine for p->kind. */
 int prim_intersect(const Prim *p, const Ray *r, PrimHit *h);
+
+/* 1 when q lies strictly inside a solid primitive (sphere, box, oriented
+ * box). Planes and triangles are surfaces: nothing is inside them. */
+int prim_inside(const Prim *p, Vec3 q);
 
 /* Fills the hit point and normals for a hit found by prim_intersect. */
 void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, Surface *s);

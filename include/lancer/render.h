@@ -17,6 +17,7 @@
 #include "lancer/accel.h"
 #include "lancer/camera.h"
 #include "lancer/image.h"
+#include "lancer/shade.h"
 
 typedef void (*RenderProgress)(void *ctx, int rows_done, int rows_total);
 
@@ -32,6 +33,7 @@ int render_image(const Scene *s, const Accel *a, const RenderOptions *opt, Image
 
 /* The colour of pixel (x, y): the mean of s->spp x s->spp camera rays through
  * a regular grid of sub-pixel centres (one ray through the centre for 1). */
-Vec3 render_pixel(const Scene *s, const Accel *a, const Camera *cam, int x, int y, RayStats *st);
+Vec3 render_pixel(const Scene *s, const Accel *a, const Camera *cam, const Interiors *in, int x, int y,
+                  RayStats *st);
 
 #endif

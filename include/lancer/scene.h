@@ -28,7 +28,11 @@
 /* Scene files larger than this are refused rather than read into memory. */
 #define SCENE_MAX_BYTES (64L << 20)
 
-/* POV-Ray's classic finish with a plain pigment (REFERENCE.md section 1). */
+/* Largest area-light grid side. */
+#define SCENE_MAX_AREA_SAMPLES 64
+
+/* POV-Ray's classic finish with a plain pigment (REFERENCE.md section 1),
+ * plus POV-Ray's filter and transmit and an index of refraction. */
 typedef struct {
     char name[SCENE_NAME_MAX];
     Vec3 color;
@@ -36,12 +40,18 @@ typedef struct {
     float phong, phong_size;
     float specular, roughness;
     float reflection;
+    float filter, transmit; /* light let through: tinted by color, and plain */
+    float ior;              /* of the object's interior; 1 bends nothing */
 } Material;
 
+/* A point light, or an area light: a grid of area_n1 x area_n2 points
+ * spanning area_u and area_v (full edge vectors) centred on pos. */
 typedef struct {
     Vec3 pos, color;
     float fade_distance, fade_power; /* fade_power 0: no attenuation */
     int shadowless;
+    Vec3 area_u, area_v;
+    int area_n1, area_n2; /* 1 x 1: a point light */
 } Light;
 
 typedef struct {
@@ -61,6 +71,7 @@ typedef struct {
     int nlights;
     Prim *prims;
     int nprims;
+    int transparent; /* some material lets light through */
 } Scene;
 
 /* Reads and parses a scene file. Returns 0, or -1 with "path:line:col:

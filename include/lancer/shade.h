@@ -1,25 +1,59 @@
 /*
- * shade.h - recursive Whitted shading with POV-Ray's classic finish.
+ * shade.h - recursive Whitted shading with POV-Ray 3.7's classic finish.
  *
- *     Vec3 c = shade_trace(&scene, &accel, &camera_ray, 1, &stats);
+ *     Interiors in;
+ *     shade_interiors_at(&scene, camera_eye, &in);      once per camera
+ *     Vec3 c = shade_trace(&scene, &accel, &camera_ray, &in, &stats);
  *
- * The model, term for term, is REFERENCE.md section 1 (POV-Ray 3.7): ambient,
- * Lambert diffuse, phong and specular highlights in the light's colour, light
- * fade, shadowless lights, and additive mirror reflection. `level` counts like
- * POV-Ray's max_trace_level: the camera ray is level 1, and a ray whose level
- * exceeds scene->max_depth returns black (not the background).
+ * The model is POV-Ray 3.7's, term for term (REFERENCE.md section 1, and
+ * docs/povray-rules.md for area lights, transparency and refraction):
+ *
+ * - ambient, Lambert diffuse, and phong and specular highlights in the
+ *   light's colour; a light with N.L below 1e-10 adds nothing at all;
+ * - light fade, shadowless lights, and area lights whose visibility is
+ *   POV-Ray's recursively weighted average of the sample grid;
+ * - filter and transmit: ambient and diffuse scale by 1 - filter - transmit,
+ *   the transmitted ray by color*filter + transmit; shadow rays pass
+ *   transparent surfaces, multiplied by that factor at every crossing;
+ * - refraction by the ratio of indices from each ray's list of interiors,
+ *   with total internal reflection;
+ * - additive mirror reflection.
+ *
+ * Depth counts like POV-Ray's max_trace_level: the camera ray is level 1,
+ * every reflected or refracted ray one more; a ray past scene->max_depth is
+ * black, not the background. A transmitted ray that does not bend continues
+ * at its parent's level.
  */
 #ifndef LANCER_SHADE_H
 #define LANCER_SHADE_H
 
 #include "lancer/accel.h"
 
-Vec3 shade_trace(const Scene *s, const Accel *a, const Ray *r, int level, RayStats *st);
+/* Nesting beyond this many interiors is not tracked (deeper entries are
+ * dropped): far more than any real scene nests transparent solids. */
+#define SHADE_MAX_INTERIORS 16
+
+/* The ordered list of primitives a ray is inside, innermost last. */
+typedef struct {
+    int n;
+    int prim[SHADE_MAX_INTERIORS];
+} Interiors;
+
+/* The solids that contain point p, in scene order: where camera rays start. */
+void shade_interiors_at(const Scene *s, Vec3 p, Interiors *in);
+
+/* The colour seen along camera ray r, which starts inside `in`. */
+Vec3 shade_trace(const Scene *s, const Accel *a, const Ray *r, const Interiors *in, RayStats *st);
 
 /* The origin for a ray leaving surface point p (unit geometric normal ng) in
  * direction dir: p pushed off the surface, to dir's side, by a bound on the
  * rounding error of p that grows with the magnitude of p and of the incoming
  * ray's origin o. No fixed epsilon: the offset scales with the scene. */
 Vec3 shade_spawn_origin(Vec3 p, Vec3 ng, Vec3 dir, Vec3 o);
+
+/* POV-Ray's area-light weights along one axis of n samples (n <= 64): the
+ * leaves of its recursive halving of the grid, which is a plain mean only
+ * when n is a power of two. Writes n weights summing to 1. */
+void shade_area_weights(int n, float *w);
 
 #endif
