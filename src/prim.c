@@ -188,7 +188,12 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, Surface *s)
     s->p = ray_at(r, h->t);
     switch (p->kind) {
     case PRIM_SPHERE:
+        /* The textbook quadratic loses digits to cancellation, leaving a
+         * grazing hit up to ~1e-5 off the surface at a distance of 10, more
+         * than the spawn offset covers; projecting the point back onto the
+         * sphere (as pbrt does) leaves only a few ulps. */
         ng = vec_sub(s->p, p->g.sphere.c);
+        s->p = vec_madd(p->g.sphere.c, ng, p->g.sphere.r / vec_length(ng));
         break;
     case PRIM_PLANE:
         ng = p->g.plane.n;
