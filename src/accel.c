@@ -7,6 +7,7 @@ int accel_build(Accel *a, const Scene *s)
 {
     a->prims = s->prims;
     a->nprims = s->nprims;
+    a->variant = s->classic ? PRIM_CLASSIC : PRIM_ROBUST;
     return 0;
 }
 
@@ -22,7 +23,7 @@ int accel_closest(const Accel *a, const Ray *r, PrimHit *h, RayStats *st)
     int best = -1;
     PrimHit cur;
     for (int i = 0; i < a->nprims; i++) {
-        if (prim_intersect(&a->prims[i], &q, &cur)) {
+        if (prim_intersect(&a->prims[i], &q, a->variant, &cur)) {
             best = i;
             *h = cur;
             q.tmax = cur.t;
@@ -36,7 +37,7 @@ int accel_occluded(const Accel *a, const Ray *r, RayStats *st)
 {
     PrimHit cur;
     for (int i = 0; i < a->nprims; i++) {
-        if (prim_intersect(&a->prims[i], r, &cur)) {
+        if (prim_intersect(&a->prims[i], r, a->variant, &cur)) {
             st->isect_tests += (unsigned long long)i + 1;
             return 1;
         }

@@ -53,6 +53,8 @@ static const char *usage_render =
     "      --spp K           K x K samples per pixel, box-filtered (overrides the scene)\n"
     "      --threads N       render threads (default: every core)\n"
     "      --float           write 32-bit float channels (default: half)\n"
+    "      --classic         use the classic intersection routines instead of the\n"
+    "                        robust ones (to compare their cost and error)\n"
     "      --stats FILE.json write timings and ray counts as JSON\n"
     "  -q, --quiet           no progress bar or summary on stderr\n"
     "  -h, --help            show this help\n";
@@ -276,7 +278,7 @@ static void json_string(FILE *f, const char *s)
 
 typedef struct {
     const char *scene, *exr, *png, *stats;
-    int width, height, spp, threads, quiet, use_float;
+    int width, height, spp, threads, quiet, use_float, classic;
 } RenderArgs;
 
 static int write_stats(const char *path, const RenderArgs *a, const Scene *s, const double phase[4],
@@ -290,8 +292,10 @@ static int write_stats(const char *path, const RenderArgs *a, const Scene *s, co
     }
     fprintf(f, "{\n  \"scene\": ");
     json_string(f, a->scene);
-    fprintf(f, ",\n  \"width\": %d,\n  \"height\": %d,\n  \"spp\": %d,\n  \"threads\": %d,\n  \"primitives\": %d,\n",
-            s->width, s->height, s->spp, a->threads, s->nprims);
+    fprintf(f,
+            ",\n  \"width\": %d,\n  \"height\": %d,\n  \"spp\": %d,\n  \"threads\": %d,\n  \"primitives\": %d,\n"
+            "  \"intersect\": \"%s\",\n",
+            s->width, s->height, s->spp, a->threads, s->nprims, s->classic ? "classic" : "robust");
     fprintf(f, "  \"phases_s\": {\"parse\": %.6f, \"build\": %.6f, \"render\": %.6f, \"write\": %.6f},\n",
             phase[0], phase[1], phase[2], phase[3]);
     fprintf(f,
@@ -322,6 +326,7 @@ static int cmd_render(int argc, char **argv)
         {"--spp", NULL, OPT_INT, &a.spp, 1, SCENE_MAX_SPP},
         {"--threads", NULL, OPT_INT, &a.threads, 1, 1024},
         {"--float", NULL, OPT_FLAG, &a.use_float, 0, 0},
+        {"--classic", NULL, OPT_FLAG, &a.classic, 0, 0},
         {"--quiet", "-q", OPT_FLAG, &a.quiet, 0, 0},
     };
     int npos;
@@ -340,6 +345,8 @@ static int cmd_render(int argc, char **argv)
     phase[0] = now() - t0;
     if (a.spp)
         s.spp = a.spp;
+    if (a.classic)
+        s.classic = 1;
     if (!a.exr) {
         if (default_output(a.scene, ".exr", exr_default, sizeof exr_default) != 0) {
             scene_free(&s);

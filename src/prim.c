@@ -1,13 +1,42 @@
 /*
- * prim.c - classic ray/primitive intersection, as the literature gives it.
+ * prim.c - ray/primitive intersection: the classic routines as the
+ * literature gives them, and robust variants beside them (see prim.h for
+ * the contract each keeps).
  *
- * Contract of every *_hit routine: return 1 with the nearest t in
- * (0, ray->tmax), else 0. Nothing here guards against rounding; that is the
- * job of the robust variants, and the exact judge measures both.
+ * Error analysis follows Higham's gamma(n) = n u / (1 - n u), u the unit
+ * roundoff (2^-24 for float, 2^-53 for double), as pbrt-v4 does: a sum or
+ * product chain of n roundings has relative error at most gamma(n). The
+ * robust routines work in double on float inputs (a product of two floats
+ * is exact in double), round the answer to float, and report a bound that
+ * covers both.
  */
 #include "lancer/prim.h"
 
-int prim_plane_hit(const Plane *pl, const Ray *r, float *t)
+#include <float.h>
+
+#define UNIT_F (0.5 * (double)FLT_EPSILON)
+#define UNIT_D (0.5 * DBL_EPSILON)
+
+static double gamma_d(int n) { return n * UNIT_D / (1.0 - n * UNIT_D); }
+static float gamma_f(int n) { return (float)(n * UNIT_F / (1.0 - n * UNIT_F)); }
+
+/* The smallest float >= x. */
+static float float_up(double x)
+{
+    float f = (float)x;
+    return (double)f < x ? nextafterf(f, INFINITY) : f;
+}
+
+/* t as a float, and a float bound covering both err (a bound on |t - exact|)
+ * and the rounding of t itself. */
+static float round_t(double t, double err, float *terr)
+{
+    float tf = (float)t;
+    *terr = float_up(err + fabs((double)tf - t));
+    return tf;
+}
+
+int prim_plane_hit(const Plane *pl, const Ray *r, PrimHit *h)
 {
     float denom = vec_dot(r->d, pl->n);
     if (denom == 0.0f)
@@ -16,11 +45,12 @@ int prim_plane_hit(const Plane *pl, const Ray *r, float *t)
     float th = (pl->d - vec_dot(r->o, pl->n)) / denom;
     if (!(th > 0.0f && th < r->tmax))
         return 0;
-    *t = th;
+    h->t = th;
+    h->terr = 0.0f;
     return 1;
 }
 
-int prim_sphere_hit(const Sphere *s, const Ray *r, float *t)
+int prim_sphere_hit(const Sphere *s, const Ray *r, PrimHit *h)
 {
     Vec3 oc = vec_sub(r->o, s->c);
     float a = vec_dot(r->d, r->d);
@@ -35,11 +65,12 @@ int prim_sphere_hit(const Sphere *s, const Ray *r, float *t)
         th = (-b + sq) / (2.0f * a); /* origin inside, or near root behind */
     if (!(th > 0.0f && th < r->tmax))
         return 0;
-    *t = th;
+    h->t = th;
+    h->terr = 0.0f;
     return 1;
 }
 
-int prim_triangle_hit(const Triangle *tr, const Ray *r, float *t, float *u, float *v)
+int prim_triangle_hit(const Triangle *tr, const Ray *r, PrimHit *h)
 {
     Vec3 e1 = vec_sub(tr->b, tr->a);
     Vec3 e2 = vec_sub(tr->c, tr->a);
@@ -61,15 +92,17 @@ int prim_triangle_hit(const Triangle *tr, const Ray *r, float *t, float *u, floa
     float th = vec_dot(e2, qvec) * inv_det;
     if (!(th > 0.0f && th < r->tmax))
         return 0;
-    *t = th;
-    *u = uu;
-    *v = vv;
+    h->t = th;
+    h->terr = 0.0f;
+    h->u = uu;
+    h->v = vv;
     return 1;
 }
 
-static float axis(Vec3 v, int i) { return i == 0 ? v.x : i == 1 ? v.y : v.z; }
 
-int prim_box_hit(const Box *b, const Ray *r, float *t, int *face)
+static float comp(Vec3 v, int i) { return i == 0 ? v.x : i == 1 ? v.y : v.z; }
+
+int prim_box_hit(const Box *b, const Ray *r, PrimHit *h)
 {
     /* Williams et al.: the sign of the inverse direction picks which bound is
      * the near plane, so no swaps are needed and -0 directions work. */
@@ -77,11 +110,11 @@ int prim_box_hit(const Box *b, const Ray *r, float *t, int *face)
     float tnear = -INFINITY, tfar = INFINITY;
     int near_axis = 0, far_axis = 0;
     for (int i = 0; i < 3; i++) {
-        float inv = 1.0f / axis(r->d, i);
+        float inv = 1.0f / comp(r->d, i);
         int sign = inv < 0.0f;
-        float o = axis(r->o, i);
-        float t0 = (axis(bounds[sign], i) - o) * inv;
-        float t1 = (axis(bounds[1 - sign], i) - o) * inv;
+        float o = comp(r->o, i);
+        float t0 = (comp(bounds[sign], i) - o) * inv;
+        float t1 = (comp(bounds[1 - sign], i) - o) * inv;
         if (tnear > t1 || t0 > tfar)
             return 0;
         if (t0 > tnear) {
@@ -94,13 +127,15 @@ int prim_box_hit(const Box *b, const Ray *r, float *t, int *face)
         }
     }
     if (tnear > 0.0f && tnear < r->tmax) {
-        *t = tnear;
-        *face = near_axis;
+        h->t = tnear;
+        h->terr = 0.0f;
+        h->face = near_axis;
         return 1;
     }
     if (tnear <= 0.0f && tfar > 0.0f && tfar < r->tmax) { /* origin inside */
-        *t = tfar;
-        *face = far_axis;
+        h->t = tfar;
+        h->terr = 0.0f;
+        h->face = far_axis;
         return 1;
     }
     return 0;
@@ -120,7 +155,7 @@ int prim_obox_init(OBox *b)
     return 0;
 }
 
-int prim_obox_hit(const OBox *b, const Ray *r, float *t, int *face)
+int prim_obox_hit(const OBox *b, const Ray *r, PrimHit *h)
 {
     Vec3 rel = vec_sub(r->o, b->c);
     float tnear = -INFINITY, tfar = INFINITY;
@@ -152,62 +187,394 @@ int prim_obox_hit(const OBox *b, const Ray *r, float *t, int *face)
     if (!(tnear < tfar))
         return 0;
     if (tnear > 0.0f && tnear < r->tmax) {
-        *t = tnear;
-        *face = near_axis;
+        h->t = tnear;
+        h->terr = 0.0f;
+        h->face = near_axis;
         return 1;
     }
     if (tnear <= 0.0f && tfar > 0.0f && tfar < r->tmax) {
-        *t = tfar;
-        *face = far_axis;
+        h->t = tfar;
+        h->terr = 0.0f;
+        h->face = far_axis;
         return 1;
     }
     return 0;
 }
 
-int prim_intersect(const Prim *p, const Ray *r, PrimHit *h)
+/* ---- robust ---- */
+
+/* t = num / den from double values known to within e_num and e_den: the
+ * bound on |t - exact| (valid while e_den < |den|). */
+static double quotient_err(double num, double den, double e_num, double e_den)
 {
+    double t = num / den;
+    return (e_num + fabs(t) * e_den) / (fabs(den) - e_den) + gamma_d(1) * fabs(t);
+}
+
+int prim_plane_hit_robust(const Plane *pl, const Ray *r, PrimHit *h)
+{
+    /* Products of two floats are exact in double; only the sums round. */
+    double nx = pl->n.x, ny = pl->n.y, nz = pl->n.z;
+    double dx = nx * r->d.x, dy = ny * r->d.y, dz = nz * r->d.z;
+    double den = dx + dy + dz;
+    double e_den = gamma_d(2) * (fabs(dx) + fabs(dy) + fabs(dz));
+    if (!(fabs(den) > e_den))
+        return 0; /* parallel to working precision: a miss, by definition */
+    double ox = nx * r->o.x, oy = ny * r->o.y, oz = nz * r->o.z;
+    double no = ox + oy + oz;
+    double e_no = gamma_d(2) * (fabs(ox) + fabs(oy) + fabs(oz));
+    double num = (double)pl->d - no;
+    double e_num = e_no + gamma_d(1) * fabs(num);
+    double t = num / den;
+    float tf = round_t(t, quotient_err(num, den, e_num, e_den), &h->terr);
+    if (!(tf > 0.0f && tf < r->tmax))
+        return 0;
+    h->t = tf;
+    return 1;
+}
+
+/* g(t) = |f + t d|^2 - r2, the exact sphere equation along the ray, in
+ * double with a bound on its error: its sign is certain when |g| > *err.
+ * f = o - c carries at most one rounding per coordinate. */
+static double sphere_g(const double f[3], const float d[3], double r2, double t, double *err)
+{
+    double g = -r2, e = 0.0, mag = r2;
+    for (int i = 0; i < 3; i++) {
+        double td = t * (double)d[i];
+        double p = f[i] + td;
+        /* f[i] (1 rounding), t*d (1), the sum (1) */
+        double ep = gamma_d(3) * (fabs(f[i]) + fabs(td));
+        g += p * p;
+        e += 2.0 * fabs(p) * ep + ep * ep;
+        mag += p * p;
+    }
+    *err = e + gamma_d(5) * mag;
+    return g;
+}
+
+/* Certifies a root near t: widens a bracket until g changes sign across it
+ * with certainty (then exactly one root lies inside). Returns the bracket's
+ * half-width, or -1 when no certain sign change was found (a near-double
+ * root: the ray is tangent to working precision). */
+static double sphere_certify(const double f[3], const float d[3], double r2, double t)
+{
+    double w = 4.0 * UNIT_F * fabs(t) + 1e-300;
+    for (int k = 0; k < 12; k++, w *= 8.0) {
+        double e_lo, e_hi;
+        double g_lo = sphere_g(f, d, r2, t - w, &e_lo);
+        double g_hi = sphere_g(f, d, r2, t + w, &e_hi);
+        if (fabs(g_lo) > e_lo && fabs(g_hi) > e_hi && (g_lo > 0) != (g_hi > 0))
+            return w;
+    }
+    return -1.0;
+}
+
+int prim_sphere_hit_robust(const Sphere *s, const Ray *r, PrimHit *h)
+{
+    const float d[3] = {r->d.x, r->d.y, r->d.z};
+    const double f[3] = {(double)r->o.x - s->c.x, (double)r->o.y - s->c.y, (double)r->o.z - s->c.z};
+    double r2 = (double)s->r * s->r; /* exact */
+    double a = 0.0, b = 0.0, ff = 0.0;
+    for (int i = 0; i < 3; i++) {
+        a += (double)d[i] * d[i];
+        b += f[i] * d[i];
+        ff += f[i] * f[i];
+    }
+    /* Ray Tracing Gems ch. 7: the discriminant from the vector l between the
+     * centre and the ray's closest point, which does not cancel the way
+     * b^2 - ac does for distant spheres. */
+    double k = b / a, l2 = 0.0;
+    for (int i = 0; i < 3; i++) {
+        double li = f[i] - k * d[i];
+        l2 += li * li;
+    }
+    double disc = a * (r2 - l2);
+    if (!(disc >= 0.0))
+        return 0;
+    double q = -(b + copysign(sqrt(disc), b));
+    double t0 = (ff - r2) / q, t1 = q / a;
+    if (t0 > t1) {
+        double tmp = t0;
+        t0 = t1;
+        t1 = tmp;
+    }
+    double t = t0 > 0.0 ? t0 : t1; /* the far root when the origin is inside */
+    if (!(t > 0.0) || q == 0.0)
+        return 0;
+    double w = sphere_certify(f, d, r2, t);
+    if (w < 0.0)
+        return 0; /* tangent to working precision: a miss, by definition */
+    float tf = round_t(t, w, &h->terr);
+    if (!(tf > 0.0f && tf < r->tmax))
+        return 0;
+    h->t = tf;
+    return 1;
+}
+
+int prim_triangle_hit_watertight(const Triangle *tr, const Ray *r, PrimHit *h)
+{
+    /* Woop et al.: make the largest direction component z, keeping the
+     * winding, then shear so the ray runs along +z from the origin. */
+    int kz = fabsf(r->d.x) > fabsf(r->d.y) ? (fabsf(r->d.x) > fabsf(r->d.z) ? 0 : 2)
+                                           : (fabsf(r->d.y) > fabsf(r->d.z) ? 1 : 2);
+    int kx = (kz + 1) % 3, ky = (kx + 1) % 3;
+    if (comp(r->d, kz) < 0.0f) {
+        int tmp = kx;
+        kx = ky;
+        ky = tmp;
+    }
+    float dz = comp(r->d, kz);
+    if (dz == 0.0f)
+        return 0; /* a zero direction */
+    float sx = comp(r->d, kx) / dz, sy = comp(r->d, ky) / dz;
+    Vec3 A = vec_sub(tr->a, r->o), B = vec_sub(tr->b, r->o), C = vec_sub(tr->c, r->o);
+    float ax = comp(A, kx) - sx * comp(A, kz), ay = comp(A, ky) - sy * comp(A, kz);
+    float bx = comp(B, kx) - sx * comp(B, kz), by = comp(B, ky) - sy * comp(B, kz);
+    float cx = comp(C, kx) - sx * comp(C, kz), cy = comp(C, ky) - sy * comp(C, kz);
+    /* Edge functions: a shared edge gives exactly opposite values in its two
+     * triangles, which is what makes meshes watertight. */
+    double U = cx * by - cy * bx, V = ax * cy - ay * cx, W = bx * ay - by * ax;
+    if (U == 0.0 || V == 0.0 || W == 0.0) { /* on an edge in float: decide in double */
+        U = (double)cx * by - (double)cy * bx;
+        V = (double)ax * cy - (double)ay * cx;
+        W = (double)bx * ay - (double)by * ax;
+    }
+    if ((U < 0.0 || V < 0.0 || W < 0.0) && (U > 0.0 || V > 0.0 || W > 0.0))
+        return 0;
+    double det = U + V + W;
+    if (det == 0.0)
+        return 0;
+    /* t from the plane equation in double: n = (b - a) x (c - a), and
+     * t = ((a - o).n) / (d.n), each with its error bound. */
+    double e1[3], e2[3], n[3], en[3], ao[3], dd[3] = {r->d.x, r->d.y, r->d.z};
+    for (int i = 0; i < 3; i++) {
+        e1[i] = (double)comp(tr->b, i) - comp(tr->a, i);
+        e2[i] = (double)comp(tr->c, i) - comp(tr->a, i);
+        ao[i] = (double)comp(tr->a, i) - comp(r->o, i);
+    }
+    for (int i = 0; i < 3; i++) {
+        int j = (i + 1) % 3, k = (i + 2) % 3;
+        n[i] = e1[j] * e2[k] - e1[k] * e2[j];
+        en[i] = gamma_d(4) * (fabs(e1[j] * e2[k]) + fabs(e1[k] * e2[j]));
+    }
+    double num = 0.0, den = 0.0, e_num = 0.0, e_den = 0.0, m_num = 0.0, m_den = 0.0;
+    for (int i = 0; i < 3; i++) {
+        num += ao[i] * n[i];
+        den += dd[i] * n[i];
+        e_num += fabs(ao[i]) * en[i];
+        e_den += fabs(dd[i]) * en[i];
+        m_num += fabs(ao[i] * n[i]);
+        m_den += fabs(dd[i] * n[i]);
+    }
+    e_num += gamma_d(4) * m_num;
+    e_den += gamma_d(3) * m_den;
+    if (!(fabs(den) > e_den))
+        return 0; /* the ray lies in the triangle's plane to working precision */
+    double t = num / den;
+    float tf = round_t(t, quotient_err(num, den, e_num, e_den), &h->terr);
+    if (!(tf > 0.0f && tf < r->tmax))
+        return 0;
+    h->t = tf;
+    h->u = (float)(V / det);
+    h->v = (float)(W / det);
+    return 1;
+}
+
+int prim_box_hit_robust(const Box *b, const Ray *r, PrimHit *h)
+{
+    /* Ize: each computed slab distance is within gamma(3) of exact (the
+     * subtraction, the reciprocal, the product), so growing every far
+     * distance by 1 + 2 gamma(3) keeps every true hit. The near plane is
+     * picked by the sign of the reciprocal, never by comparing distances,
+     * so a NaN from 0 * inf (origin on a slab plane, zero direction
+     * component) is simply ignored: such a ray lies in the slab's
+     * boundary, inside the closed box's slab. */
+    const float pad = 1.0f + 2.0f * gamma_f(3);
+    const Vec3 bounds[2] = {b->lo, b->hi};
+    float tnear = -INFINITY, tfar = INFINITY, texit = INFINITY;
+    int near_axis = 0, far_axis = 0;
+    for (int i = 0; i < 3; i++) {
+        float inv = 1.0f / comp(r->d, i);
+        int neg = inv < 0.0f;
+        float o = comp(r->o, i);
+        float t0 = (comp(bounds[neg], i) - o) * inv;
+        float t1 = (comp(bounds[1 - neg], i) - o) * inv;
+        if (t0 > tnear) {
+            tnear = t0;
+            near_axis = i;
+        }
+        if (t1 < texit) {
+            texit = t1;
+            far_axis = i;
+        }
+        if (t1 * pad < tfar)
+            tfar = t1 * pad;
+    }
+    if (!(tnear <= tfar))
+        return 0;
+    float t = tnear > 0.0f ? tnear : texit;
+    if (!(t > 0.0f && t < r->tmax))
+        return 0;
+    h->t = t;
+    h->terr = float_up(gamma_d(4) * fabsf(t));
+    h->face = tnear > 0.0f ? near_axis : far_axis;
+    return 1;
+}
+
+int prim_obox_hit_robust(const OBox *b, const Ray *r, PrimHit *h)
+{
+    /* Slab i holds the points p with |(p - c).N| <= |det|, N the cross
+     * product of the other two axes and det = axis_i . N: the exact faces
+     * of c + x u + y v + z w, with no rounded inverse in between. */
+    const Vec3 ax[3] = {b->u, b->v, b->w};
+    double oc[3], dd[3] = {r->d.x, r->d.y, r->d.z};
+    for (int i = 0; i < 3; i++)
+        oc[i] = (double)comp(r->o, i) - comp(b->c, i);
+    double tnear = -INFINITY, tfar = INFINITY, tn_err = 0.0, tf_err = 0.0;
+    int near_axis = 0, far_axis = 0;
+    for (int i = 0; i < 3; i++) {
+        Vec3 P = ax[(i + 1) % 3], Q = ax[(i + 2) % 3];
+        double n[3] = {(double)P.y * Q.z - (double)P.z * Q.y, (double)P.z * Q.x - (double)P.x * Q.z,
+                       (double)P.x * Q.y - (double)P.y * Q.x}; /* exact products, one rounding */
+        double det = 0.0, so = 0.0, sd = 0.0, m_det = 0.0, m_so = 0.0, m_sd = 0.0;
+        for (int j = 0; j < 3; j++) {
+            det += comp(ax[i], j) * n[j];
+            so += oc[j] * n[j];
+            sd += dd[j] * n[j];
+            m_det += fabs(comp(ax[i], j) * n[j]);
+            m_so += fabs(oc[j] * n[j]);
+            m_sd += fabs(dd[j] * n[j]);
+        }
+        /* n: 1 rounding; oc: 1; products and sums: 4 more */
+        double e_det = gamma_d(6) * m_det, e_so = gamma_d(6) * m_so, e_sd = gamma_d(6) * m_sd;
+        double half = fabs(det);
+        if (!(fabs(sd) > e_sd)) { /* parallel to the slab to working precision */
+            if (fabs(so) > half + e_det + e_so)
+                return 0;
+            continue;
+        }
+        double e_num = e_det + e_so + gamma_d(1) * (half + fabs(so));
+        double t0 = (-half - so) / sd, t1 = (half - so) / sd;
+        double e0 = quotient_err(-half - so, sd, e_num, e_sd), e1 = quotient_err(half - so, sd, e_num, e_sd);
+        if (t0 > t1) {
+            double tmp = t0;
+            t0 = t1;
+            t1 = tmp;
+            tmp = e0;
+            e0 = e1;
+            e1 = tmp;
+        }
+        if (t0 > tnear) {
+            tnear = t0;
+            tn_err = e0;
+            near_axis = i;
+        }
+        if (t1 < tfar) {
+            tfar = t1;
+            tf_err = e1;
+            far_axis = i;
+        }
+    }
+    if (!(tnear - tn_err <= tfar + tf_err)) /* the widened slabs do not overlap */
+        return 0;
+    int inside = !(tnear > 0.0);
+    double t = inside ? tfar : tnear;
+    float tf = round_t(t, inside ? tf_err : tn_err, &h->terr);
+    if (!(tf > 0.0f && tf < r->tmax))
+        return 0;
+    h->t = tf;
+    h->face = inside ? far_axis : near_axis;
+    return 1;
+}
+
+int prim_intersect(const Prim *p, const Ray *r, PrimVariant v, PrimHit *h)
+{
+    int robust = v == PRIM_ROBUST;
     switch (p->kind) {
     case PRIM_SPHERE:
-        return prim_sphere_hit(&p->g.sphere, r, &h->t);
+        return robust ? prim_sphere_hit_robust(&p->g.sphere, r, h) : prim_sphere_hit(&p->g.sphere, r, h);
     case PRIM_PLANE:
-        return prim_plane_hit(&p->g.plane, r, &h->t);
+        return robust ? prim_plane_hit_robust(&p->g.plane, r, h) : prim_plane_hit(&p->g.plane, r, h);
     case PRIM_TRIANGLE:
     case PRIM_SMOOTH_TRIANGLE:
-        return prim_triangle_hit(&p->g.tri, r, &h->t, &h->u, &h->v);
+        return robust ? prim_triangle_hit_watertight(&p->g.tri, r, h) : prim_triangle_hit(&p->g.tri, r, h);
     case PRIM_BOX:
-        return prim_box_hit(&p->g.box, r, &h->t, &h->face);
+        return robust ? prim_box_hit_robust(&p->g.box, r, h) : prim_box_hit(&p->g.box, r, h);
     case PRIM_OBOX:
-        return prim_obox_hit(&p->g.obox, r, &h->t, &h->face);
+        return robust ? prim_obox_hit_robust(&p->g.obox, r, h) : prim_obox_hit(&p->g.obox, r, h);
     }
     return 0;
 }
 
-void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, Surface *s)
+static Vec3 vec_abs(Vec3 a) { return vec3(fabsf(a.x), fabsf(a.y), fabsf(a.z)); }
+
+/* The error of p = o + t d when |t - exact| <= terr: terr |d| for t, and
+ * the product and the sum rounding. */
+static Vec3 ray_point_err(const Ray *r, float t, float terr)
 {
+    Vec3 td = vec_abs(vec_scale(r->d, t));
+    return vec_add(vec_scale(vec_abs(r->d), terr), vec_scale(vec_add(vec_abs(r->o), td), gamma_f(2)));
+}
+
+void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, Surface *s)
+{
+    int robust = v == PRIM_ROBUST;
     Vec3 ng = vec3(0.0f, 0.0f, 0.0f), ns;
     s->p = ray_at(r, h->t);
+    s->perr = ray_point_err(r, h->t, h->terr);
     switch (p->kind) {
-    case PRIM_SPHERE:
-        /* The textbook quadratic loses digits to cancellation, leaving a
-         * grazing hit up to ~1e-5 off the surface at a distance of 10, more
-         * than the spawn offset covers; projecting the point back onto the
-         * sphere (as pbrt does) leaves only a few ulps. */
+    case PRIM_SPHERE: {
+        /* The point is projected back onto the sphere (as pbrt does): the
+         * textbook quadratic leaves grazing hits ~1e-5 off the surface at a
+         * distance of 10, and even a certified t leaves terr |d|. After
+         * projection only a few roundings separate p from the surface. */
         ng = vec_sub(s->p, p->g.sphere.c);
-        s->p = vec_madd(p->g.sphere.c, ng, p->g.sphere.r / vec_length(ng));
+        Vec3 q = vec_scale(ng, p->g.sphere.r / vec_length(ng));
+        s->p = vec_add(p->g.sphere.c, q);
+        s->perr = vec_add(vec_scale(vec_abs(q), gamma_f(7)), vec_scale(vec_abs(s->p), gamma_f(2)));
         break;
+    }
     case PRIM_PLANE:
         ng = p->g.plane.n;
         break;
     case PRIM_TRIANGLE:
-    case PRIM_SMOOTH_TRIANGLE:
-        ng = vec_cross(vec_sub(p->g.tri.b, p->g.tri.a), vec_sub(p->g.tri.c, p->g.tri.a));
+    case PRIM_SMOOTH_TRIANGLE: {
+        const Triangle *t = &p->g.tri;
+        ng = vec_cross(vec_sub(t->b, t->a), vec_sub(t->c, t->a));
+        if (robust) { /* pbrt: from the barycentrics, on the plane to gamma(7) */
+            float b0 = 1.0f - h->u - h->v;
+            Vec3 pa = vec_scale(t->a, b0), pb = vec_scale(t->b, h->u), pc = vec_scale(t->c, h->v);
+            s->p = vec_add(vec_add(pa, pb), pc);
+            s->perr = vec_scale(vec_add(vec_add(vec_abs(pa), vec_abs(pb)), vec_abs(pc)), gamma_f(7));
+        }
         break;
-    case PRIM_BOX:
-        ng = h->face == 0 ? vec3(1, 0, 0) : h->face == 1 ? vec3(0, 1, 0) : vec3(0, 0, 1);
+    }
+    case PRIM_BOX: {
+        int f = h->face;
+        ng = f == 0 ? vec3(1, 0, 0) : f == 1 ? vec3(0, 1, 0) : vec3(0, 0, 1);
+        if (robust) { /* on a face, one coordinate is exactly the bound */
+            float lo = comp(p->g.box.lo, f), hi = comp(p->g.box.hi, f), x = comp(s->p, f);
+            float bound = fabsf(x - lo) < fabsf(x - hi) ? lo : hi;
+            if (f == 0) {
+                s->p.x = bound;
+                s->perr.x = 0.0f;
+            } else if (f == 1) {
+                s->p.y = bound;
+                s->perr.y = 0.0f;
+            } else {
+                s->p.z = bound;
+                s->perr.z = 0.0f;
+            }
+        }
         break;
+    }
     case PRIM_OBOX:
         ng = p->g.obox.inv[h->face];
         break;
+    }
+    if (!robust) { /* a heuristic: 16 ulps of the larger of |p| and |o| */
+        float e = 16.0f * FLT_EPSILON * fmaxf(vec_max_abs(s->p), vec_max_abs(r->o));
+        s->perr = vec3(e, e, e);
     }
     ng = vec_normalize(ng);
     ns = ng;
@@ -220,6 +587,23 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, Surface *s)
     /* Two-sided surfaces: each normal faces the incoming ray. */
     s->ng = vec_dot(ng, r->d) > 0.0f ? vec_neg(ng) : ng;
     s->ns = vec_dot(ns, r->d) > 0.0f ? vec_neg(ns) : ns;
+}
+
+Vec3 prim_spawn_origin(const Surface *s, Vec3 dir)
+{
+    Vec3 n = vec_dot(s->ng, dir) < 0.0f ? vec_neg(s->ng) : s->ng; /* the side dir leaves to */
+    float dist = fabsf(n.x) * s->perr.x + fabsf(n.y) * s->perr.y + fabsf(n.z) * s->perr.z;
+    Vec3 po = vec_madd(s->p, n, dist);
+    /* One float further along each component the normal moves, so that the
+     * rounding of po itself cannot undo the offset, even when dist is 0 (a
+     * box face, where p is exact). */
+    float c[3] = {po.x, po.y, po.z}, nn[3] = {n.x, n.y, n.z};
+    for (int i = 0; i < 3; i++)
+        if (nn[i] > 0.0f)
+            c[i] = nextafterf(c[i], INFINITY);
+        else if (nn[i] < 0.0f)
+            c[i] = nextafterf(c[i], -INFINITY);
+    return vec3(c[0], c[1], c[2]);
 }
 
 int prim_inside(const Prim *p, Vec3 q)

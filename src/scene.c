@@ -406,9 +406,9 @@ static int nonzero_vec(Parser *P, const char *what, const char *key, const Value
 
 static int parse_image(Parser *P, Loc at)
 {
-    enum { WIDTH, HEIGHT, BACKGROUND, MAX_DEPTH, SPP, N };
-    static const Field f[N] = {
-        {"width", F_NUM}, {"height", F_NUM}, {"background", F_VEC}, {"max_depth", F_NUM}, {"spp", F_NUM}};
+    enum { WIDTH, HEIGHT, BACKGROUND, MAX_DEPTH, SPP, INTERSECT, N };
+    static const Field f[N] = {{"width", F_NUM},     {"height", F_NUM}, {"background", F_VEC},
+                               {"max_depth", F_NUM}, {"spp", F_NUM},    {"intersect", F_NAME}};
     Value v[N];
     if (P->have_image)
         return fail(P, at, "duplicate 'image' block");
@@ -427,6 +427,12 @@ static int parse_image(Parser *P, Loc at)
     if (v[SPP].set && !(k == floorf(k) && k >= 1 && k <= SCENE_MAX_SPP))
         return fail(P, v[SPP].value, "image: 'spp' must be a whole number from 1 to %d", SCENE_MAX_SPP);
     P->s->spp = (int)num_or(&v[SPP], (float)P->s->spp);
+    if (v[INTERSECT].set) {
+        if (strcmp(v[INTERSECT].name, "classic") != 0 && strcmp(v[INTERSECT].name, "robust") != 0)
+            return fail(P, v[INTERSECT].value, "image: 'intersect' must be 'robust' or 'classic', not '%s'",
+                        v[INTERSECT].name);
+        P->s->classic = strcmp(v[INTERSECT].name, "classic") == 0;
+    }
     P->s->width = (int)num_or(&v[WIDTH], (float)P->s->width);
     P->s->height = (int)num_or(&v[HEIGHT], (float)P->s->height);
     P->s->max_depth = (int)num_or(&v[MAX_DEPTH], (float)P->s->max_depth);

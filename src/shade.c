@@ -1,22 +1,15 @@
 /*
  * shade.c - Whitted shading with POV-Ray 3.7's classic finish (shade.h).
  *
- * Every secondary ray starts at shade_spawn_origin(), never at the raw hit
- * point, and accepts any t > 0: the offset, not a t_min epsilon, keeps it off
- * its own surface. POV-Ray itself ignores hits closer than 1e-4 (and shadow
+ * Every secondary ray starts at prim_spawn_origin(), never at the raw hit
+ * point, and accepts any t > 0: the offset, derived from the hit's own error
+ * bound, not a t_min epsilon, keeps it off its own surface. POV-Ray itself ignores hits closer than 1e-4 (and shadow
  * occluders within 1e-3 of either end); the two differ only on surfaces that
  * touch, a line of pixels at most.
  */
 #include "lancer/shade.h"
 
-#include <float.h>
 #include <string.h>
-
-/* Along the normal, the hit point p = o + t*d of the classic routines is off
- * by a few ulps of max(|o|, |p|): t is computed from o, so its rounding
- * happens at that magnitude. 16 ulps leaves a margin over that; the robust
- * variants will replace this with a proven per-primitive bound. */
-#define SPAWN_ULPS 16.0f
 
 /* POV-Ray skips a light when N.L is below this (its EPSILON). */
 #define LIGHT_EPSILON 1e-10f
@@ -30,13 +23,6 @@ typedef struct {
     const Accel *a;
     RayStats *st;
 } Ctx;
-
-Vec3 shade_spawn_origin(Vec3 p, Vec3 ng, Vec3 dir, Vec3 o)
-{
-    float mag = fmaxf(vec_max_abs(p), vec_max_abs(o));
-    float e = SPAWN_ULPS * FLT_EPSILON * (mag > FLT_MIN ? mag : FLT_MIN);
-    return vec_madd(p, ng, vec_dot(dir, ng) >= 0.0f ? e : -e);
-}
 
 void shade_interiors_at(const Scene *s, Vec3 p, Interiors *in)
 {
@@ -88,12 +74,12 @@ static Vec3 pass_factor(const Material *m)
 /* The light arriving at p from point q: 1 when nothing is in between, 0
  * behind an opaque object, and the product of pass_factor over every
  * transparent surface crossed (refraction is ignored, as in POV-Ray). */
-static Vec3 transmittance(const Ctx *c, Vec3 p, Vec3 ng, Vec3 q, Vec3 eye)
+static Vec3 transmittance(const Ctx *c, const Surface *from, Vec3 q)
 {
-    Vec3 d = vec_sub(q, p);
+    Vec3 d = vec_sub(q, from->p);
     float dist = vec_length(d);
     d = vec_scale(d, 1.0f / dist);
-    Ray r = ray_make(shade_spawn_origin(p, ng, d, eye), d, dist);
+    Ray r = ray_make(prim_spawn_origin(from, d), d, dist);
     c->st->shadow++;
     if (!c->s->transparent) /* any hit will do */
         return accel_occluded(c->a, &r, c->st) ? vec3(0, 0, 0) : vec3(1, 1, 1);
@@ -108,8 +94,8 @@ static Vec3 transmittance(const Ctx *c, Vec3 p, Vec3 ng, Vec3 q, Vec3 eye)
             return vec3(0, 0, 0);
         f = vec_mul(f, pass_factor(m));
         Surface sf;
-        prim_surface(&c->a->prims[i], &r, &h, &sf);
-        r.o = shade_spawn_origin(sf.p, sf.ng, d, eye);
+        prim_surface(&c->a->prims[i], &r, &h, c->a->variant, &sf);
+        r.o = prim_spawn_origin(&sf, d);
         r.tmax = vec_length(vec_sub(q, r.o));
         c->st->shadow++;
     }
@@ -117,10 +103,10 @@ static Vec3 transmittance(const Ctx *c, Vec3 p, Vec3 ng, Vec3 q, Vec3 eye)
 }
 
 /* The visible fraction of light l from p, per channel. */
-static Vec3 light_visibility(const Ctx *c, const Light *l, Vec3 p, Vec3 ng, Vec3 eye)
+static Vec3 light_visibility(const Ctx *c, const Light *l, const Surface *sf)
 {
     if (l->area_n1 * l->area_n2 == 1)
-        return transmittance(c, p, ng, l->pos, eye);
+        return transmittance(c, sf, l->pos);
     float w1[SCENE_MAX_AREA_SAMPLES], w2[SCENE_MAX_AREA_SAMPLES];
     shade_area_weights(l->area_n1, w1);
     shade_area_weights(l->area_n2, w2);
@@ -130,7 +116,7 @@ static Vec3 light_visibility(const Ctx *c, const Light *l, Vec3 p, Vec3 ng, Vec3
         for (int i = 0; i < l->area_n1; i++) {
             float su = l->area_n1 > 1 ? (float)i / (float)(l->area_n1 - 1) - 0.5f : 0.0f;
             Vec3 q = vec_madd(vec_madd(l->pos, l->area_u, su), l->area_v, sv);
-            vis = vec_madd(vis, transmittance(c, p, ng, q, eye), w1[i] * w2[j]);
+            vis = vec_madd(vis, transmittance(c, sf, q), w1[i] * w2[j]);
         }
     }
     return vis;
@@ -171,7 +157,7 @@ static Vec3 direct(const Ctx *c, const Material *m, const Surface *sf, const Ray
             continue; /* nothing to add: skip the shadow rays */
         Vec3 lc = vec_scale(l->color, fade(l, dist));
         if (!l->shadowless)
-            lc = vec_mul(lc, light_visibility(c, l, sf->p, sf->ng, r->o));
+            lc = vec_mul(lc, light_visibility(c, l, sf));
         col = vec_add(col, vec_mul(lc, term));
     }
     return col;
@@ -209,7 +195,7 @@ static int refract(const Ctx *c, int prim, const Material *m, const Surface *sf,
     }
     Vec3 f = pass_factor(m);
     if (fabsf(eta - 1.0f) < 1e-10f) { /* straight through, at the same level */
-        Ray t = ray_make(shade_spawn_origin(sf->p, sf->ng, r->d, r->o), r->d, INFINITY);
+        Ray t = ray_make(prim_spawn_origin(sf, r->d), r->d, INFINITY);
         c->st->refraction++;
         *col = vec_add(*col, vec_mul(f, trace(c, &t, level, 1, &out)));
         return 0;
@@ -218,14 +204,14 @@ static int refract(const Ctx *c, int prim, const Material *m, const Surface *sf,
     float disc = 1.0f + eta * eta * (cosi * cosi - 1.0f);
     if (disc < 0.0f) { /* total internal reflection: the mirror ray, unfiltered */
         Vec3 d = vec_reflect(r->d, sf->ns);
-        Ray t = ray_make(shade_spawn_origin(sf->p, sf->ng, d, r->o), d, INFINITY);
+        Ray t = ray_make(prim_spawn_origin(sf, d), d, INFINITY);
         c->st->reflection++;
         *col = vec_add(*col, trace(c, &t, level, 0, in));
         return 1;
     }
     /* Heckbert's refraction formula, with N facing the incoming ray. */
     Vec3 d = vec_normalize(vec_madd(vec_scale(r->d, eta), sf->ns, eta * cosi - sqrtf(disc)));
-    Ray t = ray_make(shade_spawn_origin(sf->p, sf->ng, d, r->o), d, INFINITY);
+    Ray t = ray_make(prim_spawn_origin(sf, d), d, INFINITY);
     c->st->refraction++;
     *col = vec_add(*col, vec_mul(f, trace(c, &t, level, 0, &out)));
     return 0;
@@ -245,7 +231,7 @@ static Vec3 trace(const Ctx *c, const Ray *r, int level, int continued, const In
         return c->s->background;
     const Material *m = material_of(c, i);
     Surface sf;
-    prim_surface(&c->a->prims[i], r, &h, &sf);
+    prim_surface(&c->a->prims[i], r, &h, c->a->variant, &sf);
     Vec3 col = direct(c, m, &sf, r);
     /* Any child ray of a hit at the last level returns black: skip them. */
     if (level >= c->s->max_depth)
@@ -256,7 +242,7 @@ static Vec3 trace(const Ctx *c, const Ray *r, int level, int continued, const In
         tir = refract(c, i, m, &sf, r, level, in, &col);
     if (m->reflection > 0.0f && !tir) {
         Vec3 d = vec_reflect(r->d, sf.ns);
-        Ray rr = ray_make(shade_spawn_origin(sf.p, sf.ng, d, r->o), d, INFINITY);
+        Ray rr = ray_make(prim_spawn_origin(&sf, d), d, INFINITY);
         c->st->reflection++;
         col = vec_madd(col, trace(c, &rr, level, 0, in), m->reflection);
     }

@@ -1,9 +1,11 @@
 /* Unit tests for prim.c: analytic hits, misses, tangents, rays starting
- * inside, objects behind the ray, and rays parallel to planes and faces. */
+ * inside, objects behind the ray, and rays parallel to planes and faces.
+ * Every test runs twice: on the classic routines and on the robust ones. */
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <setjmp.h>
+#include <math.h>
 #include <cmocka.h>
 
 #include "lancer/prim.h"
@@ -11,6 +13,76 @@
 static Ray ray(float ox, float oy, float oz, float dx, float dy, float dz)
 {
     return ray_make(vec3(ox, oy, oz), vec_normalize(vec3(dx, dy, dz)), INFINITY);
+}
+
+/* The variant under test, set by each group's setup. */
+static PrimVariant V;
+
+static int setup_classic(void **state)
+{
+    (void)state;
+    V = PRIM_CLASSIC;
+    return 0;
+}
+
+static int setup_robust(void **state)
+{
+    (void)state;
+    V = PRIM_ROBUST;
+    return 0;
+}
+
+/* Each routine of the variant under test, returning t (and u, v, face). */
+static int sphere_hit(const Sphere *s, const Ray *r, float *t)
+{
+    PrimHit h;
+    int k = V == PRIM_ROBUST ? prim_sphere_hit_robust(s, r, &h) : prim_sphere_hit(s, r, &h);
+    if (k)
+        *t = h.t;
+    return k;
+}
+
+static int plane_hit(const Plane *pl, const Ray *r, float *t)
+{
+    PrimHit h;
+    int k = V == PRIM_ROBUST ? prim_plane_hit_robust(pl, r, &h) : prim_plane_hit(pl, r, &h);
+    if (k)
+        *t = h.t;
+    return k;
+}
+
+static int triangle_hit(const Triangle *tr, const Ray *r, float *t, float *u, float *v)
+{
+    PrimHit h;
+    int k = V == PRIM_ROBUST ? prim_triangle_hit_watertight(tr, r, &h) : prim_triangle_hit(tr, r, &h);
+    if (k) {
+        *t = h.t;
+        *u = h.u;
+        *v = h.v;
+    }
+    return k;
+}
+
+static int box_hit(const Box *b, const Ray *r, float *t, int *face)
+{
+    PrimHit h;
+    int k = V == PRIM_ROBUST ? prim_box_hit_robust(b, r, &h) : prim_box_hit(b, r, &h);
+    if (k) {
+        *t = h.t;
+        *face = h.face;
+    }
+    return k;
+}
+
+static int obox_hit(const OBox *b, const Ray *r, float *t, int *face)
+{
+    PrimHit h;
+    int k = V == PRIM_ROBUST ? prim_obox_hit_robust(b, r, &h) : prim_obox_hit(b, r, &h);
+    if (k) {
+        *t = h.t;
+        *face = h.face;
+    }
+    return k;
 }
 
 static void assert_vec(Vec3 v, float x, float y, float z, float tol)
@@ -28,14 +100,14 @@ static void test_sphere(void **state)
     Sphere s = {{0, 0, 5}, 1};
     float t = -1;
     Ray r = ray(0, 0, 0, 0, 0, 1);
-    assert_true(prim_sphere_hit(&s, &r, &t));
+    assert_true(sphere_hit(&s, &r, &t));
     assert_float_equal(t, 4, 1e-6);
     r.tmax = 3.5f; /* the hit lies beyond tmax */
-    assert_false(prim_sphere_hit(&s, &r, &t));
+    assert_false(sphere_hit(&s, &r, &t));
     r = ray(0, 1.01f, 0, 0, 0, 1); /* passes just above */
-    assert_false(prim_sphere_hit(&s, &r, &t));
+    assert_false(sphere_hit(&s, &r, &t));
     r = ray(0, 0, 10, 0, 0, 1); /* sphere behind the ray */
-    assert_false(prim_sphere_hit(&s, &r, &t));
+    assert_false(sphere_hit(&s, &r, &t));
 }
 
 static void test_sphere_tangent_and_inside(void **state)
@@ -43,19 +115,26 @@ static void test_sphere_tangent_and_inside(void **state)
     (void)state;
     Sphere unit = {{0, 0, 0}, 1};
     float t = -1;
-    /* discriminant exactly 0: the grazing ray touches at (0, 1, 0) */
+    /* Discriminant exactly 0: the grazing ray touches at (0, 1, 0). The
+     * classic quadratic calls that a hit; for the robust routine a double
+     * root is inside its documented band (tangent to working precision),
+     * where it answers miss. */
     Ray r = ray(-5, 1, 0, 1, 0, 0);
-    assert_true(prim_sphere_hit(&unit, &r, &t));
-    assert_float_equal(t, 5, 1e-6);
+    if (V == PRIM_CLASSIC) {
+        assert_true(sphere_hit(&unit, &r, &t));
+        assert_float_equal(t, 5, 1e-6);
+    } else {
+        assert_false(sphere_hit(&unit, &r, &t));
+    }
     Sphere big = {{0, 0, 0}, 2};
     r = ray(0, 0, 0, 0, 0, -1); /* from the centre: the far side at t = r */
-    assert_true(prim_sphere_hit(&big, &r, &t));
+    assert_true(sphere_hit(&big, &r, &t));
     assert_float_equal(t, 2, 1e-6);
     Prim p = {PRIM_SPHERE, 0, {.sphere = {{0, 0, 0}, 2}}};
     PrimHit h;
     Surface sf;
-    assert_true(prim_intersect(&p, &r, &h));
-    prim_surface(&p, &r, &h, &sf);
+    assert_true(prim_intersect(&p, &r, V, &h));
+    prim_surface(&p, &r, &h, V, &sf);
     assert_vec(sf.p, 0, 0, -2, 1e-6);
     assert_vec(sf.ng, 0, 0, 1, 1e-6); /* flipped to face the ray: inward */
 }
@@ -68,27 +147,27 @@ static void test_plane(void **state)
     Plane pl = {{0, 1, 0}, 2}; /* y = 2 */
     float t = -1;
     Ray r = ray(0, 0, 0, 0, 1, 0);
-    assert_true(prim_plane_hit(&pl, &r, &t));
+    assert_true(plane_hit(&pl, &r, &t));
     assert_float_equal(t, 2, 0);
     r = ray(0, 0, 0, 0, -1, 0); /* plane behind */
-    assert_false(prim_plane_hit(&pl, &r, &t));
+    assert_false(plane_hit(&pl, &r, &t));
     r = ray(0, 0, 0, 1, 0, 0); /* parallel, below */
-    assert_false(prim_plane_hit(&pl, &r, &t));
+    assert_false(plane_hit(&pl, &r, &t));
     r = ray(0, 2, 0, 1, 0, 0); /* parallel, in the plane */
-    assert_false(prim_plane_hit(&pl, &r, &t));
+    assert_false(plane_hit(&pl, &r, &t));
     r = ray(3, 6, 0, -3, -4, 0); /* oblique from above: distance 5 */
-    assert_true(prim_plane_hit(&pl, &r, &t));
+    assert_true(plane_hit(&pl, &r, &t));
     assert_float_equal(t, 5, 1e-6);
     Prim p = {PRIM_PLANE, 0, {.plane = pl}};
     PrimHit h;
     Surface sf;
-    assert_true(prim_intersect(&p, &r, &h));
-    prim_surface(&p, &r, &h, &sf);
+    assert_true(prim_intersect(&p, &r, V, &h));
+    prim_surface(&p, &r, &h, V, &sf);
     assert_vec(sf.p, 0, 2, 0, 1e-6);
     assert_vec(sf.ng, 0, 1, 0, 0);
     r = ray(0, 0, 0, 0, 1, 0); /* from below: the normal faces down */
-    assert_true(prim_intersect(&p, &r, &h));
-    prim_surface(&p, &r, &h, &sf);
+    assert_true(prim_intersect(&p, &r, V, &h));
+    prim_surface(&p, &r, &h, V, &sf);
     assert_vec(sf.ng, 0, -1, 0, 0);
 }
 
@@ -101,23 +180,23 @@ static void test_triangle(void **state)
     (void)state;
     float t = -1, u = -1, v = -1;
     Ray r = ray(0.25f, 0.5f, -2, 0, 0, 1);
-    assert_true(prim_triangle_hit(&tri, &r, &t, &u, &v));
+    assert_true(triangle_hit(&tri, &r, &t, &u, &v));
     assert_float_equal(t, 2, 0);
     assert_float_equal(u, 0.25f, 0);
     assert_float_equal(v, 0.5f, 0);
     r = ray(0.25f, 0.5f, 2, 0, 0, -1); /* back side: two-sided */
-    assert_true(prim_triangle_hit(&tri, &r, &t, &u, &v));
+    assert_true(triangle_hit(&tri, &r, &t, &u, &v));
     assert_float_equal(t, 2, 0);
     r = ray(0.75f, 0.75f, -2, 0, 0, 1); /* beyond the hypotenuse */
-    assert_false(prim_triangle_hit(&tri, &r, &t, &u, &v));
+    assert_false(triangle_hit(&tri, &r, &t, &u, &v));
     r = ray(-0.1f, 0.5f, -2, 0, 0, 1); /* left of edge a-c */
-    assert_false(prim_triangle_hit(&tri, &r, &t, &u, &v));
+    assert_false(triangle_hit(&tri, &r, &t, &u, &v));
     r = ray(0.25f, 0.25f, 2, 0, 0, 1); /* triangle behind */
-    assert_false(prim_triangle_hit(&tri, &r, &t, &u, &v));
+    assert_false(triangle_hit(&tri, &r, &t, &u, &v));
     r = ray(-1, 0.25f, 0, 1, 0, 0); /* parallel, in its plane */
-    assert_false(prim_triangle_hit(&tri, &r, &t, &u, &v));
+    assert_false(triangle_hit(&tri, &r, &t, &u, &v));
     r = ray(0.5f, 0.5f, -1, 0, 0, 1); /* exactly on the hypotenuse: u + v = 1 */
-    assert_true(prim_triangle_hit(&tri, &r, &t, &u, &v));
+    assert_true(triangle_hit(&tri, &r, &t, &u, &v));
     assert_float_equal(u + v, 1, 0);
 }
 
@@ -131,14 +210,14 @@ static void test_smooth_triangle_normal(void **state)
     Ray r = ray(0, 0, -1, 0, 0, 1); /* hits vertex a */
     PrimHit h;
     Surface sf;
-    assert_true(prim_intersect(&p, &r, &h));
-    prim_surface(&p, &r, &h, &sf);
+    assert_true(prim_intersect(&p, &r, V, &h));
+    prim_surface(&p, &r, &h, V, &sf);
     /* at a the shading normal is na, flipped with ng to face the ray */
     assert_vec(sf.ns, 0, 0, -1, 1e-6);
     assert_vec(sf.ng, 0, 0, -1, 1e-6);
     r = ray(1, 0, 1, 0, 0, -1); /* vertex b, from the other side */
-    assert_true(prim_intersect(&p, &r, &h));
-    prim_surface(&p, &r, &h, &sf);
+    assert_true(prim_intersect(&p, &r, V, &h));
+    prim_surface(&p, &r, &h, V, &sf);
     assert_vec(sf.ns, 0.70710678f, 0, 0.70710678f, 1e-6);
     assert_vec(sf.ng, 0, 0, 1, 1e-6);
 }
@@ -154,8 +233,8 @@ static void test_smooth_normal_flips_on_its_own(void **state)
     Ray r = ray(-1.75f, 0.25f, 0.5f, 4, 0, -1); /* meets (0.25, 0.25, 0); d.ng < 0 but d.ns > 0 */
     PrimHit h;
     Surface sf;
-    assert_true(prim_intersect(&p, &r, &h));
-    prim_surface(&p, &r, &h, &sf);
+    assert_true(prim_intersect(&p, &r, V, &h));
+    prim_surface(&p, &r, &h, V, &sf);
     assert_vec(sf.ng, 0, 0, 1, 1e-6);
     Vec3 n = vec_normalize(vec3(-1, 0, -0.2f));
     assert_vec(sf.ns, n.x, n.y, n.z, 1e-6);
@@ -178,6 +257,115 @@ static void test_inside(void **state)
     assert_false(prim_inside(&pl, vec3(0, -5, 0))); /* planes are surfaces only */
 }
 
+static void test_spawn_origin(void **state)
+{
+    (void)state;
+    /* A plane hit far from the origin: the spawned origin lies strictly on
+     * the side the new ray leaves to, by at least a float's spacing. */
+    Prim p = {PRIM_PLANE, 0, {.plane = {{0, 1, 0}, 0}}};
+    Ray r = ray(1e5f, 3, 0, 1, -1, 0);
+    PrimHit h;
+    Surface sf;
+    assert_true(prim_intersect(&p, &r, V, &h));
+    prim_surface(&p, &r, &h, V, &sf);
+    Vec3 up = prim_spawn_origin(&sf, vec3(0, 1, 0));
+    Vec3 down = prim_spawn_origin(&sf, vec3(0, -1, 0));
+    assert_true(up.y > 0 && up.y < 1.0f);
+    assert_true(down.y < 0 && down.y > -1.0f);
+    /* A box face: p is exactly on the face, and one float out is enough. */
+    Prim b = {PRIM_BOX, 0, {.box = {{-1, -1, -1}, {1, 1, 1}}}};
+    r = ray(0.25f, 0.5f, -5, 0, 0, 1);
+    assert_true(prim_intersect(&b, &r, V, &h));
+    prim_surface(&b, &r, &h, V, &sf);
+    Vec3 out = prim_spawn_origin(&sf, vec3(0, 0, -1));
+    Vec3 in = prim_spawn_origin(&sf, vec3(0, 0, 1));
+    assert_true(out.z < -1.0f);
+    assert_true(in.z > -1.0f);
+    /* Small scenes get small offsets: at 1e-4 the offset stays below 1e-8. */
+    Prim s = {PRIM_SPHERE, 0, {.sphere = {{0, 0, 0}, 1e-4f}}};
+    r = ray(0, 0, -1e-3f, 0, 0, 1);
+    assert_true(prim_intersect(&s, &r, V, &h));
+    prim_surface(&s, &r, &h, V, &sf);
+    Vec3 o = prim_spawn_origin(&sf, vec3(0, 0, -1));
+    assert_true(o.z < -1e-4f && o.z > -1e-4f - 1e-8f);
+}
+
+static void test_robust_error_bounds(void **state)
+{
+    (void)state;
+    if (V != PRIM_ROBUST)
+        return; /* the classic routines claim no bound */
+    /* Exact answers: each robust t lies within its own terr, and terr is
+     * a few ulps, not a blanket margin. */
+    PrimHit h;
+    Sphere s = {{0, 0, 5}, 1};
+    Ray r = ray(0, 0, 0, 0, 0, 1);
+    assert_true(prim_sphere_hit_robust(&s, &r, &h));
+    assert_true(fabsf(h.t - 4) <= h.terr && h.terr < 4e-6f);
+    Plane pl = {{0, 1, 0}, 2};
+    r = ray(0, 0, 0, 0, 1, 0);
+    assert_true(prim_plane_hit_robust(&pl, &r, &h));
+    assert_true(fabsf(h.t - 2) <= h.terr && h.terr < 1e-6f);
+    r = ray(0.25f, 0.5f, -2, 0, 0, 1);
+    assert_true(prim_triangle_hit_watertight(&tri, &r, &h));
+    assert_true(fabsf(h.t - 2) <= h.terr && h.terr < 1e-6f);
+    Box b = {{-1, -1, -1}, {1, 1, 1}};
+    r = ray(0, 0, -5, 0, 0, 1);
+    assert_true(prim_box_hit_robust(&b, &r, &h));
+    assert_true(fabsf(h.t - 4) <= h.terr && h.terr < 4e-6f);
+    OBox o = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {{0, 0, 0}}};
+    assert_int_equal(prim_obox_init(&o), 0);
+    assert_true(prim_obox_hit_robust(&o, &r, &h));
+    assert_true(fabsf(h.t - 4) <= h.terr && h.terr < 4e-6f);
+}
+
+static void test_box_origin_on_slab_plane(void **state)
+{
+    (void)state;
+    /* An origin on the plane x = -1 moving parallel to it, with +0 and -0
+     * x direction: (lo - o) * (1/0) is 0 * inf = NaN. The ray runs along
+     * the closed box's face, which it touches: a hit at z = -1. */
+    Box b = {{-1, -1, -1}, {1, 1, 1}};
+    const float zeros[2] = {0.0f, -0.0f};
+    for (int i = 0; i < 2; i++) {
+        Ray r = ray_make(vec3(-1, 0, -5), vec3(zeros[i], 0, 1), INFINITY);
+        PrimHit h;
+        int hit = V == PRIM_ROBUST ? prim_box_hit_robust(&b, &r, &h) : prim_box_hit(&b, &r, &h);
+        if (V == PRIM_ROBUST) {
+            assert_true(hit);
+            assert_float_equal(h.t, 4, 0);
+        }
+        r.o.x = 1; /* on x = hi */
+        hit = V == PRIM_ROBUST ? prim_box_hit_robust(&b, &r, &h) : prim_box_hit(&b, &r, &h);
+        if (V == PRIM_ROBUST)
+            assert_true(hit);
+    }
+}
+
+static void test_watertight_shared_edge(void **state)
+{
+    (void)state;
+    /* A quad split along its diagonal; rays aimed at points of the
+     * diagonal from off-axis origins, whose directions round in float.
+     * The watertight test lets none of them through; Moller-Trumbore is
+     * only measured (the exact judge reports how often it leaks). */
+    Triangle t1 = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 0, 1}, {0, 0, 1}, {0, 0, 1}};
+    Triangle t2 = {{0, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, 1}, {0, 0, 1}};
+    int leaks = 0;
+    for (int k = 1; k < 1000; k++) {
+        float s = (float)k / 1000.0f;
+        Vec3 o = vec3(0.3f + 0.001f * (float)k, -0.7f, -1.3f);
+        Vec3 d = vec_sub(vec3(s, s, 0), o);
+        Ray r = ray_make(o, d, INFINITY);
+        PrimHit h;
+        int hit = V == PRIM_ROBUST ? prim_triangle_hit_watertight(&t1, &r, &h) || prim_triangle_hit_watertight(&t2, &r, &h)
+                                   : prim_triangle_hit(&t1, &r, &h) || prim_triangle_hit(&t2, &r, &h);
+        leaks += !hit;
+    }
+    if (V == PRIM_ROBUST)
+        assert_int_equal(leaks, 0);
+}
+
 /* ---- axis-aligned box ---- */
 
 static const Box cube = {{-1, -1, -1}, {1, 1, 1}};
@@ -188,32 +376,32 @@ static void test_box(void **state)
     float t = -1;
     int face = -1;
     Ray r = ray(0, 0, -5, 0, 0, 1);
-    assert_true(prim_box_hit(&cube, &r, &t, &face));
+    assert_true(box_hit(&cube, &r, &t, &face));
     assert_float_equal(t, 4, 0);
     assert_int_equal(face, 2);
     r = ray(0.5f, 0.5f, 5, 0, 0, -1); /* negative direction */
-    assert_true(prim_box_hit(&cube, &r, &t, &face));
+    assert_true(box_hit(&cube, &r, &t, &face));
     assert_float_equal(t, 4, 0);
     r = ray(0, 0, 0, 1, 0, 0); /* from inside: the far face */
-    assert_true(prim_box_hit(&cube, &r, &t, &face));
+    assert_true(box_hit(&cube, &r, &t, &face));
     assert_float_equal(t, 1, 0);
     assert_int_equal(face, 0);
     r = ray(0, 0, 5, 0, 0, 1); /* box behind */
-    assert_false(prim_box_hit(&cube, &r, &t, &face));
+    assert_false(box_hit(&cube, &r, &t, &face));
     r = ray(-5, 0.5f, 0, 1, 0, 0); /* parallel to four faces, inside their slabs */
-    assert_true(prim_box_hit(&cube, &r, &t, &face));
+    assert_true(box_hit(&cube, &r, &t, &face));
     assert_float_equal(t, 4, 0);
     assert_int_equal(face, 0);
     r = ray(-5, 2, 0, 1, 0, 0); /* parallel and outside the y slab */
-    assert_false(prim_box_hit(&cube, &r, &t, &face));
+    assert_false(box_hit(&cube, &r, &t, &face));
     r = ray(-5, 0, -5, 1, 0, 0.2f); /* passes beside */
-    assert_false(prim_box_hit(&cube, &r, &t, &face));
+    assert_false(box_hit(&cube, &r, &t, &face));
     r = ray(-3, 4, 0, 3, -4, 0); /* oblique onto the top face at (0, 1, 0) */
-    assert_true(prim_box_hit(&cube, &r, &t, &face));
+    assert_true(box_hit(&cube, &r, &t, &face));
     assert_float_equal(t, 3.75f, 1e-6);
     assert_int_equal(face, 1);
     r.tmax = 3.0f;
-    assert_false(prim_box_hit(&cube, &r, &t, &face));
+    assert_false(box_hit(&cube, &r, &t, &face));
 }
 
 /* ---- oriented box ---- */
@@ -243,37 +431,47 @@ static void test_obox(void **state)
     float t = -1;
     int face = -1;
     Ray r = ray(0.5f, 0, -5, 0, 0, 1); /* enters through the w face at z = -1.5 */
-    assert_true(prim_obox_hit(&b, &r, &t, &face));
+    assert_true(obox_hit(&b, &r, &t, &face));
     assert_float_equal(t, 3.5f, 1e-6);
     assert_int_equal(face, 2);
     Prim p = {PRIM_OBOX, 0, {.obox = b}};
     PrimHit h;
     Surface sf;
-    assert_true(prim_intersect(&p, &r, &h));
-    prim_surface(&p, &r, &h, &sf);
+    assert_true(prim_intersect(&p, &r, V, &h));
+    prim_surface(&p, &r, &h, V, &sf);
     assert_vec(sf.ng, 0.70710678f, 0, -0.70710678f, 1e-6);
     r = ray(0, 0, 0, 0, 0, 1); /* from the centre: the far corner at z = 2 */
-    assert_true(prim_obox_hit(&b, &r, &t, &face));
+    assert_true(obox_hit(&b, &r, &t, &face));
     assert_float_equal(t, 2, 1e-6);
     r = ray(0, 0, 5, 0, 0, 1); /* behind */
-    assert_false(prim_obox_hit(&b, &r, &t, &face));
+    assert_false(obox_hit(&b, &r, &t, &face));
     r = ray(-5, 0.5f, -5, 1, 0, 1); /* parallel to the u axis, inside the other slabs */
-    assert_true(prim_obox_hit(&b, &r, &t, &face));
+    assert_true(obox_hit(&b, &r, &t, &face));
     assert_float_equal(t, 5 * 1.41421356f - 1.41421356f, 1e-5);
     r = ray(-5, 2, -5, 1, 0, 1); /* parallel and above the v slab */
-    assert_false(prim_obox_hit(&b, &r, &t, &face));
+    assert_false(obox_hit(&b, &r, &t, &face));
     r = ray(3, 0, -5, 0, 0, 1); /* passes beside */
-    assert_false(prim_obox_hit(&b, &r, &t, &face));
+    assert_false(obox_hit(&b, &r, &t, &face));
 }
 
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_sphere),   cmocka_unit_test(test_sphere_tangent_and_inside),
-        cmocka_unit_test(test_plane),    cmocka_unit_test(test_triangle),
-        cmocka_unit_test(test_smooth_triangle_normal), cmocka_unit_test(test_box),
-        cmocka_unit_test(test_obox_init), cmocka_unit_test(test_obox),
-        cmocka_unit_test(test_smooth_normal_flips_on_its_own), cmocka_unit_test(test_inside),
+        cmocka_unit_test(test_sphere),
+        cmocka_unit_test(test_sphere_tangent_and_inside),
+        cmocka_unit_test(test_plane),
+        cmocka_unit_test(test_triangle),
+        cmocka_unit_test(test_smooth_triangle_normal),
+        cmocka_unit_test(test_box),
+        cmocka_unit_test(test_obox_init),
+        cmocka_unit_test(test_obox),
+        cmocka_unit_test(test_smooth_normal_flips_on_its_own),
+        cmocka_unit_test(test_inside),
+        cmocka_unit_test(test_spawn_origin),
+        cmocka_unit_test(test_robust_error_bounds),
+        cmocka_unit_test(test_box_origin_on_slab_plane),
+        cmocka_unit_test(test_watertight_shared_edge),
     };
-    return cmocka_run_group_tests(tests, NULL, NULL);
+    int failed = cmocka_run_group_tests_name("classic", tests, setup_classic, NULL);
+    return failed + cmocka_run_group_tests_name("robust", tests, setup_robust, NULL);
 }

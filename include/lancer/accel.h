@@ -20,9 +20,11 @@
 typedef struct {
     const Prim *prims;
     int nprims;
+    PrimVariant variant; /* which intersection routines answer */
 } Accel;
 
-/* Returns 0, or -1 when memory runs out. */
+/* Uses the scene's intersection variant (robust unless it asks for classic).
+ * Returns 0, or -1 when memory runs out. */
 int accel_build(Accel *a, const Scene *s);
 void accel_free(Accel *a);
 

@@ -1,20 +1,36 @@
 /*
- * prim.h - the geometric primitives and their ray intersection routines.
+ * prim.h - the geometric primitives and their ray intersection routines, in
+ * two variants side by side: the classic formulations as their papers give
+ * them, and robust ones.
  *
- *     float t;
- *     if (prim_sphere_hit(&sphere, &ray, &t)) ... hit at ray_at(&ray, t) ...
+ *     PrimHit h;
+ *     if (prim_sphere_hit_robust(&sphere, &ray, &h)) ... hit at h.t, within h.terr ...
  *
  *     Prim p;  ... filled by the scene parser ...
- *     PrimHit h;
- *     if (prim_intersect(&p, &ray, &h)) prim_surface(&p, &ray, &h, &surf);
+ *     if (prim_intersect(&p, &ray, PRIM_ROBUST, &h)) {
+ *         prim_surface(&p, &ray, &h, PRIM_ROBUST, &surf);
+ *         Ray next = ray_make(prim_spawn_origin(&surf, dir), dir, INFINITY);
+ *     }
  *
- * Each *_hit routine returns 1 and the nearest t with 0 < t < ray->tmax, or 0
- * when there is none. Surfaces are two-sided: a ray starting inside a sphere
- * or box hits its far side. These are the classic formulations, written as
- * the cited papers give them; robust variants will sit beside them with the
- * same interface. Geometric normals are computed only for the closest hit,
- * by prim_surface, so the hit routines return the little they need (t, and
- * the barycentrics or face of the hit).
+ * The contract of every *_hit routine: return 1 and the nearest hit with
+ * 0 < t < ray->tmax, or 0 when there is none. Surfaces are two-sided: a ray
+ * starting inside a sphere or box hits its far side. Geometric normals are
+ * computed only for the closest hit, by prim_surface.
+ *
+ * The robust routines also promise, about the exact answer for exactly the
+ * float inputs they were given (the ray's and primitive's float values taken
+ * as exact rationals):
+ *
+ * - t error: |t - t_exact| <= h->terr for every hit reported.
+ * - Verdicts: hit or miss agrees with the exact answer except inside each
+ *   routine's error band, stated beside it below. Every band includes
+ *   "t_exact within terr of 0 or of tmax".
+ * - Spawning: prim_surface bounds the hit point's error (Surface.perr), and
+ *   prim_spawn_origin moves off the surface by more than that bound, so a
+ *   spawned ray starts strictly on the side it leaves towards.
+ *
+ * The classic routines report terr = 0: they claim no bound. The exact judge
+ * in tests/exact measures both variants against CGAL.
  */
 #ifndef LANCER_PRIM_H
 #define LANCER_PRIM_H
@@ -71,9 +87,11 @@ typedef struct {
     } g;
 } Prim;
 
-/* What a hit routine learns: the distance, and where on the primitive. */
+/* What a hit routine learns: the distance and its error bound, and where on
+ * the primitive. */
 typedef struct {
     float t;
+    float terr; /* robust: |t - t_exact| <= terr; classic: 0 */
     float u, v; /* triangle barycentrics of b and c */
     int face;   /* box: the axis (0-2) of the slab whose plane was hit */
 } PrimHit;
@@ -81,36 +99,79 @@ typedef struct {
 /* Shading information at the closest hit. ng is the unit geometric normal
  * and ns the unit shading normal, each flipped on its own to face the
  * incoming ray (as POV-Ray does: an interpolated normal that faces away is
- * turned round even where the geometric normal faces the ray). */
+ * turned round even where the geometric normal faces the ray). perr bounds,
+ * per coordinate, how far p may lie from the surface. */
 typedef struct {
     Vec3 p, ng, ns;
+    Vec3 perr;
 } Surface;
 
+typedef enum { PRIM_ROBUST, PRIM_CLASSIC } PrimVariant;
+
+/* ---- classic ---- */
+
 /* Plane: t = ((a - o).n) / (d.n), a any point of the plane. */
-int prim_plane_hit(const Plane *pl, const Ray *r, float *t);
+int prim_plane_hit(const Plane *pl, const Ray *r, PrimHit *h);
 /* Sphere: the textbook quadratic (d.d)t^2 + 2d.(o-c)t + (o-c).(o-c) - R^2 = 0. */
-int prim_sphere_hit(const Sphere *s, const Ray *r, float *t);
+int prim_sphere_hit(const Sphere *s, const Ray *r, PrimHit *h);
 /* Triangle: Moller and Trumbore, "Fast, Minimum Storage Ray-Triangle
  * Intersection", JGT 1997, without back-face culling. */
-int prim_triangle_hit(const Triangle *tr, const Ray *r, float *t, float *u, float *v);
+int prim_triangle_hit(const Triangle *tr, const Ray *r, PrimHit *h);
 /* Axis-aligned box: Williams, Barrus, Morley, Shirley, "An Efficient and
  * Robust Ray-Box Intersection Algorithm", JGT 2005. */
-int prim_box_hit(const Box *b, const Ray *r, float *t, int *face);
+int prim_box_hit(const Box *b, const Ray *r, PrimHit *h);
 /* Oriented box: three pairs of slab planes; a hit when max(t_near) < min(t_far). */
-int prim_obox_hit(const OBox *b, const Ray *r, float *t, int *face);
+int prim_obox_hit(const OBox *b, const Ray *r, PrimHit *h);
+
+/* ---- robust ---- */
+
+/* Plane, evaluated in double with a forward error bound. Band: rays whose
+ * n.d is within its rounding bound of 0 (parallel to working precision) are
+ * misses. */
+int prim_plane_hit_robust(const Plane *pl, const Ray *r, PrimHit *h);
+/* Sphere: the numerically stable quadratic of Haines, Guenther and
+ * Akenine-Moller, "Precision Improvements for Ray/Sphere Intersection", Ray
+ * Tracing Gems ch. 7 (2019), in double; each root is then certified by the
+ * sign of the exact quadratic on both sides of it. Band: near-tangent rays
+ * whose discriminant is within its rounding bound of 0. */
+int prim_sphere_hit_robust(const Sphere *s, const Ray *r, PrimHit *h);
+/* Triangle: Woop, Benthin and Wald, "Watertight Ray/Triangle Intersection",
+ * JCGT 2(1), 2013: edges shared by two triangles give exactly opposite edge
+ * functions, so no ray slips between them; t comes from the plane equation
+ * in double. Band: rays through an edge or vertex may be reported by only
+ * one of the triangles sharing it. */
+int prim_triangle_hit_watertight(const Triangle *tr, const Ray *r, PrimHit *h);
+/* Axis-aligned box: the slab test of Williams et al. made conservative
+ * after Ize, "Robust BVH Ray Traversal", JCGT 2(2), 2013: the far distance
+ * grows by 1 + 2 gamma(3), so no hit is lost; an origin on a slab plane with
+ * a zero direction component cannot make NaN decide the verdict. Band: rays
+ * missing the box by a relative 2 gamma(3) in t may be reported as hits. */
+int prim_box_hit_robust(const Box *b, const Ray *r, PrimHit *h);
+/* Oriented box: the six face planes in world space, in double, each slab
+ * widened by its rounding bound. Band: as for the box, relative 1e-12. */
+int prim_obox_hit_robust(const OBox *b, const Ray *r, PrimHit *h);
 
 /* Computes b->inv from u, v, w. Returns 0, or -1 when the axes are linearly
  * dependent (the box would be flat). */
 int prim_obox_init(OBox *b);
 
-/* Dispatches to the routine for p->kind. */
-int prim_intersect(const Prim *p, const Ray *r, PrimHit *h);
+/* Dispatches to the routine for p->kind in the given variant. */
+int prim_intersect(const Prim *p, const Ray *r, PrimVariant v, PrimHit *h);
 
 /* 1 when q lies strictly inside a solid primitive (sphere, box, oriented
  * box). Planes and triangles are surfaces: nothing is inside them. */
 int prim_inside(const Prim *p, Vec3 q);
 
-/* Fills the hit point and normals for a hit found by prim_intersect. */
-void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, Surface *s);
+/* Fills the hit point, normals and error bound for a hit found by
+ * prim_intersect with the same variant. The classic variant's bound is a
+ * heuristic (16 ulps of the larger of |p| and |ray origin|); the robust
+ * one's is proven. */
+void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, Surface *s);
+
+/* The origin for a ray leaving surface point s->p in direction dir: p moved
+ * along the geometric normal, to dir's side, by more than s->perr projected
+ * on it, then one float further (pbrt-v4's OffsetRayOrigin). No fixed
+ * epsilon: the offset is the error bound of this very hit. */
+Vec3 prim_spawn_origin(const Surface *s, Vec3 dir);
 
 #endif

@@ -63,6 +63,7 @@ typedef struct {
     int width, height;
     int max_depth; /* POV-Ray's max_trace_level: the camera ray is level 1 */
     int spp;       /* spp x spp regular samples per pixel, box-filtered */
+    int classic;   /* use the classic intersection routines, not the robust ones */
     Vec3 background;
     CameraSpec camera;
     Material *materials;

@@ -45,12 +45,6 @@ void shade_interiors_at(const Scene *s, Vec3 p, Interiors *in);
 /* The colour seen along camera ray r, which starts inside `in`. */
 Vec3 shade_trace(const Scene *s, const Accel *a, const Ray *r, const Interiors *in, RayStats *st);
 
-/* The origin for a ray leaving surface point p (unit geometric normal ng) in
- * direction dir: p pushed off the surface, to dir's side, by a bound on the
- * rounding error of p that grows with the magnitude of p and of the incoming
- * ray's origin o. No fixed epsilon: the offset scales with the scene. */
-Vec3 shade_spawn_origin(Vec3 p, Vec3 ng, Vec3 dir, Vec3 o);
-
 /* POV-Ray's area-light weights along one axis of n samples (n <= 64): the
  * leaves of its recursive halving of the grid, which is a plain mean only
  * when n is a power of two. Writes n weights summing to 1. */
