@@ -506,32 +506,58 @@ int prim_intersect(const Prim *p, const Ray *r, PrimVariant v, PrimHit *h)
     return 0;
 }
 
-static Vec3 vec_abs(Vec3 a) { return vec3(fabsf(a.x), fabsf(a.y), fabsf(a.z)); }
-
-/* The error of p = o + t d when |t - exact| <= terr: terr |d| for t, and
- * the product and the sum rounding. */
-static Vec3 ray_point_err(const Ray *r, float t, float terr)
+/* p = o + t d, evaluated in double and rounded once, and its error: terr
+ * |d| for t, the double evaluation, and the final rounding to float. */
+static Vec3 ray_point(const Ray *r, float t, float terr, Vec3 *err)
 {
-    Vec3 td = vec_abs(vec_scale(r->d, t));
-    return vec_add(vec_scale(vec_abs(r->d), terr), vec_scale(vec_add(vec_abs(r->o), td), gamma_f(2)));
+    float p[3], e[3];
+    for (int i = 0; i < 3; i++) {
+        double o = comp(r->o, i), d = comp(r->d, i);
+        double x = o + (double)t * d;
+        p[i] = (float)x;
+        e[i] = float_up((double)terr * fabs(d) + gamma_d(2) * (fabs(o) + fabs(t * d)) + UNIT_F * fabs(x));
+    }
+    *err = vec3(e[0], e[1], e[2]);
+    return vec3(p[0], p[1], p[2]);
 }
 
 void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, Surface *s)
 {
     int robust = v == PRIM_ROBUST;
     Vec3 ng = vec3(0.0f, 0.0f, 0.0f), ns;
-    s->p = ray_at(r, h->t);
-    s->perr = ray_point_err(r, h->t, h->terr);
+    if (robust)
+        s->p = ray_point(r, h->t, h->terr, &s->perr);
+    else
+        s->p = ray_at(r, h->t); /* perr: a heuristic, below */
     switch (p->kind) {
     case PRIM_SPHERE: {
         /* The point is projected back onto the sphere (as pbrt does): the
          * textbook quadratic leaves grazing hits ~1e-5 off the surface at a
-         * distance of 10, and even a certified t leaves terr |d|. After
-         * projection only a few roundings separate p from the surface. */
-        ng = vec_sub(s->p, p->g.sphere.c);
-        Vec3 q = vec_scale(ng, p->g.sphere.r / vec_length(ng));
-        s->p = vec_add(p->g.sphere.c, q);
-        s->perr = vec_add(vec_scale(vec_abs(q), gamma_f(7)), vec_scale(vec_abs(s->p), gamma_f(2)));
+         * distance of 10, and even a certified t leaves terr |d|. The robust
+         * variant takes the normal from o - c + t d in double, which does
+         * not depend on where the sphere sits, so a translated scene shades
+         * exactly like the original. */
+        const Sphere *sp = &p->g.sphere;
+        if (robust) {
+            double q[3], len = 0.0;
+            for (int i = 0; i < 3; i++) {
+                q[i] = ((double)comp(r->o, i) - comp(sp->c, i)) + (double)h->t * comp(r->d, i);
+                len += q[i] * q[i];
+            }
+            len = sqrt(len);
+            float pp[3] = {0, 0, 0}, e[3] = {0, 0, 0};
+            for (int i = 0; i < 3; i++) {
+                double x = comp(sp->c, i) + sp->r * (q[i] / len);
+                pp[i] = (float)x;
+                e[i] = float_up(gamma_d(8) * (fabs(comp(sp->c, i)) + sp->r) + UNIT_F * fabs(x));
+            }
+            ng = vec3((float)(q[0] / len), (float)(q[1] / len), (float)(q[2] / len));
+            s->p = vec3(pp[0], pp[1], pp[2]);
+            s->perr = vec3(e[0], e[1], e[2]);
+        } else {
+            ng = vec_sub(s->p, sp->c);
+            s->p = vec_madd(sp->c, ng, sp->r / vec_length(ng));
+        }
         break;
     }
     case PRIM_PLANE:
@@ -541,12 +567,6 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
     case PRIM_SMOOTH_TRIANGLE: {
         const Triangle *t = &p->g.tri;
         ng = vec_cross(vec_sub(t->b, t->a), vec_sub(t->c, t->a));
-        if (robust) { /* pbrt: from the barycentrics, on the plane to gamma(7) */
-            float b0 = 1.0f - h->u - h->v;
-            Vec3 pa = vec_scale(t->a, b0), pb = vec_scale(t->b, h->u), pc = vec_scale(t->c, h->v);
-            s->p = vec_add(vec_add(pa, pb), pc);
-            s->perr = vec_scale(vec_add(vec_add(vec_abs(pa), vec_abs(pb)), vec_abs(pc)), gamma_f(7));
-        }
         break;
     }
     case PRIM_BOX: {

@@ -750,6 +750,53 @@ static int parse_statement(Parser *P)
     return fail(P, kw.loc, "unknown keyword %s", tok_desc(&kw, buf, sizeof buf)); /* not reached */
 }
 
+static Vec3 move(Vec3 p, float scale, Vec3 offset) { return vec_add(vec_scale(p, scale), offset); }
+
+int scene_transform(Scene *s, float scale, Vec3 offset)
+{
+    CameraSpec *c = &s->camera;
+    c->eye = move(c->eye, scale, offset);
+    c->target = move(c->target, scale, offset);
+    for (int i = 0; i < s->nlights; i++) {
+        Light *l = &s->lights[i];
+        l->pos = move(l->pos, scale, offset);
+        l->area_u = vec_scale(l->area_u, scale);
+        l->area_v = vec_scale(l->area_v, scale);
+        l->fade_distance *= scale;
+    }
+    for (int i = 0; i < s->nprims; i++) {
+        Prim *p = &s->prims[i];
+        switch (p->kind) {
+        case PRIM_SPHERE:
+            p->g.sphere.c = move(p->g.sphere.c, scale, offset);
+            p->g.sphere.r *= scale;
+            break;
+        case PRIM_PLANE: /* n.p = d becomes n.p' = d*scale + n.offset */
+            p->g.plane.d = p->g.plane.d * scale + vec_dot(p->g.plane.n, offset);
+            break;
+        case PRIM_TRIANGLE:
+        case PRIM_SMOOTH_TRIANGLE:
+            p->g.tri.a = move(p->g.tri.a, scale, offset);
+            p->g.tri.b = move(p->g.tri.b, scale, offset);
+            p->g.tri.c = move(p->g.tri.c, scale, offset);
+            break;
+        case PRIM_BOX:
+            p->g.box.lo = move(p->g.box.lo, scale, offset);
+            p->g.box.hi = move(p->g.box.hi, scale, offset);
+            break;
+        case PRIM_OBOX:
+            p->g.obox.c = move(p->g.obox.c, scale, offset);
+            p->g.obox.u = vec_scale(p->g.obox.u, scale);
+            p->g.obox.v = vec_scale(p->g.obox.v, scale);
+            p->g.obox.w = vec_scale(p->g.obox.w, scale);
+            if (prim_obox_init(&p->g.obox) != 0)
+                return -1;
+            break;
+        }
+    }
+    return 0;
+}
+
 void scene_free(Scene *s)
 {
     free(s->materials);

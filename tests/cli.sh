@@ -135,5 +135,16 @@ if grep -Eq "^max=(0|[0-9.]+e-0[6-9]) " "$T/out"; then ok; else bad "spp 3 diffe
 expect 1 "$LANCER" diff "$T/aa.exr" "$T/big.exr" --downsample 7
 has "$T/err" "cannot be averaged in 7x7 blocks"
 
+# --classic, --scale and --translate, and the scene's intersect setting
+expect 0 "$LANCER" render "$T/tiny.scn" -o "$T/c.exr" --classic --stats "$T/c.json" -q
+has "$T/c.json" '"intersect": "classic"'
+expect 0 "$LANCER" render "$T/tiny.scn" -o "$T/s.exr" --scale 1e-3 --translate 5,6,7 -q
+expect 2 "$LANCER" render "$T/tiny.scn" --translate 1,2
+has "$T/err" "--translate needs X,Y,Z"
+expect 2 "$LANCER" render "$T/tiny.scn" --scale 0
+sed 's/^image { /image { intersect classic /' "$T/tiny.scn" >"$T/classic.scn"
+expect 0 "$LANCER" render "$T/classic.scn" -o "$T/c2.exr" --stats "$T/c2.json" -q
+has "$T/c2.json" '"intersect": "classic"'
+
 echo "cli: $pass passed, $fail failed"
 [ "$fail" -eq 0 ]

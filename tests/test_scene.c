@@ -770,6 +770,36 @@ static void test_crlf_and_tabs(void **state)
     scene_free(&s);
 }
 
+static void test_transform(void **state)
+{
+    (void)state;
+    Scene s;
+    parse_ok("camera { eye 0 1 -5 target 0 0 0 fov 40 }\n"
+             "light { position 1 2 3 fade_distance 2 fade_power 1 area_u 1 0 0 area_v 0 0 2 area_samples 2 2 }\n"
+             "material m { }\n"
+             "sphere { center 1 2 3 radius 0.5 material m }\n"
+             "plane { normal 0 1 0 offset 1 material m }\n"
+             "box { min 0 0 0 max 1 1 1 material m }\n"
+             "obox { center 0 0 0 u 1 0 0 v 0 1 0 w 0 0 1 material m }\n"
+             "triangle { a 0 0 0 b 1 0 0 c 0 1 0 material m }\n",
+             &s);
+    /* p -> 2p + (10, 20, 30) */
+    assert_int_equal(scene_transform(&s, 2, vec3(10, 20, 30)), 0);
+    assert_vec_eq(s.camera.eye, 10, 22, 20, 0);
+    assert_vec_eq(s.camera.target, 10, 20, 30, 0);
+    assert_vec_eq(s.lights[0].pos, 12, 24, 36, 0);
+    assert_vec_eq(s.lights[0].area_v, 0, 0, 4, 0);
+    assert_float_equal(s.lights[0].fade_distance, 4, 0);
+    assert_vec_eq(s.prims[0].g.sphere.c, 12, 24, 36, 0);
+    assert_float_equal(s.prims[0].g.sphere.r, 1, 0);
+    assert_float_equal(s.prims[1].g.plane.d, 22, 0); /* y = 1 moves to y = 22 */
+    assert_vec_eq(s.prims[2].g.box.hi, 12, 22, 32, 0);
+    assert_vec_eq(s.prims[3].g.obox.u, 2, 0, 0, 0);
+    assert_float_equal(s.prims[3].g.obox.inv[0].x, 0.5f, 0); /* the inverse follows */
+    assert_vec_eq(s.prims[4].g.tri.b, 12, 20, 30, 0);
+    scene_free(&s);
+}
+
 static void test_utf8_bom(void **state)
 {
     (void)state;
@@ -959,6 +989,7 @@ int main(void)
         cmocka_unit_test(test_comments),
         cmocka_unit_test(test_crlf_and_tabs),
         cmocka_unit_test(test_utf8_bom),
+        cmocka_unit_test(test_transform),
         cmocka_unit_test(test_number_forms),
         cmocka_unit_test(test_names),
         cmocka_unit_test(test_many_objects),

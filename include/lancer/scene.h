@@ -82,6 +82,13 @@ int scene_load(const char *path, Scene *s, char *err, size_t errlen);
 /* Parses scene text held in memory; `name` stands for the file in messages. */
 int scene_parse(const char *name, const char *text, size_t len, Scene *s, char *err, size_t errlen);
 
+/* Moves the whole scene, camera and lights included, by p -> p*scale +
+ * offset (scale > 0). Shading does not change: fade distances scale too,
+ * and every angle stays. Used to check that pictures do not depend on where
+ * a scene sits in floating point. Returns 0, or -1 when an oriented box
+ * degenerates in float at the new scale. */
+int scene_transform(Scene *s, float scale, Vec3 offset);
+
 void scene_free(Scene *s);
 
 #endif
