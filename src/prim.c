@@ -20,11 +20,15 @@
 static double gamma_d(int n) { return n * UNIT_D / (1.0 - n * UNIT_D); }
 static float gamma_f(int n) { return (float)(n * UNIT_F / (1.0 - n * UNIT_F)); }
 
-/* The smallest float >= x. */
+/* A float >= x, for x >= 0: x rounded, and one ulp more when that rounded
+ * down (f * (1 + 2^-23) is at least the next float for a normal f, and
+ * avoids a call to nextafterf on this hot path). */
 static float float_up(double x)
 {
     float f = (float)x;
-    return (double)f < x ? nextafterf(f, INFINITY) : f;
+    if ((double)f >= x)
+        return f;
+    return f >= FLT_MIN ? f * (1.0f + FLT_EPSILON) : nextafterf(f, INFINITY);
 }
 
 /* t as a float, and a float bound covering both err (a bound on |t - exact|)
