@@ -1,47 +1,68 @@
 /*
- * accel.c - brute-force visibility: every ray tests every primitive.
+ * accel.c - visibility queries: a BVH over the bounded primitives, and a
+ * plain loop over the unbounded ones (planes).
  */
 #include "lancer/accel.h"
 
-int accel_build(Accel *a, const Scene *s)
+#include <stdlib.h>
+
+int accel_build(Accel *a, const Scene *s, int threads)
 {
     a->prims = s->prims;
     a->nprims = s->nprims;
     a->variant = s->classic ? PRIM_CLASSIC : PRIM_ROBUST;
+    a->nunbounded = 0;
+    a->unbounded = malloc(sizeof(int) * (size_t)(s->nprims > 0 ? s->nprims : 1));
+    if (!a->unbounded)
+        return -1;
+    float lo[3], hi[3];
+    for (int i = 0; i < s->nprims; i++)
+        if (!bvh_prim_bounds(&s->prims[i], lo, hi))
+            a->unbounded[a->nunbounded++] = i;
+    if (bvh_build(&a->bvh, s->prims, s->nprims, a->variant, threads) != 0) {
+        free(a->unbounded);
+        a->unbounded = NULL;
+        return -1;
+    }
     return 0;
 }
 
 void accel_free(Accel *a)
 {
+    bvh_free(&a->bvh);
+    free(a->unbounded);
+    a->unbounded = NULL;
     a->prims = NULL;
-    a->nprims = 0;
+    a->nprims = a->nunbounded = 0;
 }
 
 int accel_closest(const Accel *a, const Ray *r, PrimHit *h, RayStats *st)
 {
-    Ray q = *r; /* tmax shrinks to the nearest hit so far */
-    int best = -1;
+    Ray q = *r; /* tmax: one float past the nearest hit so far, to see ties */
+    int best = bvh_closest(&a->bvh, r, h, &st->isect_tests);
+    if (best >= 0)
+        q.tmax = nextafterf(h->t, INFINITY);
     PrimHit cur;
-    for (int i = 0; i < a->nprims; i++) {
-        if (prim_intersect(&a->prims[i], &q, a->variant, &cur)) {
+    for (int k = 0; k < a->nunbounded; k++) {
+        int i = a->unbounded[k];
+        /* of hits at the same t the lowest scene index wins, as in the BVH */
+        if (prim_intersect(&a->prims[i], &q, a->variant, &cur) && (best < 0 || cur.t < h->t || i < best)) {
             best = i;
             *h = cur;
-            q.tmax = cur.t;
+            q.tmax = nextafterf(cur.t, INFINITY);
         }
     }
-    st->isect_tests += (unsigned long long)a->nprims;
+    st->isect_tests += (unsigned long long)a->nunbounded;
     return best;
 }
 
 int accel_occluded(const Accel *a, const Ray *r, RayStats *st)
 {
     PrimHit cur;
-    for (int i = 0; i < a->nprims; i++) {
-        if (prim_intersect(&a->prims[i], r, a->variant, &cur)) {
-            st->isect_tests += (unsigned long long)i + 1;
+    for (int k = 0; k < a->nunbounded; k++) {
+        st->isect_tests++;
+        if (prim_intersect(&a->prims[a->unbounded[k]], r, a->variant, &cur))
             return 1;
-        }
     }
-    st->isect_tests += (unsigned long long)a->nprims;
-    return 0;
+    return bvh_occluded(&a->bvh, r, &st->isect_tests);
 }

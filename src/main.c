@@ -398,7 +398,7 @@ static int cmd_render(int argc, char **argv)
         return 1;
     }
     t0 = now();
-    if (accel_build(&acc, &s) != 0) {
+    if (accel_build(&acc, &s, a.threads) != 0) {
         fprintf(stderr, "lancer: out of memory building the acceleration structure\n");
         image_free(&img);
         scene_free(&s);

@@ -8,24 +8,29 @@
  *     int blocked = accel_occluded(&a, &shadow_ray, &stats);
  *     accel_free(&a);
  *
- * This is the interface the BVH will implement; today it is a plain loop
- * over the primitives. The Accel borrows the scene's arrays, which must
- * outlive it.
+ * Bounded primitives go into a BVH (bvh.h); unbounded ones (planes) are
+ * tested one by one beside it. The Accel borrows the scene's arrays, which
+ * must outlive it.
  */
 #ifndef LANCER_ACCEL_H
 #define LANCER_ACCEL_H
 
+#include "lancer/bvh.h"
 #include "lancer/scene.h"
 
 typedef struct {
-    const Prim *prims;
+    const Prim *prims; /* the scene's, indexed by the answers */
     int nprims;
     PrimVariant variant; /* which intersection routines answer */
+    Bvh bvh;
+    int *unbounded; /* scene indices of the planes */
+    int nunbounded;
 } Accel;
 
-/* Uses the scene's intersection variant (robust unless it asks for classic).
- * Returns 0, or -1 when memory runs out. */
-int accel_build(Accel *a, const Scene *s);
+/* Uses the scene's intersection variant (robust unless it asks for classic),
+ * building on up to `threads` threads. Returns 0, or -1 when memory runs
+ * out. */
+int accel_build(Accel *a, const Scene *s, int threads);
 void accel_free(Accel *a);
 
 /* The primitive with the nearest hit in (0, r->tmax) and its PrimHit, or -1. */
