@@ -315,72 +315,61 @@ int prim_sphere_hit_robust(const Sphere *s, const Ray *r, PrimHit *h)
     return 1;
 }
 
+static float max3(float a, float b, float c) { return fmaxf(a, fmaxf(b, c)); }
+
 int prim_triangle_hit_watertight(const Triangle *tr, const Ray *r, PrimHit *h)
 {
-    /* Woop et al.: make the largest direction component z, keeping the
-     * winding, then shear so the ray runs along +z from the origin. */
+    /* Woop et al.: translate to the ray origin, make the largest direction
+     * component z (keeping the winding), and shear so the ray runs along
+     * +z. Written as in pbrt-v3/v4, whose error analysis bounds t below. */
     int kz = fabsf(r->d.x) > fabsf(r->d.y) ? (fabsf(r->d.x) > fabsf(r->d.z) ? 0 : 2)
                                            : (fabsf(r->d.y) > fabsf(r->d.z) ? 1 : 2);
-    int kx = (kz + 1) % 3, ky = (kx + 1) % 3;
-    if (comp(r->d, kz) < 0.0f) {
-        int tmp = kx;
-        kx = ky;
-        ky = tmp;
-    }
+    int kx = kz == 2 ? 0 : kz + 1, ky = kx == 2 ? 0 : kx + 1;
     float dz = comp(r->d, kz);
     if (dz == 0.0f)
         return 0; /* a zero direction */
-    float sx = comp(r->d, kx) / dz, sy = comp(r->d, ky) / dz;
+    float sx = -comp(r->d, kx) / dz, sy = -comp(r->d, ky) / dz, sz = 1.0f / dz;
     Vec3 A = vec_sub(tr->a, r->o), B = vec_sub(tr->b, r->o), C = vec_sub(tr->c, r->o);
-    float ax = comp(A, kx) - sx * comp(A, kz), ay = comp(A, ky) - sy * comp(A, kz);
-    float bx = comp(B, kx) - sx * comp(B, kz), by = comp(B, ky) - sy * comp(B, kz);
-    float cx = comp(C, kx) - sx * comp(C, kz), cy = comp(C, ky) - sy * comp(C, kz);
+    float az = comp(A, kz), bz = comp(B, kz), cz = comp(C, kz);
+    float ax = comp(A, kx) + sx * az, ay = comp(A, ky) + sy * az;
+    float bx = comp(B, kx) + sx * bz, by = comp(B, ky) + sy * bz;
+    float cx = comp(C, kx) + sx * cz, cy = comp(C, ky) + sy * cz;
     /* Edge functions: a shared edge gives exactly opposite values in its two
-     * triangles, which is what makes meshes watertight. */
-    double U = cx * by - cy * bx, V = ax * cy - ay * cx, W = bx * ay - by * ax;
-    if (U == 0.0 || V == 0.0 || W == 0.0) { /* on an edge in float: decide in double */
-        U = (double)cx * by - (double)cy * bx;
-        V = (double)ax * cy - (double)ay * cx;
-        W = (double)bx * ay - (double)by * ax;
+     * triangles (the same products, subtracted the other way round), which
+     * is what makes meshes watertight; -ffp-contract=off keeps it so. */
+    float e0 = bx * cy - by * cx, e1 = cx * ay - cy * ax, e2 = ax * by - ay * bx;
+    if (e0 == 0.0f || e1 == 0.0f || e2 == 0.0f) { /* on an edge in float: decide in double */
+        e0 = (float)((double)bx * cy - (double)by * cx);
+        e1 = (float)((double)cx * ay - (double)cy * ax);
+        e2 = (float)((double)ax * by - (double)ay * bx);
     }
-    if ((U < 0.0 || V < 0.0 || W < 0.0) && (U > 0.0 || V > 0.0 || W > 0.0))
+    if ((e0 < 0.0f || e1 < 0.0f || e2 < 0.0f) && (e0 > 0.0f || e1 > 0.0f || e2 > 0.0f))
         return 0;
-    double det = U + V + W;
-    if (det == 0.0)
+    float det = e0 + e1 + e2;
+    if (det == 0.0f)
         return 0;
-    /* t from the plane equation in double: n = (b - a) x (c - a), and
-     * t = ((a - o).n) / (d.n), each with its error bound. */
-    double e1[3], e2[3], n[3], en[3], ao[3], dd[3] = {r->d.x, r->d.y, r->d.z};
-    for (int i = 0; i < 3; i++) {
-        e1[i] = (double)comp(tr->b, i) - comp(tr->a, i);
-        e2[i] = (double)comp(tr->c, i) - comp(tr->a, i);
-        ao[i] = (double)comp(tr->a, i) - comp(r->o, i);
-    }
-    for (int i = 0; i < 3; i++) {
-        int j = (i + 1) % 3, k = (i + 2) % 3;
-        n[i] = e1[j] * e2[k] - e1[k] * e2[j];
-        en[i] = gamma_d(4) * (fabs(e1[j] * e2[k]) + fabs(e1[k] * e2[j]));
-    }
-    double num = 0.0, den = 0.0, e_num = 0.0, e_den = 0.0, m_num = 0.0, m_den = 0.0;
-    for (int i = 0; i < 3; i++) {
-        num += ao[i] * n[i];
-        den += dd[i] * n[i];
-        e_num += fabs(ao[i]) * en[i];
-        e_den += fabs(dd[i]) * en[i];
-        m_num += fabs(ao[i] * n[i]);
-        m_den += fabs(dd[i] * n[i]);
-    }
-    e_num += gamma_d(4) * m_num;
-    e_den += gamma_d(3) * m_den;
-    if (!(fabs(den) > e_den))
-        return 0; /* the ray lies in the triangle's plane to working precision */
-    double t = num / den;
-    float tf = round_t(t, quotient_err(num, den, e_num, e_den), &h->terr);
-    if (!(tf > 0.0f && tf < r->tmax))
+    az *= sz;
+    bz *= sz;
+    cz *= sz;
+    float tscaled = e0 * az + e1 * bz + e2 * cz;
+    if (det < 0.0f ? (tscaled >= 0.0f || tscaled < r->tmax * det) : (tscaled <= 0.0f || tscaled > r->tmax * det))
         return 0;
-    h->t = tf;
-    h->u = (float)(V / det);
-    h->v = (float)(W / det);
+    float inv = 1.0f / det, t = tscaled * inv;
+    /* pbrt's bound on the error of t, from the errors of the sheared
+     * coordinates (gamma(5) in x and y, gamma(3) in z) and of the edge
+     * functions. A t within it of 0 is rejected: the hit may be behind. */
+    float mz = max3(fabsf(az), fabsf(bz), fabsf(cz));
+    float mx = max3(fabsf(ax), fabsf(bx), fabsf(cx)), my = max3(fabsf(ay), fabsf(by), fabsf(cy));
+    float dxe = gamma_f(5) * (mx + mz), dye = gamma_f(5) * (my + mz), dze = gamma_f(3) * mz;
+    float de = 2.0f * (gamma_f(2) * mx * my + dye * mx + dxe * my);
+    float me = max3(fabsf(e0), fabsf(e1), fabsf(e2));
+    float terr = 3.0f * (gamma_f(3) * me * mz + de * mz + dze * me) * fabsf(inv);
+    if (!(t > terr) || !(t < r->tmax))
+        return 0;
+    h->t = t;
+    h->terr = float_up((double)terr + gamma_d(1) * t); /* and the rounding of t itself */
+    h->u = e1 * inv;
+    h->v = e2 * inv;
     return 1;
 }
 
@@ -571,6 +560,17 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
     case PRIM_SMOOTH_TRIANGLE: {
         const Triangle *t = &p->g.tri;
         ng = vec_cross(vec_sub(t->b, t->a), vec_sub(t->c, t->a));
+        if (robust) {
+            /* pbrt: from the barycentrics, which lie on the triangle's
+             * plane to within gamma(7) of the terms; o + t d would carry
+             * terr |d|, and pbrt's bound on t is loose. */
+            float b0 = 1.0f - h->u - h->v;
+            Vec3 pa = vec_scale(t->a, b0), pb = vec_scale(t->b, h->u), pc = vec_scale(t->c, h->v);
+            s->p = vec_add(vec_add(pa, pb), pc);
+            Vec3 m = vec_add(vec_add(vec3(fabsf(pa.x), fabsf(pa.y), fabsf(pa.z)), vec3(fabsf(pb.x), fabsf(pb.y), fabsf(pb.z))),
+                             vec3(fabsf(pc.x), fabsf(pc.y), fabsf(pc.z)));
+            s->perr = vec_scale(m, gamma_f(7));
+        }
         break;
     }
     case PRIM_BOX: {

@@ -1,0 +1,29 @@
+/*
+ * rayfile.h - ray files that other tracers can read and write too.
+ *
+ *     Ray *rays; size_t n;
+ *     if (rayfile_read("primary.rays", &rays, &n, err, sizeof err) != 0) ...
+ *     ... free(rays);
+ *
+ * Format: the 8 bytes "LNCRAYS1", a little-endian uint64 count, then count
+ * records of 8 little-endian float32: ox oy oz dx dy dz tmin tmax. lancer's
+ * rays start at t > 0, so a record's tmin is applied on reading by moving
+ * the origin to o + tmin d (and shortening tmax to match); written files
+ * have tmin 0. Directions need not be unit length.
+ */
+#ifndef LANCER_RAYFILE_H
+#define LANCER_RAYFILE_H
+
+#include <stddef.h>
+
+#include "lancer/ray.h"
+
+/* Writes n rays atomically (afile.h). Returns 0, or -1 with a message. */
+int rayfile_write(const char *path, const Ray *rays, size_t n, char *err, size_t errlen);
+
+/* Reads a whole ray file into a new array the caller frees. Returns 0, or
+ * -1 with "path: message" (bad magic, a count that disagrees with the
+ * file's size, a non-finite value in record N). */
+int rayfile_read(const char *path, Ray **rays, size_t *n, char *err, size_t errlen);
+
+#endif
