@@ -145,9 +145,12 @@ static void box_grow(float lo[3], float hi[3], const float l[3], const float h[3
 
 /* ---- build ---- */
 
+/* Children come in pairs at even indices, so that with the array aligned
+ * to 64 bytes a pair of 32-byte nodes shares one cache line: traversal
+ * reads both children at once. */
 static int new_pair(Builder *B)
 {
-    if (B->nnodes + 2 > B->cap) {
+    if (B->nnodes + 3 > B->cap) {
         int cap = B->cap ? B->cap * 2 : 64;
         BvhNode *n = realloc(B->nodes, sizeof(BvhNode) * (size_t)cap);
         if (!n)
@@ -155,6 +158,8 @@ static int new_pair(Builder *B)
         B->nodes = n;
         B->cap = cap;
     }
+    if (B->nnodes & 1) /* skip a slot, zeroed so that it reads as nothing */
+        memset(&B->nodes[B->nnodes++], 0, sizeof(BvhNode));
     B->nnodes += 2;
     return B->nnodes - 2;
 }
@@ -329,9 +334,10 @@ static int build_tree(Builder *B, int n, int threads)
         free(right.b.nodes);
         return -1;
     }
-    /* Append the right subtree: its local node j >= 1 goes to base + j - 1,
-     * and its local root to node c + 1. */
-    int base = B->nnodes, extra = right.b.nnodes - 1;
+    /* Append the right subtree: its local node j >= 1 goes to base + j
+     * (base even, so its pairs stay on even indices), and its local root
+     * to node c + 1. */
+    int base = B->nnodes + (B->nnodes & 1), extra = right.b.nnodes + base - B->nnodes;
     if (B->nnodes + extra > B->cap) {
         BvhNode *nn = realloc(B->nodes, sizeof(BvhNode) * (size_t)(B->nnodes + extra));
         if (!nn) {
@@ -344,9 +350,11 @@ static int build_tree(Builder *B, int n, int threads)
     for (int j = 0; j < right.b.nnodes; j++) {
         BvhNode nd = right.b.nodes[j];
         if (nd.count == 0)
-            nd.first = (uint32_t)(base + (int)nd.first - 1);
-        B->nodes[j == 0 ? c + 1 : base + j - 1] = nd;
+            nd.first = (uint32_t)(base + (int)nd.first);
+        B->nodes[j == 0 ? c + 1 : base + j] = nd;
     }
+    /* the slots left unused (padding, and base + 0) read as nothing */
+    memset(&B->nodes[B->nnodes], 0, sizeof(BvhNode) * (size_t)(base + 1 - B->nnodes));
     B->nnodes += extra;
     free(right.b.nodes);
     return 0;
@@ -394,7 +402,17 @@ int bvh_build(Bvh *b, const Prim *prims, int n, PrimVariant v, int threads)
             b->prims[i] = prims[B.refs[i].idx];
             b->order[i] = B.refs[i].idx;
         }
-        b->nodes = B.nodes;
+        /* the final array, aligned to a cache line (see new_pair) */
+        void *aligned = NULL;
+        if (posix_memalign(&aligned, 64, sizeof(BvhNode) * (size_t)B.nnodes) != 0) {
+            free(B.refs);
+            free(B.nodes);
+            bvh_free(b);
+            return -1;
+        }
+        memcpy(aligned, B.nodes, sizeof(BvhNode) * (size_t)B.nnodes);
+        free(B.nodes);
+        b->nodes = aligned;
         b->nnodes = B.nnodes;
         b->nprims = m;
     }
@@ -498,7 +516,7 @@ static void ray_pre(const Ray *r, RayPre *p)
  * near plane is picked by the direction's sign, so the NaN of 0 * inf (an
  * origin on a slab plane, parallel to it) is ignored by the comparisons:
  * such a ray lies in the closed slab. */
-static float box_enter(const BvhNode *n, const RayPre *p, float tmax)
+static inline float box_enter(const BvhNode *n, const RayPre *p, float tmax)
 {
     /* Ize 2013: each slab distance is within gamma(3) of exact */
     const float pad = 1.0f + 2.0f * (float)(3.0 * 0.5 * FLT_EPSILON / (1.0 - 3.0 * 0.5 * FLT_EPSILON));

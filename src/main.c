@@ -15,8 +15,10 @@
 #include <unistd.h>
 
 #include "lancer/afile.h"
+#include "lancer/bench.h"
 #include "lancer/compare.h"
 #include "lancer/pov.h"
+#include "lancer/rayfile.h"
 #include "lancer/render.h"
 
 #define LANCER_VERSION "0.1.0"
@@ -30,6 +32,7 @@ static const char *usage_main =
     "  render SCENE      render a scene file to an EXR image (and a PNG preview)\n"
     "  export-pov SCENE  write the POV-Ray 3.7 scene that renders the same picture\n"
     "  diff A.exr B.exr  compare two images pixel by pixel\n"
+    "  bench ...         generate benchmark rays for a mesh, or time ray casting\n"
     "  help [COMMAND]    show this help, or a command's\n"
     "\n"
     "options:\n"
@@ -91,6 +94,27 @@ static const char *usage_diff =
     "                         K times the size of A)\n"
     "      --threshold T      the difference that counts as over (default 2e-3)\n"
     "  -h, --help             show this help\n";
+
+static const char *usage_bench =
+    "usage: lancer bench --gen-rays MESH OUTDIR [W H]\n"
+    "       lancer bench --mesh MESH --rays FILE --kind closest|any [--passes N] [--classic]\n"
+    "\n"
+    "The first form writes OUTDIR/primary.rays, shadow.rays and diffuse.rays\n"
+    "for a W x H camera framing the mesh (default 1024 x 1024): one ray per\n"
+    "pixel; from each hit, one to a point light and one in a random direction\n"
+    "of the hemisphere, shuffled. Ray files: \"LNCRAYS1\", a uint64 count, and\n"
+    "per ray 8 little-endian float32 ox oy oz dx dy dz tmin tmax.\n"
+    "\n"
+    "The second builds the BVH over the mesh, traces every ray of FILE on one\n"
+    "thread (closest hit, or any hit) for one warm-up and N timed passes\n"
+    "(default 3), and prints one line:\n"
+    "  mrays=<best Mrays/s> hits=<hits> sumt=<sum of t over hits> build_ms=<build> rays=<count>\n"
+    "\n"
+    "options:\n"
+    "      --passes N   timed passes (default 3)\n"
+    "      --classic    the classic intersection routines, not the robust ones\n"
+    "      --threads N  threads for the BVH build (default 1)\n"
+    "  -h, --help       show this help\n";
 
 static double now(void)
 {
@@ -542,6 +566,115 @@ static int cmd_diff(int argc, char **argv)
     return rc ? 1 : 0;
 }
 
+/* A scene of the mesh's flat triangles, one plain material. */
+static int mesh_scene(const char *path, int classic, Scene *s)
+{
+    Mesh m;
+    char err[1024];
+    memset(s, 0, sizeof *s);
+    if (mesh_load(path, &m, err, sizeof err) != 0) {
+        fprintf(stderr, "%s\n", err);
+        return -1;
+    }
+    int dropped = 0;
+    s->materials = calloc(1, sizeof(Material));
+    s->nmaterials = 1;
+    s->classic = classic;
+    int rc = s->materials ? scene_add_mesh(s, &m, 0, 0, NULL, &dropped) : -1;
+    mesh_free(&m);
+    if (rc != 0) {
+        fprintf(stderr, "lancer: %s: out of memory\n", path);
+        scene_free(s);
+    }
+    return rc;
+}
+
+static int write_rays(const char *dir, const char *name, const RaySet *set)
+{
+    char path[AFILE_PATH_MAX], err[512];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    if (rayfile_write(path, set->rays, set->n, err, sizeof err) != 0) {
+        fprintf(stderr, "lancer: %s\n", err);
+        return -1;
+    }
+    return 0;
+}
+
+static int cmd_bench(int argc, char **argv)
+{
+    const char *gen = NULL, *mesh = NULL, *rays = NULL, *kind = NULL, *pos[3] = {NULL, NULL, NULL};
+    int passes = 3, classic = 0, threads = 1, npos;
+    const Opt opts[] = {
+        {"--gen-rays", NULL, OPT_STRING, &gen, 0, 0},       {"--mesh", NULL, OPT_STRING, &mesh, 0, 0},
+        {"--rays", NULL, OPT_STRING, &rays, 0, 0},          {"--kind", NULL, OPT_STRING, &kind, 0, 0},
+        {"--passes", NULL, OPT_INT, &passes, 1, 1000},      {"--classic", NULL, OPT_FLAG, &classic, 0, 0},
+        {"--threads", NULL, OPT_INT, &threads, 1, 1024},
+    };
+    int rc = parse_opts("bench", usage_bench, argc, argv, opts, (int)(sizeof opts / sizeof opts[0]), pos, 3, &npos);
+    if (rc)
+        return rc == HELP_SHOWN ? 0 : rc;
+    if (!gen == !mesh)
+        return usage_error("bench", "give either --gen-rays MESH OUTDIR or --mesh MESH --rays FILE --kind K");
+    int w = 1024, h = 1024;
+    if (gen && (npos != 1 && npos != 3))
+        return usage_error("bench", "--gen-rays needs MESH OUTDIR [W H]");
+    if (gen && npos == 3) {
+        char *e1, *e2;
+        long pw = strtol(pos[1], &e1, 10), ph = strtol(pos[2], &e2, 10);
+        if (*e1 || *e2 || pw < 1 || ph < 1 || pw > IMAGE_MAX_SIDE || ph > IMAGE_MAX_SIDE)
+            return usage_error("bench", "W and H must be whole numbers from 1 to %d", IMAGE_MAX_SIDE);
+        w = (int)pw;
+        h = (int)ph;
+    }
+    if (mesh && (!rays || !kind || (strcmp(kind, "closest") != 0 && strcmp(kind, "any") != 0) || npos != 0))
+        return usage_error("bench", "--mesh needs --rays FILE and --kind closest or any");
+    Scene s;
+    if (mesh_scene(gen ? gen : mesh, classic, &s) != 0)
+        return 1;
+    Accel acc;
+    double t0 = now();
+    if (accel_build(&acc, &s, threads) != 0) {
+        fprintf(stderr, "lancer: out of memory building the BVH\n");
+        scene_free(&s);
+        return 1;
+    }
+    double build_ms = 1e3 * (now() - t0);
+    rc = 0;
+    if (gen) {
+        RaySet p, sh, d;
+        if (bench_gen_rays(&acc, w, h, 1, &p, &sh, &d) != 0) {
+            fprintf(stderr, "lancer: %s: no triangles to frame, or out of memory\n", gen);
+            rc = 1;
+        } else {
+            if (write_rays(pos[0], "primary.rays", &p) || write_rays(pos[0], "shadow.rays", &sh) ||
+                write_rays(pos[0], "diffuse.rays", &d))
+                rc = 1;
+            else
+                printf("primary=%zu shadow=%zu diffuse=%zu\n", p.n, sh.n, d.n);
+            bench_free(&p);
+            bench_free(&sh);
+            bench_free(&d);
+        }
+    } else {
+        Ray *r;
+        size_t n;
+        char err[512];
+        if (rayfile_read(rays, &r, &n, err, sizeof err) != 0) {
+            fprintf(stderr, "lancer: %s\n", err);
+            rc = 1;
+        } else {
+            BenchResult res;
+            bench_trace(&acc, r, n, !strcmp(kind, "any"), passes, &res);
+            printf("mrays=%.3f hits=%zu sumt=%.6g build_ms=%.2f rays=%zu\n", res.mrays, res.hits, res.sumt, build_ms,
+                   n);
+            free(r);
+        }
+    }
+    accel_free(&acc);
+    scene_free(&s);
+    return rc;
+}
+
 int main(int argc, char **argv)
 {
     static const struct {
@@ -552,6 +685,7 @@ int main(int argc, char **argv)
         {"render", cmd_render, &usage_render},
         {"export-pov", cmd_export_pov, &usage_export},
         {"diff", cmd_diff, &usage_diff},
+        {"bench", cmd_bench, &usage_bench},
     };
     const int ncmds = (int)(sizeof cmds / sizeof cmds[0]);
     if (argc < 2) {

@@ -17,6 +17,7 @@
 #include "lancer/scene.h"
 
 #include <errno.h>
+#include <stdint.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -748,6 +749,62 @@ static int parse_statement(Parser *P)
     if (tok_is(&kw, "obox"))
         return parse_obox(P, kw.loc);
     return fail(P, kw.loc, "unknown keyword %s", tok_desc(&kw, buf, sizeof buf)); /* not reached */
+}
+
+/* M p + t for xf = rows of M, then t. */
+static Vec3 xf_point(const float *xf, Vec3 p)
+{
+    if (!xf)
+        return p;
+    return vec3(xf[0] * p.x + xf[1] * p.y + xf[2] * p.z + xf[9], xf[3] * p.x + xf[4] * p.y + xf[5] * p.z + xf[10],
+                xf[6] * p.x + xf[7] * p.y + xf[8] * p.z + xf[11]);
+}
+
+/* Normals go through the inverse transpose: the cofactor matrix of M, which
+ * differs from it only by the determinant's factor, lost on normalising. */
+static Vec3 xf_normal(const float *xf, Vec3 n)
+{
+    if (!xf)
+        return n;
+    Vec3 r0 = vec3(xf[0], xf[1], xf[2]), r1 = vec3(xf[3], xf[4], xf[5]), r2 = vec3(xf[6], xf[7], xf[8]);
+    Vec3 c0 = vec_cross(r1, r2), c1 = vec_cross(r2, r0), c2 = vec_cross(r0, r1);
+    float det = vec_dot(r0, c0);
+    Vec3 m = vec_add(vec_add(vec_scale(c0, n.x), vec_scale(c1, n.y)), vec_scale(c2, n.z));
+    return vec_normalize(det < 0.0f ? vec_neg(m) : m);
+}
+
+int scene_add_mesh(Scene *s, const Mesh *m, int material, int smooth, const float *xf, int *dropped)
+{
+    size_t need = (size_t)s->nprims + (size_t)m->nt;
+    if (need > (size_t)INT32_MAX)
+        return -1;
+    Prim *arr = realloc(s->prims, sizeof(Prim) * (need ? need : 1));
+    if (!arr)
+        return -1;
+    s->prims = arr;
+    *dropped = 0;
+    for (int i = 0; i < m->nt; i++) {
+        Prim *p = &s->prims[s->nprims];
+        memset(p, 0, sizeof *p);
+        p->kind = smooth ? PRIM_SMOOTH_TRIANGLE : PRIM_TRIANGLE;
+        p->material = material;
+        Triangle *t = &p->g.tri;
+        t->a = xf_point(xf, m->v[m->tri[i][0]]);
+        t->b = xf_point(xf, m->v[m->tri[i][1]]);
+        t->c = xf_point(xf, m->v[m->tri[i][2]]);
+        Vec3 g = vec_cross(vec_sub(t->b, t->a), vec_sub(t->c, t->a));
+        if (!(vec_length(g) > 0.0f) || !vec_is_finite(t->a) || !vec_is_finite(t->b) || !vec_is_finite(t->c)) {
+            (*dropped)++;
+            continue;
+        }
+        if (smooth) {
+            t->na = xf_normal(xf, m->n[m->ntri[i][0]]);
+            t->nb = xf_normal(xf, m->n[m->ntri[i][1]]);
+            t->nc = xf_normal(xf, m->n[m->ntri[i][2]]);
+        }
+        s->nprims++;
+    }
+    return 0;
 }
 
 static Vec3 move(Vec3 p, float scale, Vec3 offset) { return vec_add(vec_scale(p, scale), offset); }

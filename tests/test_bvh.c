@@ -123,15 +123,16 @@ static void test_validate_catches_damage(void **state)
     char err[256];
     build_ok(&b, p, 200, 1);
     /* a child box sticking out of its parent */
-    float saved = b.nodes[1].hi[0];
-    b.nodes[1].hi[0] = b.nodes[0].hi[0] + 1;
+    int c = (int)b.nodes[0].first;
+    float saved = b.nodes[c].hi[0];
+    b.nodes[c].hi[0] = b.nodes[0].hi[0] + 1;
     assert_int_equal(bvh_validate(&b, err, sizeof err), -1);
     assert_non_null(strstr(err, "outside its parent"));
-    b.nodes[1].hi[0] = saved;
+    b.nodes[c].hi[0] = saved;
     /* a primitive referenced twice (and so another not at all) */
-    int leaf = 0;
+    int leaf = 0; /* the leftmost leaf */
     while (b.nodes[leaf].count == 0)
-        leaf++;
+        leaf = (int)b.nodes[leaf].first;
     b.nodes[leaf].first = b.nodes[leaf].first == 0 ? 1 : 0;
     assert_int_equal(bvh_validate(&b, err, sizeof err), -1);
     bvh_free(&b);

@@ -20,6 +20,7 @@
 
 #include <stddef.h>
 
+#include "lancer/mesh.h"
 #include "lancer/prim.h"
 
 #define SCENE_NAME_MAX 64
@@ -81,6 +82,14 @@ int scene_load(const char *path, Scene *s, char *err, size_t errlen);
 
 /* Parses scene text held in memory; `name` stands for the file in messages. */
 int scene_parse(const char *name, const char *text, size_t len, Scene *s, char *err, size_t errlen);
+
+/* Appends the mesh's triangles to the scene with material `material`, each
+ * point p mapped to M p + t, where xf holds the rows of M then t (12
+ * floats; NULL for none); normals are mapped by the inverse transpose.
+ * smooth: smooth_triangles with the mesh's vertex normals (m->n must be
+ * set), else flat triangles. Triangles that the transform flattens are
+ * dropped and counted in *dropped. Returns 0, or -1 when memory runs out. */
+int scene_add_mesh(Scene *s, const Mesh *m, int material, int smooth, const float *xf, int *dropped);
 
 /* Moves the whole scene, camera and lights included, by p -> p*scale +
  * offset (scale > 0). Shading does not change: fade distances scale too,

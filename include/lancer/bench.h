@@ -1,0 +1,53 @@
+/*
+ * bench.h - ray-casting benchmarks: rays framing a scene, and timed passes.
+ *
+ *     RaySet primary, shadow, diffuse;
+ *     bench_gen_rays(&accel, 1024, 1024, &primary, &shadow, &diffuse);
+ *     BenchResult res;
+ *     bench_trace(&accel, primary.rays, primary.n, 0, 3, &res);
+ *     ... res.mrays, res.hits ...
+ *     bench_free(&primary); ...
+ *
+ * The rays are the ones REFERENCE.md section 4 describes, so figures can be
+ * set beside Embree's on the same files (rayfile.h):
+ *
+ * - primary: a camera framing the scene's bounds, one ray per pixel centre;
+ * - shadow: from each primary hit to one point light, tmax = the distance;
+ * - diffuse: from each primary hit in a uniformly random direction of the
+ *   hemisphere its geometric normal faces, shuffled so that neighbouring
+ *   rays are unrelated.
+ *
+ * Secondary rays start at prim_spawn_origin, so they begin strictly off
+ * their surface and need no t_min.
+ */
+#ifndef LANCER_BENCH_H
+#define LANCER_BENCH_H
+
+#include <stddef.h>
+
+#include "lancer/accel.h"
+
+typedef struct {
+    Ray *rays;
+    size_t n;
+} RaySet;
+
+typedef struct {
+    double mrays; /* the best pass, millions of rays per second */
+    size_t hits;
+    double sumt; /* the sum of t over hits (closest hit only) */
+} BenchResult;
+
+/* Generates the three sets for a w x h camera (the seed fixes the diffuse
+ * directions and their order). Returns 0, or -1 when memory runs out or
+ * the scene has no bounded primitive to frame. */
+int bench_gen_rays(const Accel *a, int w, int h, unsigned long long seed, RaySet *primary, RaySet *shadow,
+                   RaySet *diffuse);
+
+/* Traces the rays on the calling thread: one warm-up pass, then `passes`
+ * timed ones; closest hit, or any hit when `any`. */
+void bench_trace(const Accel *a, const Ray *rays, size_t n, int any, int passes, BenchResult *res);
+
+void bench_free(RaySet *s);
+
+#endif

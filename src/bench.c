@@ -1,0 +1,120 @@
+/*
+ * bench.c - benchmark rays and timed passes (see bench.h).
+ */
+#include "lancer/bench.h"
+
+#include <stdlib.h>
+#include <time.h>
+
+#include "lancer/camera.h"
+
+static double now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* xorshift64*: fast, and the same sequence on every machine. */
+static double next_unit(unsigned long long *s)
+{
+    *s ^= *s >> 12;
+    *s ^= *s << 25;
+    *s ^= *s >> 27;
+    return (double)((*s * 2685821657736338717ULL) >> 11) / 9007199254740992.0;
+}
+
+void bench_free(RaySet *s)
+{
+    free(s->rays);
+    s->rays = NULL;
+    s->n = 0;
+}
+
+int bench_gen_rays(const Accel *a, int w, int h, unsigned long long seed, RaySet *primary, RaySet *shadow,
+                   RaySet *diffuse)
+{
+    primary->n = shadow->n = diffuse->n = 0;
+    size_t np = (size_t)w * (size_t)h;
+    primary->rays = malloc(sizeof(Ray) * np);
+    shadow->rays = malloc(sizeof(Ray) * np);
+    diffuse->rays = malloc(sizeof(Ray) * np);
+    if (!primary->rays || !shadow->rays || !diffuse->rays || a->bvh.nnodes == 0) {
+        bench_free(primary);
+        bench_free(shadow);
+        bench_free(diffuse);
+        return -1;
+    }
+    /* Frame the root box from the front, a little above, 40 degrees high. */
+    const BvhNode *root = &a->bvh.nodes[0];
+    Vec3 lo = vec3(root->lo[0], root->lo[1], root->lo[2]), hi = vec3(root->hi[0], root->hi[1], root->hi[2]);
+    Vec3 c = vec_scale(vec_add(lo, hi), 0.5f);
+    float radius = 0.5f * vec_length(vec_sub(hi, lo));
+    CameraSpec spec = {vec_madd(c, vec_normalize(vec3(0.0f, 0.3f, 1.0f)), 3.0f * radius), c, vec3(0, 1, 0), 40.0f};
+    Vec3 light = vec_madd(c, vec3(1.5f, 3.0f, 2.0f), radius);
+    Camera cam;
+    camera_init(&cam, &spec, w, h);
+    RayStats st = {0, 0, 0, 0, 0};
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            Ray r = camera_ray(&cam, (float)x + 0.5f, (float)y + 0.5f);
+            primary->rays[primary->n++] = r;
+            PrimHit hit;
+            int i = accel_closest(a, &r, &hit, &st);
+            if (i < 0)
+                continue;
+            Surface sf;
+            prim_surface(&a->prims[i], &r, &hit, a->variant, &sf);
+            Vec3 tol = vec_sub(light, sf.p);
+            float dist = vec_length(tol);
+            Vec3 l = vec_scale(tol, 1.0f / dist);
+            Vec3 o = prim_spawn_origin(&sf, l);
+            shadow->rays[shadow->n++] = ray_make(o, l, vec_length(vec_sub(light, o)));
+            /* uniform on the sphere (Marsaglia), folded onto the facing side */
+            Vec3 d;
+            double len2;
+            do {
+                d = vec3((float)(2 * next_unit(&seed) - 1), (float)(2 * next_unit(&seed) - 1),
+                         (float)(2 * next_unit(&seed) - 1));
+                len2 = vec_dot(d, d);
+            } while (len2 > 1.0 || len2 < 1e-6);
+            d = vec_normalize(d);
+            if (vec_dot(d, sf.ng) < 0.0f)
+                d = vec_neg(d);
+            diffuse->rays[diffuse->n++] = ray_make(prim_spawn_origin(&sf, d), d, INFINITY);
+        }
+    for (size_t i = diffuse->n; i > 1; i--) { /* Fisher-Yates */
+        size_t j = (size_t)(next_unit(&seed) * (double)i);
+        Ray t = diffuse->rays[i - 1];
+        diffuse->rays[i - 1] = diffuse->rays[j];
+        diffuse->rays[j] = t;
+    }
+    return 0;
+}
+
+void bench_trace(const Accel *a, const Ray *rays, size_t n, int any, int passes, BenchResult *res)
+{
+    double best = 0.0;
+    for (int p = -1; p < passes; p++) { /* pass -1 warms the caches */
+        RayStats st = {0, 0, 0, 0, 0};
+        size_t hits = 0;
+        double sumt = 0.0, t0 = now();
+        for (size_t i = 0; i < n; i++) {
+            if (any) {
+                hits += (size_t)accel_occluded(a, &rays[i], &st);
+            } else {
+                PrimHit h;
+                if (accel_closest(a, &rays[i], &h, &st) >= 0) {
+                    hits++;
+                    sumt += h.t;
+                }
+            }
+        }
+        double dt = now() - t0;
+        if (p >= 0 && dt > 0.0 && (double)n / dt / 1e6 > best)
+            best = (double)n / dt / 1e6;
+        res->hits = hits;
+        res->sumt = sumt;
+    }
+    res->mrays = best;
+}
