@@ -322,8 +322,8 @@ static int write_stats(const char *path, const RenderArgs *a, const Scene *s, co
     json_string(f, a->scene);
     fprintf(f,
             ",\n  \"width\": %d,\n  \"height\": %d,\n  \"spp\": %d,\n  \"threads\": %d,\n  \"primitives\": %d,\n"
-            "  \"intersect\": \"%s\",\n",
-            s->width, s->height, s->spp, a->threads, s->nprims, s->classic ? "classic" : "robust");
+            "  \"intersect\": \"%s\",\n  \"degenerate_triangles\": %d,\n",
+            s->width, s->height, s->spp, a->threads, s->nprims, s->classic ? "classic" : "robust", s->degenerate);
     fprintf(f, "  \"phases_s\": {\"parse\": %.6f, \"build\": %.6f, \"render\": %.6f, \"write\": %.6f},\n",
             phase[0], phase[1], phase[2], phase[3]);
     fprintf(f,

@@ -29,7 +29,7 @@ typedef struct {
     int line, col;
 } Loc;
 
-typedef enum { TOK_EOF, TOK_IDENT, TOK_NUMBER, TOK_LBRACE, TOK_RBRACE } TokKind;
+typedef enum { TOK_EOF, TOK_IDENT, TOK_NUMBER, TOK_STRING, TOK_LBRACE, TOK_RBRACE } TokKind;
 
 typedef struct {
     TokKind kind;
@@ -169,6 +169,20 @@ static int next(Parser *P)
         advance(P, n);
         return 0;
     }
+    if (c == '"') { /* a string: to the closing quote on the same line; \" and \\ escape */
+        size_t m = 1;
+        while (P->p + m < P->end && P->p[m] != '"' && P->p[m] != '\n') {
+            if (P->p[m] == '\\' && P->p + m + 1 < P->end && P->p[m + 1] != '\n')
+                m++;
+            m++;
+        }
+        if (P->p + m >= P->end || P->p[m] != '"')
+            return fail(P, t->loc, "unterminated string");
+        t->kind = TOK_STRING;
+        t->len = m + 1;
+        advance(P, m + 1);
+        return 0;
+    }
     if (c >= 0x21 && c < 0x7f)
         return fail(P, t->loc, "unexpected character '%c'", c);
     return fail(P, t->loc, "unexpected byte 0x%02x", c);
@@ -192,6 +206,9 @@ static const char *tok_desc(const Token *t, char *buf, size_t len)
     case TOK_NUMBER:
         snprintf(buf, len, "number '%.*s'", (int)t->len, t->start);
         return buf;
+    case TOK_STRING:
+        snprintf(buf, len, "string %.*s", (int)(t->len > 40 ? 40 : t->len), t->start);
+        return buf;
     case TOK_IDENT:
         break;
     }
@@ -201,8 +218,8 @@ static const char *tok_desc(const Token *t, char *buf, size_t len)
 
 static int is_keyword(const Token *t)
 {
-    static const char *const kw[] = {"image", "camera",   "light",           "material", "sphere",
-                                     "plane", "triangle", "smooth_triangle", "box",      "obox"};
+    static const char *const kw[] = {"image",    "camera",          "light", "material", "sphere", "plane",
+                                     "triangle", "smooth_triangle", "box",   "obox",     "mesh"};
     for (size_t i = 0; i < sizeof kw / sizeof kw[0]; i++)
         if (tok_is(t, kw[i]))
             return 1;
@@ -211,7 +228,8 @@ static int is_keyword(const Token *t)
 
 /* ---- block parsing driven by field tables ---- */
 
-typedef enum { F_NUM, F_PAIR, F_VEC, F_FLAG, F_NAME } FieldKind;
+/* F_SCALE: one number or three; F_MAT: twelve; F_STRING: a quoted string. */
+typedef enum { F_NUM, F_PAIR, F_VEC, F_SCALE, F_MAT, F_FLAG, F_NAME, F_STRING } FieldKind;
 
 typedef struct {
     const char *key;
@@ -221,8 +239,10 @@ typedef struct {
 typedef struct {
     int set;
     Loc key, value; /* where the key and its first value stand */
-    float v[3];
+    float v[12];
+    int n; /* how many numbers were given */
     char name[SCENE_NAME_MAX];
+    char str[SCENE_PATH_MAX];
 } Value;
 
 #define MAX_FIELDS 12
@@ -236,6 +256,12 @@ static const char *kind_desc(FieldKind k)
         return "two numbers";
     case F_VEC:
         return "three numbers";
+    case F_SCALE:
+        return "one or three numbers";
+    case F_MAT:
+        return "twelve numbers";
+    case F_STRING:
+        return "a quoted string";
     case F_NAME:
         return "a name";
     case F_FLAG:
@@ -298,7 +324,28 @@ static int parse_block(Parser *P, const char *what, const Field *f, int nf, Valu
         if (next(P))
             return -1;
         v->value = P->tok.loc;
-        int count = f[i].kind == F_VEC ? 3 : f[i].kind == F_PAIR ? 2 : f[i].kind == F_NUM ? 1 : 0;
+        int count = f[i].kind == F_VEC ? 3 : f[i].kind == F_PAIR ? 2 : f[i].kind == F_MAT ? 12 : 0;
+        if (f[i].kind == F_NUM || f[i].kind == F_SCALE)
+            count = 1;
+        if (f[i].kind == F_STRING) {
+            if (P->tok.kind == TOK_RBRACE || P->tok.kind == TOK_EOF)
+                return fail(P, P->tok.loc, "%s: missing value for '%s' (expects a quoted string)", what, f[i].key);
+            if (P->tok.kind != TOK_STRING)
+                return fail(P, P->tok.loc, "%s: wrong type for '%s': expected a quoted string, found %s", what,
+                            f[i].key, tok_desc(&P->tok, buf, sizeof buf));
+            size_t o = 0;
+            for (size_t k = 1; k + 1 < P->tok.len; k++) {
+                if (P->tok.start[k] == '\\')
+                    k++;
+                if (o + 1 >= sizeof v->str)
+                    return fail(P, P->tok.loc, "%s: '%s' is longer than %d characters", what, f[i].key,
+                                SCENE_PATH_MAX - 1);
+                v->str[o++] = P->tok.start[k];
+            }
+            v->str[o] = '\0';
+            if (next(P))
+                return -1;
+        }
         if (f[i].kind == F_NAME) {
             if (P->tok.kind == TOK_RBRACE || P->tok.kind == TOK_EOF)
                 return fail(P, P->tok.loc, "%s: missing value for '%s' (expects a name)", what, f[i].key);
@@ -311,8 +358,11 @@ static int parse_block(Parser *P, const char *what, const Field *f, int nf, Valu
         for (int k = 0; k < count; k++) {
             if (P->tok.kind == TOK_NUMBER) {
                 v->v[k] = P->tok.num;
+                v->n = k + 1;
                 if (next(P))
                     return -1;
+                if (f[i].kind == F_SCALE && k == 0 && P->tok.kind == TOK_NUMBER)
+                    count = 3; /* a second number: three of them */
                 continue;
             }
             /* A '}' or another property where a value belongs means the value
@@ -718,6 +768,93 @@ static int parse_obox(Parser *P, Loc at)
     return 0;
 }
 
+/* c = a after b, for 3x4 affine maps stored as rows of M then t. */
+static void xf_compose(const float a[12], const float b[12], float c[12])
+{
+    float m[12];
+    for (int r = 0; r < 3; r++) {
+        for (int k = 0; k < 3; k++)
+            m[3 * r + k] = a[3 * r] * b[k] + a[3 * r + 1] * b[3 + k] + a[3 * r + 2] * b[6 + k];
+        m[9 + r] = a[3 * r] * b[9] + a[3 * r + 1] * b[10] + a[3 * r + 2] * b[11] + a[9 + r];
+    }
+    memcpy(c, m, sizeof m);
+}
+
+/* Rotation by deg degrees about axis 0, 1 or 2 (right-handed). */
+static void xf_rotation(int axis, float deg, float r[12])
+{
+    double rad = (double)deg * 3.14159265358979323846 / 180.0;
+    float c = (float)cos(rad), sn = (float)sin(rad);
+    memset(r, 0, sizeof(float) * 12);
+    int i = (axis + 1) % 3, j = (axis + 2) % 3;
+    r[4 * axis] = 1.0f;
+    r[3 * i + i] = c;
+    r[3 * i + j] = -sn;
+    r[3 * j + i] = sn;
+    r[3 * j + j] = c;
+}
+
+static int parse_mesh(Parser *P, Loc at)
+{
+    enum { FILE_, MATERIAL, FLAT, SMOOTH, MATRIX, SCALE, ROTATE, TRANSLATE, N };
+    static const Field f[N] = {{"file", F_STRING}, {"material", F_NAME}, {"flat", F_FLAG},  {"smooth", F_FLAG},
+                               {"matrix", F_MAT},  {"scale", F_SCALE},   {"rotate", F_VEC}, {"translate", F_VEC}};
+    Value v[N];
+    int mat;
+    if (parse_block(P, "mesh", f, N, v) || require(P, "mesh", f, v, FILE_, at) ||
+        material_ref(P, "mesh", f, v, MATERIAL, at, &mat))
+        return -1;
+    if (v[FLAT].set && v[SMOOTH].set)
+        return fail(P, v[SMOOTH].key, "mesh: 'flat' and 'smooth' exclude each other");
+    /* The transform: matrix first, then scale, rotate (about x, then y,
+     * then z) and translate, as they are listed in the README. */
+    float xf[12] = {1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0};
+    if (v[MATRIX].set)
+        memcpy(xf, v[MATRIX].v, sizeof xf);
+    if (v[SCALE].set) {
+        float sx = v[SCALE].v[0], sy = v[SCALE].n == 3 ? v[SCALE].v[1] : sx, sz = v[SCALE].n == 3 ? v[SCALE].v[2] : sx;
+        if (sx == 0.0f || sy == 0.0f || sz == 0.0f)
+            return fail(P, v[SCALE].value, "mesh: 'scale' must not be zero");
+        const float m[12] = {sx, 0, 0, 0, sy, 0, 0, 0, sz, 0, 0, 0};
+        xf_compose(m, xf, xf);
+    }
+    for (int axis = 0; v[ROTATE].set && axis < 3; axis++) {
+        float r[12];
+        xf_rotation(axis, v[ROTATE].v[axis], r);
+        xf_compose(r, xf, xf);
+    }
+    if (v[TRANSLATE].set)
+        for (int k = 0; k < 3; k++)
+            xf[9 + k] += v[TRANSLATE].v[k];
+    /* A relative path is relative to the scene file's folder. */
+    char path[2 * SCENE_PATH_MAX];
+    const char *slash = strrchr(P->name, '/');
+    if (v[FILE_].str[0] != '/' && slash)
+        snprintf(path, sizeof path, "%.*s/%s", (int)(slash - P->name), P->name, v[FILE_].str);
+    else
+        snprintf(path, sizeof path, "%s", v[FILE_].str);
+    Mesh m;
+    char err[512];
+    if (mesh_load(path, &m, err, sizeof err) != 0)
+        return fail(P, v[FILE_].value, "mesh: %s", err);
+    int smooth = v[SMOOTH].set, dropped = 0;
+    if (smooth && !m.n && mesh_vertex_normals(&m, err, sizeof err) != 0) {
+        mesh_free(&m);
+        return fail(P, at, "mesh: %s", err);
+    }
+    if (m.nt == 0) {
+        mesh_free(&m);
+        return fail(P, v[FILE_].value, "mesh: %s has no triangles", path);
+    }
+    int rc = scene_add_mesh(P->s, &m, mat, smooth, xf, &dropped);
+    P->cap_prims = P->s->nprims; /* scene_add_mesh sized the array exactly */
+    P->s->degenerate += m.degenerate + dropped;
+    mesh_free(&m);
+    if (rc != 0)
+        return fail(P, at, "mesh: out of memory");
+    return 0;
+}
+
 static int parse_statement(Parser *P)
 {
     Token kw = P->tok;
@@ -748,6 +885,8 @@ static int parse_statement(Parser *P)
         return parse_box(P, kw.loc);
     if (tok_is(&kw, "obox"))
         return parse_obox(P, kw.loc);
+    if (tok_is(&kw, "mesh"))
+        return parse_mesh(P, kw.loc);
     return fail(P, kw.loc, "unknown keyword %s", tok_desc(&kw, buf, sizeof buf)); /* not reached */
 }
 

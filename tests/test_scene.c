@@ -800,6 +800,56 @@ static void test_transform(void **state)
     scene_free(&s);
 }
 
+static void test_mesh_statement(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/lancer-scene-XXXXXX", path[256], text[1024], err[512];
+    assert_non_null(mkdtemp(dir));
+    snprintf(path, sizeof path, "%s/quad.off", dir);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    /* a unit quad (two triangles) and a degenerate triangle */
+    fputs("OFF\n5 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n2 0 0\n4 0 1 2 3\n3 0 1 4\n", f);
+    fclose(f);
+    Scene s;
+    snprintf(text, sizeof text,
+             CAM "material m { }\n"
+                 "mesh { file \"%s\" material m smooth scale 2 rotate 0 0 90 translate 1 2 3 }\n",
+             path);
+    parse_ok(text, &s);
+    assert_int_equal(s.nprims, 2);
+    assert_int_equal(s.degenerate, 1);
+    assert_int_equal(s.prims[0].kind, PRIM_SMOOTH_TRIANGLE);
+    /* (1, 0, 0): scaled to (2, 0, 0), turned 90 degrees about z to (0, 2, 0),
+     * moved to (1, 4, 3) */
+    assert_vec_eq(s.prims[0].g.tri.b, 1, 4, 3, 1e-6);
+    assert_vec_eq(s.prims[0].g.tri.na, 0, 0, 1, 1e-6); /* the quad's normal, kept by the rotation */
+    scene_free(&s);
+    /* a relative path is relative to the scene file's folder */
+    snprintf(text, sizeof text, CAM "material m { }\nmesh { file \"quad.off\" material m }\n");
+    char name[256];
+    snprintf(name, sizeof name, "%s/t.scn", dir);
+    assert_int_equal(scene_parse(name, text, strlen(text), &s, err, sizeof err), 0);
+    assert_int_equal(s.prims[1].kind, PRIM_TRIANGLE);
+    scene_free(&s);
+    /* errors carry the scene position and the loader's message */
+    const char *missing = CAM "material m { }\nmesh { file \"nowhere.off\" material m }\n";
+    assert_int_equal(scene_parse("t.scn", missing, strlen(missing), &s, err, sizeof err), -1);
+    assert_string_equal(err, "t.scn:3:13: mesh: nowhere.off: cannot open: No such file or directory");
+    snprintf(text, sizeof text, CAM "material m { }\nmesh { file \"%s\" material m flat smooth }\n", path);
+    assert_int_equal(scene_parse("t.scn", text, strlen(text), &s, err, sizeof err), -1);
+    assert_non_null(strstr(err, "t.scn:3:"));
+    assert_non_null(strstr(err, "'flat' and 'smooth' exclude each other"));
+    const char *open = CAM "mesh { file \"quad.off material m }\n";
+    assert_int_equal(scene_parse("t.scn", open, strlen(open), &s, err, sizeof err), -1);
+    assert_string_equal(err, "t.scn:2:13: unterminated string");
+    const char *two = CAM "material m { }\nmesh { file \"q.off\" material m scale 1 2 }\n";
+    assert_int_equal(scene_parse("t.scn", two, strlen(two), &s, err, sizeof err), -1);
+    assert_string_equal(err, "t.scn:3:42: mesh: missing value for 'scale' (expects one or three numbers, got 2)");
+    remove(path);
+    rmdir(dir);
+}
+
 static void test_utf8_bom(void **state)
 {
     (void)state;
@@ -990,6 +1040,7 @@ int main(void)
         cmocka_unit_test(test_crlf_and_tabs),
         cmocka_unit_test(test_utf8_bom),
         cmocka_unit_test(test_transform),
+        cmocka_unit_test(test_mesh_statement),
         cmocka_unit_test(test_number_forms),
         cmocka_unit_test(test_names),
         cmocka_unit_test(test_many_objects),

@@ -24,6 +24,7 @@
 #include "lancer/prim.h"
 
 #define SCENE_NAME_MAX 64
+#define SCENE_PATH_MAX 1024
 /* Largest anti-aliasing grid: 16 x 16 samples per pixel. */
 #define SCENE_MAX_SPP 16
 /* Scene files larger than this are refused rather than read into memory. */
@@ -74,6 +75,7 @@ typedef struct {
     Prim *prims;
     int nprims;
     int transparent; /* some material lets light through */
+    int degenerate;  /* mesh triangles dropped for having no area */
 } Scene;
 
 /* Reads and parses a scene file. Returns 0, or -1 with "path:line:col:

@@ -1,0 +1,208 @@
+/*
+ * embree_bench.c - lancer against Embree 3 on the same rays, one thread.
+ *
+ *     build/embree_bench MESH DIR [PASSES]
+ *
+ * DIR holds primary.rays, shadow.rays and diffuse.rays (lancer bench
+ * --gen-rays). For each file the three tracers take turns pass by pass, in
+ * the same run: lancer (robust, watertight), Embree default, and Embree with
+ * RTC_SCENE_FLAG_ROBUST. The median Mrays/s of each, the ratios and the hit
+ * counts are printed; hit counts that differ are reported, not hidden.
+ * Build times are medians too, both on one thread, Embree at its default
+ * (medium) quality. A benchmark, not a test: it asserts nothing.
+ */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include <embree3/rtcore.h>
+
+#include "lancer/accel.h"
+#include "lancer/rayfile.h"
+
+#define ROUNDS_MAX 64
+
+static double now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static int cmp(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+static double median(double *v, int n)
+{
+    qsort(v, (size_t)n, sizeof(double), cmp);
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+static RTCScene embree_scene(RTCDevice dev, const Mesh *m, int robust, double *ms)
+{
+    double t0 = now();
+    RTCScene sc = rtcNewScene(dev);
+    if (robust)
+        rtcSetSceneFlags(sc, RTC_SCENE_FLAG_ROBUST);
+    RTCGeometry g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
+    float *v = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float),
+                                       (size_t)m->nv);
+    unsigned *ix = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned),
+                                           (size_t)m->nt);
+    for (int i = 0; i < m->nv; i++) {
+        v[3 * i] = m->v[i].x;
+        v[3 * i + 1] = m->v[i].y;
+        v[3 * i + 2] = m->v[i].z;
+    }
+    for (int i = 0; i < m->nt; i++)
+        for (int k = 0; k < 3; k++)
+            ix[3 * i + k] = (unsigned)m->tri[i][k];
+    rtcCommitGeometry(g);
+    rtcAttachGeometry(sc, g);
+    rtcReleaseGeometry(g);
+    rtcCommitScene(sc);
+    *ms = 1e3 * (now() - t0);
+    return sc;
+}
+
+/* One pass of Embree over the rays; returns seconds. */
+static double embree_pass(RTCScene sc, const Ray *rays, size_t n, int any, size_t *hits)
+{
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    size_t k = 0;
+    double t0 = now();
+    for (size_t i = 0; i < n; i++) {
+        struct RTCRayHit rh;
+        rh.ray.org_x = rays[i].o.x;
+        rh.ray.org_y = rays[i].o.y;
+        rh.ray.org_z = rays[i].o.z;
+        rh.ray.dir_x = rays[i].d.x;
+        rh.ray.dir_y = rays[i].d.y;
+        rh.ray.dir_z = rays[i].d.z;
+        rh.ray.tnear = 0.0f;
+        rh.ray.tfar = rays[i].tmax;
+        rh.ray.time = 0.0f;
+        rh.ray.mask = ~0u;
+        rh.ray.id = 0;
+        rh.ray.flags = 0;
+        if (any) {
+            rtcOccluded1(sc, &ctx, &rh.ray);
+            k += rh.ray.tfar < 0.0f; /* Embree marks an occluded ray with tfar = -inf */
+        } else {
+            rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+            rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+            rtcIntersect1(sc, &ctx, &rh);
+            k += rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
+        }
+    }
+    *hits = k;
+    return now() - t0;
+}
+
+static double lancer_pass(const Accel *a, const Ray *rays, size_t n, int any, size_t *hits)
+{
+    RayStats st = {0, 0, 0, 0, 0};
+    size_t k = 0;
+    double t0 = now();
+    for (size_t i = 0; i < n; i++) {
+        if (any) {
+            k += (size_t)accel_occluded(a, &rays[i], &st);
+        } else {
+            PrimHit h;
+            k += accel_closest(a, &rays[i], &h, &st) >= 0;
+        }
+    }
+    *hits = k;
+    return now() - t0;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 3) {
+        fprintf(stderr, "usage: embree_bench MESH DIR [PASSES]\n");
+        return 2;
+    }
+    int passes = argc > 3 ? atoi(argv[3]) : 5;
+    if (passes < 1 || passes > ROUNDS_MAX)
+        passes = 5;
+    char err[1024];
+    Mesh m;
+    if (mesh_load(argv[1], &m, err, sizeof err) != 0) {
+        fprintf(stderr, "%s\n", err);
+        return 1;
+    }
+    Scene s;
+    memset(&s, 0, sizeof s);
+    s.materials = calloc(1, sizeof(Material));
+    s.nmaterials = 1;
+    int dropped;
+    if (!s.materials || scene_add_mesh(&s, &m, 0, 0, NULL, &dropped) != 0) {
+        fprintf(stderr, "out of memory\n");
+        return 1;
+    }
+    RTCDevice dev = rtcNewDevice("threads=1");
+    double lb[ROUNDS_MAX], ed[ROUNDS_MAX], er[ROUNDS_MAX];
+    Accel acc;
+    RTCScene sd = NULL, sr = NULL;
+    for (int k = 0; k < passes; k++) { /* builds, alternating too */
+        double t0 = now();
+        if (k > 0)
+            accel_free(&acc);
+        if (accel_build(&acc, &s, 1) != 0)
+            return 1;
+        lb[k] = 1e3 * (now() - t0);
+        if (sd) {
+            rtcReleaseScene(sd);
+            rtcReleaseScene(sr);
+        }
+        sd = embree_scene(dev, &m, 0, &ed[k]);
+        sr = embree_scene(dev, &m, 1, &er[k]);
+    }
+    size_t bytes = sizeof(BvhNode) * (size_t)acc.bvh.nnodes + sizeof(Prim) * (size_t)acc.bvh.nprims +
+                   sizeof(int) * (size_t)acc.bvh.nprims;
+    printf("mesh %s: %d triangles, %d degenerate dropped\n", argv[1], m.nt, m.degenerate);
+    printf("build (ms, median of %d, one thread): lancer %.1f, Embree %.1f, Embree robust %.1f; "
+           "lancer / Embree = %.2f\n",
+           passes, median(lb, passes), median(ed, passes), median(er, passes), median(lb, passes) / median(ed, passes));
+    printf("lancer BVH memory: %.1f bytes per triangle (nodes and leaf-ordered primitives)\n",
+           (double)bytes / m.nt);
+    printf("| rays | kind | lancer Mrays/s | Embree | Embree robust | lancer / Embree | lancer / robust | hits "
+           "(lancer, Embree, robust) |\n| --- | --- | --- | --- | --- | --- | --- | --- |\n");
+    const char *files[3] = {"primary", "shadow", "diffuse"};
+    for (int f = 0; f < 3; f++) {
+        char path[1024];
+        snprintf(path, sizeof path, "%s/%s.rays", argv[2], files[f]);
+        Ray *rays;
+        size_t n, hl = 0, hd = 0, hr = 0;
+        if (rayfile_read(path, &rays, &n, err, sizeof err) != 0) {
+            fprintf(stderr, "%s\n", err);
+            return 1;
+        }
+        int any = f == 1;
+        lancer_pass(&acc, rays, n, any, &hl); /* warm-up */
+        embree_pass(sd, rays, n, any, &hd);
+        embree_pass(sr, rays, n, any, &hr);
+        double tl[ROUNDS_MAX], td[ROUNDS_MAX], trr[ROUNDS_MAX];
+        for (int k = 0; k < passes; k++) {
+            tl[k] = n / lancer_pass(&acc, rays, n, any, &hl) / 1e6;
+            td[k] = n / embree_pass(sd, rays, n, any, &hd) / 1e6;
+            trr[k] = n / embree_pass(sr, rays, n, any, &hr) / 1e6;
+        }
+        double ml = median(tl, passes), md = median(td, passes), mr = median(trr, passes);
+        printf("| %s | %s | %.2f | %.2f | %.2f | %.2f | %.2f | %zu, %zu, %zu |\n", files[f], any ? "any" : "closest",
+               ml, md, mr, ml / md, ml / mr, hl, hd, hr);
+        free(rays);
+    }
+    rtcReleaseScene(sd);
+    rtcReleaseScene(sr);
+    rtcReleaseDevice(dev);
+    accel_free(&acc);
+    scene_free(&s);
+    mesh_free(&m);
+    return 0;
+}
