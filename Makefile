@@ -41,7 +41,7 @@ LIB_OBJ  := $(LIB_SRC:src/%.c=$(BUILD)/obj/%.o)
 TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/%)
 
-.PHONY: all run test tests deps-run deps-test clean
+.PHONY: all run test tests deps-run deps-test clean exact exact-judge stress cgal-data
 .DEFAULT_GOAL := all
 
 all: $(BUILD)/lancer
@@ -66,16 +66,50 @@ $(BUILD)/test_%: $(BUILD)/obj/tests/test_%.o $(BUILD)/liblancer.a
 
 tests: $(BUILD)/lancer $(TEST_BIN)
 
+# The exact judge (tests/exact): C++17 + CGAL, linked against the release
+# library build/liblancer.a, so it measures the very object code lancer runs
+# (built with the flags above). Only exact.cpp and mesh.cpp include CGAL, which
+# compiles slowly; -frounding-math is what CGAL's interval filters need.
+EXACT_DIR      := build/exact
+EXACT_SRC      := $(wildcard tests/exact/*.cpp)
+EXACT_OBJ      := $(EXACT_SRC:tests/exact/%.cpp=$(EXACT_DIR)/%.o)
+EXACT_CXXFLAGS := -std=c++17 -O2 -ffp-contract=off -frounding-math -Wall -Wextra -Wno-maybe-uninitialized
+EXACT_RAYS     ?= 1000000
+STRESS_RAYS    ?= 100000000
+
+$(EXACT_DIR)/%.o: tests/exact/%.cpp
+	@mkdir -p $(@D)
+	$(CXX) -Iinclude $(EXACT_CXXFLAGS) -MMD -MP -c $< -o $@
+
+$(EXACT_DIR)/judge: $(EXACT_OBJ) build/liblancer.a
+	$(CXX) $(EXACT_OBJ) build/liblancer.a -lmpfr -lgmp -pthread -o $@
+
 # The quick start, step one: dependencies, build, render the default scene.
 run: deps-run
 	$(MAKE) all
 	@mkdir -p out
 	$(BUILD)/lancer render scenes/default.scn -o out/default.exr --png out/default.png
 
-# The quick start, step two: every test, on the sanitized build with -Werror.
+# The quick start, step two: every test, on the sanitized build with -Werror,
+# then the exact judge (EXACT_RAYS rays per case) on the release library.
 test: deps-test
 	$(MAKE) BUILD=build/san SAN=1 WERROR=1 tests
-	sh scripts/run-tests.sh build/san
+	$(MAKE) exact-judge
+	EXACT_RAYS=$(EXACT_RAYS) sh scripts/run-tests.sh build/san $(EXACT_DIR)/judge
+
+# The exact judge alone: `make exact`, or `make stress` (STRESS_RAYS per case;
+# hours). Both build build/liblancer.a with the release flags first.
+exact: deps-test exact-judge
+	$(EXACT_DIR)/judge $(EXACT_RAYS)
+
+stress: deps-test exact-judge
+	$(EXACT_DIR)/judge $(STRESS_RAYS)
+
+exact-judge: cgal-data
+	$(MAKE) -j2 BUILD=build SAN=0 $(EXACT_DIR)/judge
+
+cgal-data:
+	sh scripts/cgal-data.sh build/cgal-data
 
 deps-run:
 	sh scripts/deps.sh run
@@ -86,4 +120,4 @@ deps-test:
 clean:
 	rm -rf build
 
--include $(wildcard $(BUILD)/obj/*.d $(BUILD)/obj/tests/*.d)
+-include $(wildcard $(BUILD)/obj/*.d $(BUILD)/obj/tests/*.d $(EXACT_DIR)/*.d)

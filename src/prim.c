@@ -262,8 +262,11 @@ static double sphere_g(const double f[3], const float d[3], double r2, double t,
  * root: the ray is tangent to working precision). */
 static double sphere_certify(const double f[3], const float d[3], double r2, double t)
 {
-    double w = 4.0 * UNIT_F * fabs(t) + 1e-300;
-    for (int k = 0; k < 12; k++, w *= 8.0) {
+    /* Start from the double computation's own accuracy, a few double ulps:
+     * starting at float ulps would swallow both roots of a sphere less than
+     * a few float ulps deep along the ray (a small sphere far away). */
+    double w = 16.0 * UNIT_D * fabs(t) + 1e-300;
+    for (int k = 0; k < 24; k++, w *= 8.0) {
         double e_lo, e_hi;
         double g_lo = sphere_g(f, d, r2, t - w, &e_lo);
         double g_hi = sphere_g(f, d, r2, t + w, &e_hi);
@@ -317,6 +320,16 @@ int prim_sphere_hit_robust(const Sphere *s, const Ray *r, PrimHit *h)
 
 static float max3(float a, float b, float c) { return fmaxf(a, fmaxf(b, c)); }
 
+/* A bound on the rounding of the edge function xi yj - yi xj when each
+ * coordinate is off by its e: the products' own rounding, and first and
+ * second order terms of the coordinate errors. Symmetric in (i, j). */
+static float edge_err(float xi, float yi, float exi, float eyi, float xj, float yj, float exj, float eyj)
+{
+    float m = fabsf(xi * yj) + fabsf(yi * xj);
+    float d = exi * fabsf(yj) + eyj * fabsf(xi) + eyi * fabsf(xj) + exj * fabsf(yi) + exi * eyj + eyi * exj;
+    return gamma_f(3) * m + d * (1.0f + gamma_f(3));
+}
+
 int prim_triangle_hit_watertight(const Triangle *tr, const Ray *r, PrimHit *h)
 {
     /* Woop et al.: translate to the ray origin, make the largest direction
@@ -338,16 +351,46 @@ int prim_triangle_hit_watertight(const Triangle *tr, const Ray *r, PrimHit *h)
      * triangles (the same products, subtracted the other way round), which
      * is what makes meshes watertight; -ffp-contract=off keeps it so. */
     float e0 = bx * cy - by * cx, e1 = cx * ay - cy * ax, e2 = ax * by - ay * bx;
-    if (e0 == 0.0f || e1 == 0.0f || e2 == 0.0f) { /* on an edge in float: decide in double */
-        e0 = (float)((double)bx * cy - (double)by * cx);
-        e1 = (float)((double)cx * ay - (double)cy * ax);
-        e2 = (float)((double)ax * by - (double)ay * bx);
+    /* An edge function within its rounding bound of 0 has an uncertain
+     * sign: it is decided again in double, from coordinates sheared in
+     * double. The bound of an edge depends only on its two vertices, and is
+     * the same whichever way round the edge is taken, so the two triangles
+     * sharing an edge always decide it by the same computation and still
+     * get exactly opposite signs. */
+    float g5 = gamma_f(5);
+    float exa = g5 * (fabsf(comp(A, kx)) + fabsf(comp(A, kz))), eya = g5 * (fabsf(comp(A, ky)) + fabsf(comp(A, kz)));
+    float exb = g5 * (fabsf(comp(B, kx)) + fabsf(comp(B, kz))), eyb = g5 * (fabsf(comp(B, ky)) + fabsf(comp(B, kz)));
+    float exc = g5 * (fabsf(comp(C, kx)) + fabsf(comp(C, kz))), eyc = g5 * (fabsf(comp(C, ky)) + fabsf(comp(C, kz)));
+    int u0 = fabsf(e0) <= edge_err(bx, by, exb, eyb, cx, cy, exc, eyc);
+    int u1 = fabsf(e1) <= edge_err(cx, cy, exc, eyc, ax, ay, exa, eya);
+    int u2 = fabsf(e2) <= edge_err(ax, ay, exa, eya, bx, by, exb, eyb);
+    if (u0 || u1 || u2) {
+        double dsx = -(double)comp(r->d, kx) / dz, dsy = -(double)comp(r->d, ky) / dz;
+        const Vec3 *v[3] = {&tr->a, &tr->b, &tr->c};
+        double X[3], Y[3];
+        for (int k = 0; k < 3; k++) {
+            double px = (double)comp(*v[k], kx) - comp(r->o, kx), py = (double)comp(*v[k], ky) - comp(r->o, ky);
+            double pz = (double)comp(*v[k], kz) - comp(r->o, kz);
+            X[k] = px + dsx * pz;
+            Y[k] = py + dsy * pz;
+        }
+        if (u0)
+            e0 = (float)(X[1] * Y[2] - Y[1] * X[2]);
+        if (u1)
+            e1 = (float)(X[2] * Y[0] - Y[2] * X[0]);
+        if (u2)
+            e2 = (float)(X[0] * Y[1] - Y[0] * X[1]);
     }
     if ((e0 < 0.0f || e1 < 0.0f || e2 < 0.0f) && (e0 > 0.0f || e1 > 0.0f || e2 > 0.0f))
         return 0;
     float det = e0 + e1 + e2;
     if (det == 0.0f)
         return 0;
+    /* The shear errors are in length units: they take the z extent before
+     * it is scaled by 1/dz (pbrt takes it after, which is wrong whenever
+     * |d| is not 1: too large a bound for short directions, too small for
+     * long ones). */
+    float mz_len = max3(fabsf(az), fabsf(bz), fabsf(cz));
     az *= sz;
     bz *= sz;
     cz *= sz;
@@ -357,14 +400,16 @@ int prim_triangle_hit_watertight(const Triangle *tr, const Ray *r, PrimHit *h)
     float inv = 1.0f / det, t = tscaled * inv;
     /* pbrt's bound on the error of t, from the errors of the sheared
      * coordinates (gamma(5) in x and y, gamma(3) in z) and of the edge
-     * functions. A t within it of 0 is rejected: the hit may be behind. */
+     * functions. A t within it of 0 is kept, as in the other routines: the
+     * exit of a closed mesh close to the origin is a real hit, and spawned
+     * rays are kept off their surface by their offset, not by rejecting. */
     float mz = max3(fabsf(az), fabsf(bz), fabsf(cz));
     float mx = max3(fabsf(ax), fabsf(bx), fabsf(cx)), my = max3(fabsf(ay), fabsf(by), fabsf(cy));
-    float dxe = gamma_f(5) * (mx + mz), dye = gamma_f(5) * (my + mz), dze = gamma_f(3) * mz;
+    float dxe = gamma_f(5) * (mx + mz_len), dye = gamma_f(5) * (my + mz_len), dze = gamma_f(3) * mz;
     float de = 2.0f * (gamma_f(2) * mx * my + dye * mx + dxe * my);
     float me = max3(fabsf(e0), fabsf(e1), fabsf(e2));
     float terr = 3.0f * (gamma_f(3) * me * mz + de * mz + dze * me) * fabsf(inv);
-    if (!(t > terr) || !(t < r->tmax))
+    if (!(t > 0.0f) || !(t < r->tmax))
         return 0;
     h->t = t;
     h->terr = float_up((double)terr + gamma_d(1) * t); /* and the rounding of t itself */
@@ -375,42 +420,44 @@ int prim_triangle_hit_watertight(const Triangle *tr, const Ray *r, PrimHit *h)
 
 int prim_box_hit_robust(const Box *b, const Ray *r, PrimHit *h)
 {
-    /* Ize: each computed slab distance is within gamma(3) of exact (the
-     * subtraction, the reciprocal, the product), so growing every far
-     * distance by 1 + 2 gamma(3) keeps every true hit. The near plane is
-     * picked by the sign of the reciprocal, never by comparing distances,
-     * so a NaN from 0 * inf (origin on a slab plane, zero direction
-     * component) is simply ignored: such a ray lies in the slab's
-     * boundary, inside the closed box's slab. */
-    const float pad = 1.0f + 2.0f * gamma_f(3);
+    /* Williams' slab test in double on the float inputs, made conservative
+     * after Ize: each slab distance (bound - o) * (1/d) is within gamma(3)
+     * of exact, so growing every far distance by 1 + 2 gamma(3) keeps every
+     * true hit. In double, 1/d cannot overflow for any float d (subnormal
+     * directions included). The near plane is picked by the sign of 1/d,
+     * never by comparing distances, so the NaN of 0 * inf (an origin on a
+     * slab plane, parallel to it) is ignored: such a ray lies in the closed
+     * slab. */
+    const double pad = 1.0 + 2.0 * gamma_d(3);
     const Vec3 bounds[2] = {b->lo, b->hi};
-    float tnear = -INFINITY, tfar = INFINITY, texit = INFINITY;
-    int near_axis = 0, far_axis = 0;
+    double tnear = -INFINITY, tfar = INFINITY, texit = INFINITY;
+    int near_face = 0, far_face = 0;
     for (int i = 0; i < 3; i++) {
-        float inv = 1.0f / comp(r->d, i);
-        int neg = inv < 0.0f;
-        float o = comp(r->o, i);
-        float t0 = (comp(bounds[neg], i) - o) * inv;
-        float t1 = (comp(bounds[1 - neg], i) - o) * inv;
+        double inv = 1.0 / (double)comp(r->d, i);
+        int neg = inv < 0.0;
+        double o = comp(r->o, i);
+        double t0 = ((double)comp(bounds[neg], i) - o) * inv;
+        double t1 = ((double)comp(bounds[1 - neg], i) - o) * inv;
         if (t0 > tnear) {
             tnear = t0;
-            near_axis = i;
+            near_face = i + 3 * neg; /* entering through hi when d < 0 */
         }
         if (t1 < texit) {
             texit = t1;
-            far_axis = i;
+            far_face = i + 3 * (1 - neg);
         }
         if (t1 * pad < tfar)
             tfar = t1 * pad;
     }
     if (!(tnear <= tfar))
         return 0;
-    float t = tnear > 0.0f ? tnear : texit;
-    if (!(t > 0.0f && t < r->tmax))
+    int inside = !(tnear > 0.0);
+    double t = inside ? texit : tnear;
+    float tf = round_t(t, gamma_d(3) * fabs(t), &h->terr);
+    if (!(tf > 0.0f && tf < r->tmax))
         return 0;
-    h->t = t;
-    h->terr = float_up(gamma_d(4) * fabsf(t));
-    h->face = tnear > 0.0f ? near_axis : far_axis;
+    h->t = tf;
+    h->face = inside ? far_face : near_face;
     return 1;
 }
 
@@ -423,7 +470,13 @@ int prim_obox_hit_robust(const OBox *b, const Ray *r, PrimHit *h)
     double oc[3], dd[3] = {r->d.x, r->d.y, r->d.z};
     for (int i = 0; i < 3; i++)
         oc[i] = (double)comp(r->o, i) - comp(b->c, i);
-    double tnear = -INFINITY, tfar = INFINITY, tn_err = 0.0, tf_err = 0.0;
+    /* Per slab: the interval [t0, t1] and its error bounds. The verdict
+     * uses each slab widened by its own bounds; a nearly parallel slab has
+     * a huge bound and so constrains nothing, as it should. */
+    double tnear = -INFINITY, tfar = INFINITY;       /* unwidened, for t */
+    double wnear = -INFINITY, wfar = INFINITY;       /* widened, for the verdict */
+    double near_up = -INFINITY, far_down = INFINITY; /* how far the exact ends may reach */
+    double tn_err = 0.0, tf_err = 0.0;
     int near_axis = 0, far_axis = 0;
     for (int i = 0; i < 3; i++) {
         Vec3 P = ax[(i + 1) % 3], Q = ax[(i + 2) % 3];
@@ -467,12 +520,19 @@ int prim_obox_hit_robust(const OBox *b, const Ray *r, PrimHit *h)
             tf_err = e1;
             far_axis = i;
         }
+        wnear = fmax(wnear, t0 - e0);
+        wfar = fmin(wfar, t1 + e1);
+        near_up = fmax(near_up, t0 + e0);
+        far_down = fmin(far_down, t1 - e1);
     }
-    if (!(tnear - tn_err <= tfar + tf_err)) /* the widened slabs do not overlap */
+    if (!(wnear <= wfar)) /* the widened slabs do not overlap */
         return 0;
+    /* The exact entry is the largest exact near distance: it lies within
+     * tn_err below tnear and at most near_up above it (likewise the exit). */
     int inside = !(tnear > 0.0);
     double t = inside ? tfar : tnear;
-    float tf = round_t(t, inside ? tf_err : tn_err, &h->terr);
+    double err = inside ? fmax(tf_err, tfar - far_down) : fmax(tn_err, near_up - tnear);
+    float tf = round_t(t, err, &h->terr);
     if (!(tf > 0.0f && tf < r->tmax))
         return 0;
     h->t = tf;
@@ -574,11 +634,10 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
         break;
     }
     case PRIM_BOX: {
-        int f = h->face;
+        int f = h->face % 3;
         ng = f == 0 ? vec3(1, 0, 0) : f == 1 ? vec3(0, 1, 0) : vec3(0, 0, 1);
         if (robust) { /* on a face, one coordinate is exactly the bound */
-            float lo = comp(p->g.box.lo, f), hi = comp(p->g.box.hi, f), x = comp(s->p, f);
-            float bound = fabsf(x - lo) < fabsf(x - hi) ? lo : hi;
+            float bound = h->face >= 3 ? comp(p->g.box.hi, f) : comp(p->g.box.lo, f);
             if (f == 0) {
                 s->p.x = bound;
                 s->perr.x = 0.0f;

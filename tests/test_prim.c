@@ -69,7 +69,7 @@ static int box_hit(const Box *b, const Ray *r, float *t, int *face)
     int k = V == PRIM_ROBUST ? prim_box_hit_robust(b, r, &h) : prim_box_hit(b, r, &h);
     if (k) {
         *t = h.t;
-        *face = h.face;
+        *face = h.face % 3; /* the axis; the robust box adds 3 for a max plane */
     }
     return k;
 }

@@ -93,7 +93,8 @@ typedef struct {
     float t;
     float terr; /* robust: |t - t_exact| <= terr; classic: 0 */
     float u, v; /* triangle barycentrics of b and c */
-    int face;   /* box: the axis (0-2) of the slab whose plane was hit */
+    int face;   /* box: the axis (0-2) of the slab whose plane was hit; the
+                 * robust box adds 3 when it is the slab's max plane */
 } PrimHit;
 
 /* Shading information at the closest hit. ng is the unit geometric normal
@@ -141,11 +142,12 @@ int prim_sphere_hit_robust(const Sphere *s, const Ray *r, PrimHit *h);
  * in double. Band: rays through an edge or vertex may be reported by only
  * one of the triangles sharing it. */
 int prim_triangle_hit_watertight(const Triangle *tr, const Ray *r, PrimHit *h);
-/* Axis-aligned box: the slab test of Williams et al. made conservative
- * after Ize, "Robust BVH Ray Traversal", JCGT 2(2), 2013: the far distance
- * grows by 1 + 2 gamma(3), so no hit is lost; an origin on a slab plane with
- * a zero direction component cannot make NaN decide the verdict. Band: rays
- * missing the box by a relative 2 gamma(3) in t may be reported as hits. */
+/* Axis-aligned box: the slab test of Williams et al. in double, made
+ * conservative after Ize, "Robust BVH Ray Traversal", JCGT 2(2), 2013: the
+ * far distance grows by 1 + 2 gamma(3), so no hit is lost; an origin on a
+ * slab plane with a zero direction component cannot make NaN decide the
+ * verdict. Band: rays missing the box by a relative 2 gamma(3) in t may be
+ * reported as hits. */
 int prim_box_hit_robust(const Box *b, const Ray *r, PrimHit *h);
 /* Oriented box: the six face planes in world space, in double, each slab
  * widened by its rounding bound. Band: as for the box, relative 1e-12. */
