@@ -137,10 +137,13 @@ int prim_plane_hit_robust(const Plane *pl, const Ray *r, PrimHit *h);
  * whose discriminant is within its rounding bound of 0. */
 int prim_sphere_hit_robust(const Sphere *s, const Ray *r, PrimHit *h);
 /* Triangle: Woop, Benthin and Wald, "Watertight Ray/Triangle Intersection",
- * JCGT 2(1), 2013: edges shared by two triangles give exactly opposite edge
- * functions, so no ray slips between them; t comes from the plane equation
- * in double. Band: rays through an edge or vertex may be reported by only
- * one of the triangles sharing it. */
+ * JCGT 2(1), 2013, in float as pbrt writes it: edges shared by two triangles
+ * give exactly opposite edge functions, so no ray slips between them; an
+ * edge function within its rounding bound of 0 is decided in double by the
+ * same symmetric test in both triangles. terr is pbrt's bound, with the
+ * shear errors taken in length units. Band: rays within a relative 2^-16 of
+ * an edge may be reported by only one of the triangles sharing it (never by
+ * none: the exact judge checks closed meshes and shared edges). */
 int prim_triangle_hit_watertight(const Triangle *tr, const Ray *r, PrimHit *h);
 /* Axis-aligned box: the slab test of Williams et al. in double, made
  * conservative after Ize, "Robust BVH Ray Traversal", JCGT 2(2), 2013: the
