@@ -41,7 +41,7 @@ LIB_OBJ  := $(LIB_SRC:src/%.c=$(BUILD)/obj/%.o)
 TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/%)
 
-.PHONY: all run test tests deps-run deps-test clean exact exact-judge stress cgal-data
+.PHONY: all run test tests deps-run deps-test clean exact exact-judge stress cgal-data bench
 .DEFAULT_GOAL := all
 
 all: $(BUILD)/lancer
@@ -104,6 +104,18 @@ exact: deps-test exact-judge
 
 stress: deps-test exact-judge
 	$(EXACT_DIR)/judge $(STRESS_RAYS)
+
+# Benchmarks (not tests): the routines' speed, and lancer against Embree on
+# ray files of three CGAL meshes. scripts/bench.sh installs what it needs.
+$(BUILD)/prim_bench: tests/bench/prim_bench.c $(BUILD)/liblancer.a
+	$(CC) $(CPPFLAGS) $(ALLCFLAGS) $^ $(LDLIBS) -o $@
+
+$(BUILD)/embree_bench: tests/bench/embree_bench.c $(BUILD)/liblancer.a
+	$(CC) $(CPPFLAGS) $(ALLCFLAGS) $^ -lembree3 $(LDLIBS) -o $@
+
+bench: deps-test cgal-data
+	$(MAKE) all $(BUILD)/prim_bench $(BUILD)/embree_bench
+	sh scripts/bench.sh
 
 exact-judge: cgal-data
 	$(MAKE) -j2 BUILD=build SAN=0 $(EXACT_DIR)/judge

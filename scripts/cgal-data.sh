@@ -1,11 +1,11 @@
 #!/bin/sh
-# Unpacks the closed meshes that the exact judge's case 2 uses, from Debian's
-# libcgal-demo data, into a build directory (they are never committed).
+# Unpacks the meshes that the exact judge's case 2 and the benchmarks use,
+# from Debian's libcgal-demo data, into a build directory (never committed).
 #   scripts/cgal-data.sh [DIR]     default build/cgal-data; meshes in DIR/meshes
 set -eu
 dir=${1:-build/cgal-data}
 tarball=/usr/share/doc/libcgal-dev/data.tar.gz
-meshes="eight.off anchor.off hand.off couplingdown.off"
+meshes="eight.off anchor.off hand.off couplingdown.off bunny00.off refined_elephant.off armadillo.off"
 
 missing=""
 for m in $meshes; do

@@ -9,7 +9,7 @@ set -eu
 pkgs="gcc make pkg-config libc6-dev libopenexr-dev libpng-dev"
 case "${1:-run}" in
     run) ;;
-    test) pkgs="$pkgs libcmocka-dev povray g++ libcgal-dev libcgal-demo libgmp-dev libmpfr-dev" ;;
+    test) pkgs="$pkgs libcmocka-dev povray g++ libcgal-dev libcgal-demo libgmp-dev libmpfr-dev libembree-dev" ;;
     *) echo "usage: scripts/deps.sh run|test" >&2; exit 2 ;;
 esac
 

@@ -4,6 +4,7 @@
 #include "lancer/afile.h"
 
 #include <errno.h>
+#include <stdint.h>
 #include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -95,5 +96,64 @@ int afile_check_writable(const char *path, char *err, size_t errlen)
     if (afile_temp(path, tmp, sizeof tmp, err, errlen) != 0)
         return -1;
     afile_abort(tmp);
+    return 0;
+}
+
+int afile_read(const char *path, unsigned long long max_bytes, const char *what, char **out, size_t *outlen, char *err,
+               size_t errlen)
+{
+    const unsigned long long limit = max_bytes < SIZE_MAX / 2 ? max_bytes : SIZE_MAX / 2;
+    FILE *f = fopen(path, "rb");
+    if (!f) {
+        snprintf(err, errlen, "%s: cannot open: %s", path, strerror(errno));
+        return -1;
+    }
+    struct stat st;
+    size_t cap = 1 << 16, len = 0;
+    if (fstat(fileno(f), &st) == 0 && S_ISREG(st.st_mode)) {
+        if ((unsigned long long)st.st_size > limit) {
+            snprintf(err, errlen, "%s: file of %lld bytes is larger than the %llu MiB limit for %s", path,
+                     (long long)st.st_size, limit >> 20, what);
+            fclose(f);
+            return -1;
+        }
+        cap = (size_t)st.st_size + 1; /* + 1: reaching EOF needs no second allocation */
+    }
+    char *buf = NULL;
+    int rc = 0;
+    for (;;) {
+        if (len == cap || !buf) {
+            if (buf && cap > limit) {
+                snprintf(err, errlen, "%s: file larger than the %llu MiB limit for %s", path, limit >> 20, what);
+                rc = -1;
+                break;
+            }
+            size_t ncap = !buf ? cap : cap > limit / 2 ? (size_t)limit + 1 : cap * 2;
+            char *nb = realloc(buf, ncap);
+            if (!nb) {
+                snprintf(err, errlen, "%s: out of memory reading %zu bytes", path, ncap);
+                rc = -1;
+                break;
+            }
+            buf = nb;
+            cap = ncap;
+        }
+        size_t n = fread(buf + len, 1, cap - len, f);
+        len += n;
+        if (n == 0) {
+            if (ferror(f)) {
+                snprintf(err, errlen, "%s: read error: %s", path, strerror(errno));
+                rc = -1;
+            }
+            break;
+        }
+    }
+    fclose(f);
+    if (rc != 0) {
+        free(buf);
+        return -1;
+    }
+    *out = buf;
+    *outlen = len;
     return 0;
 }

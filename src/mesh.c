@@ -31,6 +31,8 @@
  */
 #include "lancer/mesh.h"
 
+#include "lancer/afile.h"
+
 #include <errno.h>
 #include <float.h>
 #include <limits.h>
@@ -1421,65 +1423,6 @@ int mesh_format_from_path(const char *path, MeshFormat *fmt)
     return -1;
 }
 
-/* Reads the whole file at path into a new buffer (the caller frees it). */
-static int read_file(const char *path, char **out, size_t *outlen, char *err, size_t errlen)
-{
-    const unsigned long long limit = MESH_MAX_BYTES < SIZE_MAX / 2 ? MESH_MAX_BYTES : SIZE_MAX / 2;
-    FILE *f = fopen(path, "rb");
-    if (!f) {
-        snprintf(err, errlen, "%s: cannot open: %s", path, strerror(errno));
-        return -1;
-    }
-    struct stat st;
-    size_t cap = 1 << 16, len = 0;
-    if (fstat(fileno(f), &st) == 0 && S_ISREG(st.st_mode)) {
-        if ((unsigned long long)st.st_size > limit) {
-            snprintf(err, errlen, "%s: file of %lld bytes is larger than the %llu MiB limit for meshes", path,
-                     (long long)st.st_size, limit >> 20);
-            fclose(f);
-            return -1;
-        }
-        cap = (size_t)st.st_size + 1; /* + 1: reaching EOF needs no second allocation */
-    }
-    char *buf = NULL;
-    int rc = 0;
-    for (;;) {
-        if (len == cap || !buf) {
-            if (buf && cap > limit) {
-                snprintf(err, errlen, "%s: file larger than the %llu MiB limit for meshes", path, limit >> 20);
-                rc = -1;
-                break;
-            }
-            size_t ncap = !buf ? cap : cap > limit / 2 ? (size_t)limit + 1 : cap * 2;
-            char *nb = MESH_REALLOC(buf, ncap);
-            if (!nb) {
-                snprintf(err, errlen, "%s: out of memory reading %zu bytes", path, ncap);
-                rc = -1;
-                break;
-            }
-            buf = nb;
-            cap = ncap;
-        }
-        size_t n = fread(buf + len, 1, cap - len, f);
-        len += n;
-        if (n == 0) {
-            if (ferror(f)) {
-                snprintf(err, errlen, "%s: read error: %s", path, strerror(errno));
-                rc = -1;
-            }
-            break;
-        }
-    }
-    fclose(f);
-    if (rc != 0) {
-        MESH_FREE(buf);
-        return -1;
-    }
-    *out = buf;
-    *outlen = len;
-    return 0;
-}
-
 int mesh_load(const char *path, Mesh *m, char *err, size_t errlen)
 {
     MeshFormat fmt;
@@ -1490,10 +1433,10 @@ int mesh_load(const char *path, Mesh *m, char *err, size_t errlen)
         snprintf(err, errlen, "%s: unknown mesh format (the name must end in .off, .obj or .ply)", path);
         return -1;
     }
-    if (read_file(path, &buf, &len, err, errlen) != 0)
+    if (afile_read(path, MESH_MAX_BYTES, "meshes", &buf, &len, err, errlen) != 0)
         return -1;
     int rc = mesh_parse(path, buf, len, fmt, m, err, errlen);
-    MESH_FREE(buf);
+    free(buf);
     return rc;
 }
 

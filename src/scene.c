@@ -23,6 +23,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "lancer/afile.h"
 #include "lancer/image.h"
 
 typedef struct {
@@ -1033,44 +1034,11 @@ int scene_parse(const char *name, const char *text, size_t len, Scene *s, char *
 int scene_load(const char *path, Scene *s, char *err, size_t errlen)
 {
     memset(s, 0, sizeof *s);
-    FILE *f = fopen(path, "rb");
-    if (!f) {
-        snprintf(err, errlen, "%s: cannot open: %s", path, strerror(errno));
+    char *buf;
+    size_t len;
+    if (afile_read(path, (unsigned long long)SCENE_MAX_BYTES, "scenes", &buf, &len, err, errlen) != 0)
         return -1;
-    }
-    char *buf = NULL;
-    size_t len = 0, cap = 0;
-    int rc = 0;
-    for (;;) {
-        if (len == cap) {
-            if (cap >= (size_t)SCENE_MAX_BYTES) {
-                snprintf(err, errlen, "%s: file larger than %ld MiB, refusing to read it", path,
-                         SCENE_MAX_BYTES >> 20);
-                rc = -1;
-                break;
-            }
-            cap = cap ? cap * 2 : 1 << 16;
-            char *nb = realloc(buf, cap);
-            if (!nb) {
-                snprintf(err, errlen, "%s: out of memory", path);
-                rc = -1;
-                break;
-            }
-            buf = nb;
-        }
-        size_t n = fread(buf + len, 1, cap - len, f);
-        len += n;
-        if (n == 0) {
-            if (ferror(f)) {
-                snprintf(err, errlen, "%s: read error: %s", path, strerror(errno));
-                rc = -1;
-            }
-            break;
-        }
-    }
-    fclose(f);
-    if (rc == 0)
-        rc = scene_parse(path, buf, len, s, err, errlen);
+    int rc = scene_parse(path, buf, len, s, err, errlen);
     free(buf);
     return rc;
 }

@@ -1,5 +1,6 @@
 /*
- * afile.h - atomic file replacement: write beside the target, then rename.
+ * afile.h - whole files: replaced atomically (written beside the target,
+ * then renamed), and read in one piece with a size limit.
  *
  *     char tmp[AFILE_PATH_MAX];
  *     if (afile_temp(path, tmp, sizeof tmp, err, errlen) != 0) return -1;
@@ -37,6 +38,13 @@ FILE *afile_fopen(const char *path, char *tmp, size_t tmplen, char *err, size_t 
 /* Closes f and commits tmp over path if every write to f succeeded;
  * otherwise removes tmp. Returns 0 or -1 with a message in err. */
 int afile_fclose(FILE *f, const char *tmp, const char *path, char *err, size_t errlen);
+
+/* Reads the whole file at path into a new buffer the caller frees (*out,
+ * *outlen). Files over max_bytes are refused before being read; `what`
+ * names the kind of file in that message ("meshes"). Returns 0, or -1 with
+ * "path: message". */
+int afile_read(const char *path, unsigned long long max_bytes, const char *what, char **out, size_t *outlen, char *err,
+               size_t errlen);
 
 /* Checks, without touching path, that a file could be written there: path is
  * not a directory and its directory accepts new files. Returns 0 or -1. */

@@ -1,0 +1,19 @@
+#!/bin/sh
+# Benchmarks (make bench): the speed of each intersection routine, classic
+# against robust; then lancer against Embree 3 on the same ray files for
+# three CGAL meshes, one thread, alternating pass by pass. Prints Markdown.
+#   sh scripts/bench.sh [PASSES]
+set -eu
+passes=${1:-5}
+data=build/cgal-data/meshes
+echo "## Intersection routines (Mrays/s, one thread, medians of 9 alternating rounds)"
+echo
+build/prim_bench
+for m in bunny00 refined_elephant armadillo; do
+    mkdir -p "build/bench/$m"
+    build/lancer bench --gen-rays "$data/$m.off" "build/bench/$m" 1024 1024 >/dev/null
+    echo
+    echo "## $m"
+    echo
+    build/embree_bench "$data/$m.off" "build/bench/$m" "$passes"
+done
