@@ -42,7 +42,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 
 /* Longest number token read; longer ones are an error rather than a heap
  * copy (round-trip output of a double, what writers print, is under 30). */
