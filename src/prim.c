@@ -330,7 +330,29 @@ static float edge_err(float xi, float yi, float exi, float eyi, float xj, float 
     return gamma_f(3) * m + d * (1.0f + gamma_f(3));
 }
 
+static int watertight(const Triangle *tr, const Ray *r, PrimHit *h);
+
 int prim_triangle_hit_watertight(const Triangle *tr, const Ray *r, PrimHit *h)
+{
+    /* The float shear divides by the largest direction component: scale a
+     * very short or very long direction by a power of two first (exact),
+     * so that 1/dz cannot overflow, and scale t back. */
+    float m = max3(fabsf(r->d.x), fabsf(r->d.y), fabsf(r->d.z));
+    if (!(m < 0x1p-60f || m > 0x1p60f))
+        return watertight(tr, r, h);
+    int e;
+    frexpf(m, &e);
+    double k = ldexp(1.0, -e); /* d' = k d, so t = k t'; in double, since k may exceed FLT_MAX */
+    Vec3 d = vec3((float)(r->d.x * k), (float)(r->d.y * k), (float)(r->d.z * k));
+    Ray q = ray_make(r->o, d, float_up(r->tmax / k)); /* rounded up: no hit lost */
+    if (!watertight(tr, &q, h))
+        return 0;
+    h->t = (float)(h->t * k);
+    h->terr = float_up(h->terr * k);
+    return h->t < r->tmax && h->t > 0.0f;
+}
+
+static int watertight(const Triangle *tr, const Ray *r, PrimHit *h)
 {
     /* Woop et al.: translate to the ray origin, make the largest direction
      * component z (keeping the winding), and shear so the ray runs along
@@ -577,7 +599,7 @@ static Vec3 ray_point(const Ray *r, float t, float terr, Vec3 *err)
 void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, Surface *s)
 {
     int robust = v == PRIM_ROBUST;
-    Vec3 ng = vec3(0.0f, 0.0f, 0.0f), ns;
+    Vec3 ng = vec3(0.0f, 0.0f, 0.0f), ns, nface = ng;
     if (robust)
         s->p = ray_point(r, h->t, h->terr, &s->perr);
     else
@@ -636,18 +658,33 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
     case PRIM_BOX: {
         int f = h->face % 3;
         ng = f == 0 ? vec3(1, 0, 0) : f == 1 ? vec3(0, 1, 0) : vec3(0, 0, 1);
+        if (h->face < 3)
+            ng = vec_neg(ng); /* outward, for the edge normal below */
+        nface = ng;
         if (robust) { /* on a face, one coordinate is exactly the bound */
-            float bound = h->face >= 3 ? comp(p->g.box.hi, f) : comp(p->g.box.lo, f);
-            if (f == 0) {
-                s->p.x = bound;
-                s->perr.x = 0.0f;
-            } else if (f == 1) {
-                s->p.y = bound;
-                s->perr.y = 0.0f;
-            } else {
-                s->p.z = bound;
-                s->perr.z = 0.0f;
+            const Box *b = &p->g.box;
+            float bound = h->face >= 3 ? comp(b->hi, f) : comp(b->lo, f);
+            float c[3] = {s->p.x, s->p.y, s->p.z}, e[3] = {s->perr.x, s->perr.y, s->perr.z};
+            float out[3] = {0, 0, 0}; /* the outward normals of every face p lies on */
+            c[f] = bound;
+            e[f] = 0.0f;
+            out[f] = h->face >= 3 ? 1.0f : -1.0f;
+            int edge = 0;
+            for (int j = 0; j < 3; j++) {
+                if (j == f)
+                    continue;
+                if (c[j] == comp(b->lo, j) || c[j] == comp(b->hi, j)) {
+                    out[j] = c[j] == comp(b->lo, j) ? -1.0f : 1.0f;
+                    edge = 1;
+                }
             }
+            s->p = vec3(c[0], c[1], c[2]);
+            s->perr = vec3(e[0], e[1], e[2]);
+            /* On an edge or corner, rays spawn along the sum of the faces'
+             * normals, so that they leave every face plane p lies on (the
+             * shading normal stays the face's). */
+            if (edge)
+                ng = vec3(out[0], out[1], out[2]);
         }
         break;
     }
@@ -667,14 +704,23 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
         ns = vec_add(vec_add(vec_scale(tr->na, w), vec_scale(tr->nb, h->u)), vec_scale(tr->nc, h->v));
         ns = vec_normalize(ns);
     }
-    /* Two-sided surfaces: each normal faces the incoming ray. */
+    /* Two-sided surfaces: each normal faces the incoming ray. A box's edge
+     * normal turns with its face's normal, not by its own sign against the
+     * ray: it must keep pointing out of (or into) every face it touches. */
+    if (p->kind == PRIM_BOX) {
+        float flip = vec_dot(nface, r->d) > 0.0f ? -1.0f : 1.0f;
+        s->ng = s->ns = vec_scale(nface, flip);
+        s->noff = vec_scale(ng, flip);
+        return;
+    }
     s->ng = vec_dot(ng, r->d) > 0.0f ? vec_neg(ng) : ng;
     s->ns = vec_dot(ns, r->d) > 0.0f ? vec_neg(ns) : ns;
+    s->noff = s->ng;
 }
 
 Vec3 prim_spawn_origin(const Surface *s, Vec3 dir)
 {
-    Vec3 n = vec_dot(s->ng, dir) < 0.0f ? vec_neg(s->ng) : s->ng; /* the side dir leaves to */
+    Vec3 n = vec_dot(s->ng, dir) < 0.0f ? vec_neg(s->noff) : s->noff; /* the side dir leaves to */
     float dist = fabsf(n.x) * s->perr.x + fabsf(n.y) * s->perr.y + fabsf(n.z) * s->perr.z;
     Vec3 po = vec_madd(s->p, n, dist);
     /* One float further along each component the normal moves, so that the

@@ -2,10 +2,11 @@
  * shade.c - Whitted shading with POV-Ray 3.7's classic finish (shade.h).
  *
  * Every secondary ray starts at prim_spawn_origin(), never at the raw hit
- * point, and accepts any t > 0: the offset, derived from the hit's own error
- * bound, not a t_min epsilon, keeps it off its own surface. POV-Ray itself ignores hits closer than 1e-4 (and shadow
- * occluders within 1e-3 of either end); the two differ only on surfaces that
- * touch, a line of pixels at most.
+ * point, and accepts any t > 0: the offset, derived from the hit's own
+ * error bound, not a t_min epsilon, keeps it off its own surface. POV-Ray
+ * itself ignores hits closer than 1e-4 (and shadow occluders within 1e-3 of
+ * either end); the two differ only on surfaces that touch, a line of pixels
+ * at most.
  */
 #include "lancer/shade.h"
 

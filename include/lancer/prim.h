@@ -105,6 +105,9 @@ typedef struct {
 typedef struct {
     Vec3 p, ng, ns;
     Vec3 perr;
+    Vec3 noff; /* the direction spawned origins move along, on ng's side: ng,
+                * except on a box's edge or corner, where it is the sum of
+                * the normals of every face p lies on */
 } Surface;
 
 typedef enum { PRIM_ROBUST, PRIM_CLASSIC } PrimVariant;
