@@ -113,7 +113,9 @@ $(BUILD)/prim_bench: tests/bench/prim_bench.c $(BUILD)/liblancer.a
 $(BUILD)/embree_bench: tests/bench/embree_bench.c $(BUILD)/liblancer.a
 	$(CC) $(CPPFLAGS) $(ALLCFLAGS) $^ -lembree3 $(LDLIBS) -o $@
 
-bench: deps-test cgal-data
+bench:
+	sh scripts/deps.sh bench
+	sh scripts/cgal-data.sh build/cgal-data
 	$(MAKE) all $(BUILD)/prim_bench $(BUILD)/embree_bench
 	sh scripts/bench.sh
 

@@ -2,6 +2,7 @@
 # Installs the Debian packages lancer needs, or says how to.
 #   scripts/deps.sh run    what building and rendering need
 #   scripts/deps.sh test   that, plus what the tests need
+#   scripts/deps.sh bench  that, plus Embree for the benchmarks
 # As root it calls apt-get for whatever is missing; otherwise it prints the
 # exact command to run and fails, so that nothing half-works.
 set -eu
@@ -9,8 +10,9 @@ set -eu
 pkgs="gcc make pkg-config libc6-dev libopenexr-dev libpng-dev"
 case "${1:-run}" in
     run) ;;
-    test) pkgs="$pkgs libcmocka-dev povray g++ libcgal-dev libcgal-demo libgmp-dev libmpfr-dev libembree-dev" ;;
-    *) echo "usage: scripts/deps.sh run|test" >&2; exit 2 ;;
+    test) pkgs="$pkgs libcmocka-dev povray g++ libcgal-dev libcgal-demo libgmp-dev libmpfr-dev" ;;
+    bench) pkgs="$pkgs libcmocka-dev povray g++ libcgal-dev libcgal-demo libgmp-dev libmpfr-dev libembree-dev" ;;
+    *) echo "usage: scripts/deps.sh run|test|bench" >&2; exit 2 ;;
 esac
 
 missing=""
