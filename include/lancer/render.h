@@ -28,7 +28,8 @@ typedef struct {
 } RenderOptions;
 
 /* Renders into img, which must already have the scene's size. Adds the ray
- * counts to *stats. Returns 0, or -1 if no thread could be started. */
+ * counts to *stats. Returns 0, or -1 when its lock cannot be set up (the
+ * calling thread renders even when no other thread can be started). */
 int render_image(const Scene *s, const Accel *a, const RenderOptions *opt, Image *img, RayStats *stats);
 
 /* The colour of pixel (x, y): the mean of s->spp x s->spp camera rays through
