@@ -98,6 +98,7 @@ static const char *usage_diff =
 static const char *usage_bench =
     "usage: lancer bench --gen-rays MESH OUTDIR [W H]\n"
     "       lancer bench --mesh MESH --rays FILE --kind closest|any [--passes N] [--classic]\n"
+    "       lancer bench --build-series MESH [--max-mtris M]\n"
     "\n"
     "The first form writes OUTDIR/primary.rays, shadow.rays and diffuse.rays\n"
     "for a W x H camera framing the mesh (default 1024 x 1024): one ray per\n"
@@ -109,6 +110,10 @@ static const char *usage_bench =
     "thread (closest hit, or any hit) for one warm-up and N timed passes\n"
     "(default 3), and prints one line:\n"
     "  mrays=<best Mrays/s> hits=<hits> sumt=<sum of t over hits> build_ms=<build> rays=<count>\n"
+    "\n"
+    "The third builds the BVH over the mesh, then splits every triangle in two\n"
+    "and builds again, up to M million triangles (default 10), printing build\n"
+    "times on 1 and 2 threads and memory per triangle for each size.\n"
     "\n"
     "options:\n"
     "      --passes N   timed passes (default 3)\n"
@@ -600,19 +605,88 @@ static int write_rays(const char *dir, const char *name, const RaySet *set)
     return 0;
 }
 
+/* Build time and memory of the BVH as the mesh is split again and again
+ * (each triangle in two, across its longest edge) up to max_tris. */
+static int build_series(Scene *s, long max_tris)
+{
+    printf("| triangles | build ms, 1 thread | build ms, 2 threads | ns per triangle (1 thread) | BVH bytes per "
+           "triangle |\n| --- | --- | --- | --- | --- |\n");
+    for (;;) {
+        double ms[2];
+        size_t bytes = 0;
+        for (int t = 0; t < 2; t++) {
+            Accel acc;
+            double t0 = now();
+            if (accel_build(&acc, s, t + 1) != 0) {
+                fprintf(stderr, "lancer: out of memory building the BVH\n");
+                return 1;
+            }
+            ms[t] = 1e3 * (now() - t0);
+            bytes = sizeof(BvhNode) * (size_t)acc.bvh.nnodes + (sizeof(Prim) + sizeof(int)) * (size_t)acc.bvh.nprims;
+            accel_free(&acc);
+        }
+        printf("| %d | %.1f | %.1f | %.0f | %.1f |\n", s->nprims, ms[0], ms[1], 1e6 * ms[0] / s->nprims,
+               (double)bytes / s->nprims);
+        fflush(stdout);
+        if (2L * s->nprims > max_tris)
+            return 0;
+        Prim *np = malloc(sizeof(Prim) * 2 * (size_t)s->nprims);
+        if (!np) {
+            fprintf(stderr, "lancer: out of memory splitting the mesh\n");
+            return 1;
+        }
+        for (int i = 0; i < s->nprims; i++) {
+            Triangle t = s->prims[i].g.tri;
+            Vec3 v[3] = {t.a, t.b, t.c};
+            int k = 0; /* the corner opposite the longest edge */
+            float best = -1.0f;
+            for (int j = 0; j < 3; j++) {
+                Vec3 e = vec_sub(v[(j + 1) % 3], v[(j + 2) % 3]);
+                if (vec_dot(e, e) > best) {
+                    best = vec_dot(e, e);
+                    k = j;
+                }
+            }
+            Vec3 a = v[k], b = v[(k + 1) % 3], c = v[(k + 2) % 3], m = vec_scale(vec_add(b, c), 0.5f);
+            Triangle *t0 = &np[2 * i].g.tri, *t1 = &np[2 * i + 1].g.tri;
+            np[2 * i] = np[2 * i + 1] = s->prims[i];
+            t0->a = a;
+            t0->b = b;
+            t0->c = m;
+            t1->a = a;
+            t1->b = m;
+            t1->c = c;
+        }
+        free(s->prims);
+        s->prims = np;
+        s->nprims *= 2;
+    }
+}
+
 static int cmd_bench(int argc, char **argv)
 {
-    const char *gen = NULL, *mesh = NULL, *rays = NULL, *kind = NULL, *pos[3] = {NULL, NULL, NULL};
-    int passes = 3, classic = 0, threads = 1, npos;
+    const char *gen = NULL, *mesh = NULL, *rays = NULL, *kind = NULL, *series = NULL, *pos[3] = {NULL, NULL, NULL};
+    int passes = 3, classic = 0, threads = 1, npos, max_mtris = 10;
     const Opt opts[] = {
         {"--gen-rays", NULL, OPT_STRING, &gen, 0, 0},       {"--mesh", NULL, OPT_STRING, &mesh, 0, 0},
         {"--rays", NULL, OPT_STRING, &rays, 0, 0},          {"--kind", NULL, OPT_STRING, &kind, 0, 0},
         {"--passes", NULL, OPT_INT, &passes, 1, 1000},      {"--classic", NULL, OPT_FLAG, &classic, 0, 0},
-        {"--threads", NULL, OPT_INT, &threads, 1, 1024},
+        {"--threads", NULL, OPT_INT, &threads, 1, 1024},    {"--build-series", NULL, OPT_STRING, &series, 0, 0},
+        {"--max-mtris", NULL, OPT_INT, &max_mtris, 1, 100},
     };
     int rc = parse_opts("bench", usage_bench, argc, argv, opts, (int)(sizeof opts / sizeof opts[0]), pos, 3, &npos);
     if (rc)
         return rc == HELP_SHOWN ? 0 : rc;
+    if (series) {
+        Scene s;
+        if (npos != 0)
+            return usage_error("bench", "--build-series takes no other arguments");
+        if (mesh_scene(series, classic, &s) != 0)
+            return 1;
+        rc = build_series(&s, 1000000L * max_mtris);
+        scene_free(&s);
+        return rc;
+    }
     if (!gen == !mesh)
         return usage_error("bench", "give either --gen-rays MESH OUTDIR or --mesh MESH --rays FILE --kind K");
     int w = 1024, h = 1024;
