@@ -146,5 +146,25 @@ sed 's/^image { /image { intersect classic /' "$T/tiny.scn" >"$T/classic.scn"
 expect 0 "$LANCER" render "$T/classic.scn" -o "$T/c2.exr" --stats "$T/c2.json" -q
 has "$T/c2.json" '"intersect": "classic"'
 
+# bench: ray files for a small mesh, tracing them, the build series
+printf 'OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n' >"$T/tet.off"
+mkdir "$T/rays"
+expect 0 "$LANCER" bench --gen-rays "$T/tet.off" "$T/rays" 16 16
+has "$T/out" "primary=256 "
+expect 0 "$LANCER" bench --mesh "$T/tet.off" --rays "$T/rays/primary.rays" --kind closest --passes 1
+if grep -Eq '^mrays=[0-9.]+ hits=[1-9][0-9]* sumt=[0-9.e+]+ build_ms=[0-9.]+ rays=256$' "$T/out"; then ok; else
+    bad "bench line: $(cat "$T/out")"
+fi
+expect 0 "$LANCER" bench --mesh "$T/tet.off" --rays "$T/rays/shadow.rays" --kind any --passes 1 --classic
+has "$T/out" "sumt=0 "
+expect 0 "$LANCER" bench --build-series "$T/tet.off" --max-mtris 1
+has "$T/out" "| 4 | "
+expect 2 "$LANCER" bench --mesh "$T/tet.off" --rays "$T/rays/primary.rays" --kind nearest
+expect 2 "$LANCER" bench --gen-rays "$T/tet.off"
+expect 1 "$LANCER" bench --mesh "$T/tet.off" --rays "$T/tet.off" --kind any
+has "$T/err" "not a ray file"
+expect 1 "$LANCER" bench --gen-rays "$T/none.off" "$T/rays"
+has "$T/err" "$T/none.off: cannot open"
+
 echo "cli: $pass passed, $fail failed"
 [ "$fail" -eq 0 ]
