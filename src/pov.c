@@ -35,6 +35,16 @@ static void vec(FILE *f, Vec3 v)
     fputc('>', f);
 }
 
+/* "<a>, <b>, <c>" */
+static void vec3s(FILE *f, Vec3 a, Vec3 b, Vec3 c)
+{
+    vec(f, a);
+    fputs(", ", f);
+    vec(f, b);
+    fputs(", ", f);
+    vec(f, c);
+}
+
 /* k (with its leading blank or line break), a space, the value */
 static void key(FILE *f, const char *k, float v)
 {
@@ -139,27 +149,15 @@ static void prim(FILE *f, const Scene *s, const Prim *p)
     }
     case PRIM_TRIANGLE:
         fprintf(f, "triangle { ");
-        vec(f, t->a);
-        fprintf(f, ", ");
-        vec(f, t->b);
-        fprintf(f, ", ");
-        vec(f, t->c);
+        vec3s(f, t->a, t->b, t->c);
         break;
     case PRIM_SMOOTH_TRIANGLE:
         /* As a one-face mesh2: POV-Ray silently drops a smooth_triangle
          * whose vertex normals are not all on one side of its face. */
         fprintf(f, "mesh2 {\n  vertex_vectors { 3, ");
-        vec(f, t->a);
-        fprintf(f, ", ");
-        vec(f, t->b);
-        fprintf(f, ", ");
-        vec(f, t->c);
+        vec3s(f, t->a, t->b, t->c);
         fprintf(f, " }\n  normal_vectors { 3, ");
-        vec(f, t->na);
-        fprintf(f, ", ");
-        vec(f, t->nb);
-        fprintf(f, ", ");
-        vec(f, t->nc);
+        vec3s(f, t->na, t->nb, t->nc);
         fprintf(f, " }\n  face_indices { 1, <0, 1, 2> }\n  normal_indices { 1, <0, 1, 2> }\n ");
         break;
     case PRIM_BOX:

@@ -5,14 +5,9 @@
 #include <setjmp.h>
 #include <cmocka.h>
 
-#include "lancer/camera.h"
+#include "testutil.h"
 
-static void assert_vec(Vec3 v, float x, float y, float z, float tol)
-{
-    assert_float_equal(v.x, x, tol);
-    assert_float_equal(v.y, y, tol);
-    assert_float_equal(v.z, z, tol);
-}
+#include "lancer/camera.h"
 
 static CameraSpec spec(float fovy)
 {

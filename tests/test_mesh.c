@@ -14,6 +14,8 @@
 #include <setjmp.h>
 #include <cmocka.h>
 
+#include "testutil.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -73,13 +75,6 @@ static void expect_error_n(MeshFormat f, const char *text, size_t len, const cha
     if (strcmp(err, want) != 0)
         fail_msg("wrong message\n  got:  %s\n  want: %s", err, want);
     assert_true(mesh_is_empty(&m));
-}
-
-static void assert_vec_eq(Vec3 v, float x, float y, float z, float tol)
-{
-    assert_float_equal(v.x, x, tol);
-    assert_float_equal(v.y, y, tol);
-    assert_float_equal(v.z, z, tol);
 }
 
 static void assert_tri(const int t[3], int a, int b, int c)
@@ -213,8 +208,8 @@ static void test_off_basic(void **state)
     assert_null(m.n);
     assert_null(m.ntri);
     assert_int_equal(m.nn, 0);
-    assert_vec_eq(m.v[1], 1, 0, 0, 0);
-    assert_vec_eq(m.v[3], 0, 0, 1, 0);
+    assert_vec(m.v[1], 1, 0, 0, 0);
+    assert_vec(m.v[3], 0, 0, 1, 0);
     assert_tri(m.tri[0], 0, 2, 1);
     assert_tri(m.tri[3], 1, 2, 3);
     mesh_free(&m);
@@ -241,8 +236,8 @@ static void test_off_fan(void **state)
              &m);
     assert_int_equal(m.nv, 6);
     assert_int_equal(m.nt, 5);
-    assert_vec_eq(m.v[2], 3, 1, 0, 0);
-    assert_vec_eq(m.v[4], 0.5f, 1.5f, 0, 0);
+    assert_vec(m.v[2], 3, 1, 0, 0);
+    assert_vec(m.v[4], 0.5f, 1.5f, 0, 0);
     assert_tri(m.tri[0], 0, 1, 2);
     assert_tri(m.tri[1], 0, 2, 3);
     assert_tri(m.tri[2], 0, 3, 4);
@@ -264,7 +259,7 @@ static void test_off_variants(void **state)
     /* COFF: a colour of 4 or 3 values after each vertex, as CGAL writes */
     parse_ok(MESH_OFF, "COFF\n3 1 0\n0 0 0 192 192 192 255\n1 0 0 0.5 0.5 0.5\n0 1 0 1 1 1 1\n3 0 1 2\n", &m);
     assert_int_equal(m.nt, 1);
-    assert_vec_eq(m.v[1], 1, 0, 0, 0);
+    assert_vec(m.v[1], 1, 0, 0, 0);
     assert_null(m.n);
     mesh_free(&m);
 
@@ -276,7 +271,7 @@ static void test_off_variants(void **state)
     assert_non_null(m.n);
     assert_non_null(m.ntri);
     assert_ptr_not_equal(m.ntri, m.tri);
-    assert_vec_eq(m.n[2], 0, 0, 2, 0); /* as written, not renormalised */
+    assert_vec(m.n[2], 0, 0, 2, 0); /* as written, not renormalised */
     for (int i = 0; i < m.nt; i++)
         assert_memory_equal(m.ntri[i], m.tri[i], sizeof m.tri[i]);
     mesh_free(&m);
@@ -284,7 +279,7 @@ static void test_off_variants(void **state)
     /* CNOFF */
     parse_ok(MESH_OFF, "CNOFF\n3 1 0\n0 0 0 0 0 1 1 0 0\n1 0 0 0 0 1 0 1 0 1\n0 1 0 0 0 1 0 0 1\n3 0 1 2\n", &m);
     assert_int_equal(m.nn, 3);
-    assert_vec_eq(m.n[1], 0, 0, 1, 0);
+    assert_vec(m.n[1], 0, 0, 1, 0);
     mesh_free(&m);
 
     /* no faces, and vertices nothing uses: an empty mesh, not an error */
@@ -327,9 +322,9 @@ static void test_obj_basic(void **state)
     assert_int_equal(m.nv, 5);
     assert_int_equal(m.nt, 3);
     assert_null(m.n);
-    assert_vec_eq(m.v[1], 1, 0, 0, 0);
-    assert_vec_eq(m.v[2], 1, 1, 0, 0);
-    assert_vec_eq(m.v[4], 0, 0, 1, 0);
+    assert_vec(m.v[1], 1, 0, 0, 0);
+    assert_vec(m.v[2], 1, 1, 0, 0);
+    assert_vec(m.v[4], 0, 0, 1, 0);
     assert_tri(m.tri[0], 0, 1, 2);
     assert_tri(m.tri[1], 0, 2, 3);
     assert_tri(m.tri[2], 0, 1, 4);
@@ -375,7 +370,7 @@ static void test_obj_normals(void **state)
     assert_int_equal(m.nt, 3);
     assert_int_equal(m.nn, 2);
     assert_non_null(m.ntri);
-    assert_vec_eq(m.n[1], 0, 0, -1, 0);
+    assert_vec(m.n[1], 0, 0, -1, 0);
     assert_tri(m.ntri[0], 0, 0, 0);
     assert_tri(m.ntri[1], 0, 0, 0);
     assert_tri(m.ntri[2], 1, 1, 1);
@@ -436,9 +431,9 @@ static void test_ply_ascii(void **state)
     assert_int_equal(m.nv, 5);
     assert_int_equal(m.nt, 3);
     assert_int_equal(m.nn, 5);
-    assert_vec_eq(m.v[1], 1, 0, 0, 0);
-    assert_vec_eq(m.v[4], 0.5f, 0.5f, -2, 0);
-    assert_vec_eq(m.n[4], 0, 0, -1, 0);
+    assert_vec(m.v[1], 1, 0, 0, 0);
+    assert_vec(m.v[4], 0.5f, 0.5f, -2, 0);
+    assert_vec(m.n[4], 0, 0, -1, 0);
     assert_tri(m.tri[0], 0, 1, 2);
     assert_tri(m.tri[1], 0, 2, 3);
     assert_tri(m.tri[2], 1, 0, 4);
@@ -452,7 +447,7 @@ static void test_ply_ascii(void **state)
              "3 0 1 2\r\n0 0 0\r\n1 0 0\r\n0 1 0",
              &m);
     assert_int_equal(m.nt, 1);
-    assert_vec_eq(m.v[2], 0, 1, 0, 0);
+    assert_vec(m.v[2], 0, 1, 0, 0);
     mesh_free(&m);
 
     /* vertices only (a point cloud) */
@@ -475,9 +470,9 @@ static void test_ply_binary(void **state)
     assert_int_equal(m.nv, 4);
     assert_int_equal(m.nt, 3);
     assert_null(m.n);
-    assert_vec_eq(m.v[0], 0, 0, 2, 0);
-    assert_vec_eq(m.v[2], 1, 1, 2, 0);
-    assert_vec_eq(m.v[3], 0, 1, 2, 0);
+    assert_vec(m.v[0], 0, 0, 2, 0);
+    assert_vec(m.v[2], 1, 1, 2, 0);
+    assert_vec(m.v[3], 0, 1, 2, 0);
     assert_tri(m.tri[0], 0, 1, 2);
     assert_tri(m.tri[1], 0, 2, 3);
     assert_tri(m.tri[2], 3, 1, 0);
@@ -522,8 +517,8 @@ static void test_ply_types(void **state)
                 put_le(&B, (uint64_t)i, isz);
             parse_ok_n(MESH_PLY, (const char *)B.b, B.n, &m);
             assert_int_equal(m.nt, 1);
-            assert_vec_eq(m.v[1], 5, 0, 0, 0);
-            assert_vec_eq(m.v[2], 0, 7, 1, 0);
+            assert_vec(m.v[1], 5, 0, 0, 0);
+            assert_vec(m.v[2], 0, 7, 1, 0);
             mesh_free(&m);
         }
     }
@@ -535,7 +530,7 @@ static void test_ply_types(void **state)
                 "property int z\nend_header\n");
     put_u8(&B, 0xff), put_i16(&B, -300), put_i32(&B, -70000);
     parse_ok_n(MESH_PLY, (const char *)B.b, B.n, &m);
-    assert_vec_eq(m.v[0], -1, -300, -70000, 0);
+    assert_vec(m.v[0], -1, -300, -70000, 0);
     mesh_free(&m);
 }
 
@@ -628,7 +623,7 @@ static void test_normals_tetra(void **state)
     }
     /* the corner at the origin sees three right angles: the normal is the diagonal */
     float d = -1 / sqrtf(3);
-    assert_vec_eq(m.n[0], d, d, d, 1e-6f);
+    assert_vec(m.n[0], d, d, d, 1e-6f);
     for (int i = 0; i < m.nt; i++)
         assert_memory_equal(m.ntri[i], m.tri[i], sizeof m.tri[i]);
     mesh_free(&m);
@@ -654,7 +649,7 @@ static void test_normals_cube(void **state)
     for (int i = 0; i < 8; i++) {
         Vec3 p = m.v[i];
         assert_unit(m.n[i]);
-        assert_vec_eq(m.n[i], p.x > 0 ? d : -d, p.y > 0 ? d : -d, p.z > 0 ? d : -d, 1e-6f);
+        assert_vec(m.n[i], p.x > 0 ? d : -d, p.y > 0 ? d : -d, p.z > 0 ? d : -d, 1e-6f);
     }
     mesh_free(&m);
 }
@@ -670,8 +665,8 @@ static void test_normals_flat_and_edge_cases(void **state)
     assert_int_equal(mesh_validate(&m, err, sizeof err), 0);
     float h = 1 / sqrtf(2);
     for (int i = 0; i < 5; i++)
-        assert_vec_eq(m.n[i], -h, 0, h, 1e-6f);
-    assert_vec_eq(m.n[5], 0, 0, 0, 0); /* unused vertex */
+        assert_vec(m.n[i], -h, 0, h, 1e-6f);
+    assert_vec(m.n[5], 0, 0, 0, 0); /* unused vertex */
     mesh_free(&m);
 
     /* the file's normals are replaced */
@@ -685,7 +680,7 @@ static void test_normals_flat_and_edge_cases(void **state)
     parse_ok(MESH_OFF, "OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 2 1\n", &m);
     assert_int_equal(mesh_vertex_normals(&m, err, sizeof err), 0);
     for (int i = 0; i < 3; i++)
-        assert_vec_eq(m.n[i], 0, 0, 1, 0);
+        assert_vec(m.n[i], 0, 0, 1, 0);
     mesh_free(&m);
 
     /* no triangles: no normals */
@@ -1069,7 +1064,7 @@ static void test_bad_binary(void **state)
                 "property float x\nproperty float y\nproperty float z\nend_header\n");
     put_f32(&C, 1), put_f32(&C, 2), put_f32(&C, 3);
     parse_ok_n(MESH_PLY, (const char *)C.b, C.n, &m);
-    assert_vec_eq(m.v[0], 1, 2, 3, 0);
+    assert_vec(m.v[0], 1, 2, 3, 0);
     mesh_free(&m);
 }
 
@@ -1119,7 +1114,7 @@ static void test_load(void **state)
         fail_msg("%s", err);
     assert_int_equal(m.nv, 4);
     assert_int_equal(m.nt, 3);
-    assert_vec_eq(m.v[2], 1, 1, 2, 0);
+    assert_vec(m.v[2], 1, 1, 2, 0);
     mesh_free(&m);
     remove(path);
 

@@ -8,6 +8,8 @@
 #include <math.h>
 #include <cmocka.h>
 
+#include "testutil.h"
+
 #include "lancer/prim.h"
 
 static Ray ray(float ox, float oy, float oz, float dx, float dy, float dz)
@@ -83,13 +85,6 @@ static int obox_hit(const OBox *b, const Ray *r, float *t, int *face)
         *face = h.face;
     }
     return k;
-}
-
-static void assert_vec(Vec3 v, float x, float y, float z, float tol)
-{
-    assert_float_equal(v.x, x, tol);
-    assert_float_equal(v.y, y, tol);
-    assert_float_equal(v.z, z, tol);
 }
 
 /* ---- sphere ---- */

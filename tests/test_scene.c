@@ -11,6 +11,8 @@
 #include <setjmp.h>
 #include <cmocka.h>
 
+#include "testutil.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -59,13 +61,6 @@ static const char *escaped(const char *text, size_t len, char *buf, size_t bufle
     }
     buf[o] = '\0';
     return buf;
-}
-
-static void assert_vec_eq(Vec3 v, float x, float y, float z, float tol)
-{
-    assert_float_equal(v.x, x, tol);
-    assert_float_equal(v.y, y, tol);
-    assert_float_equal(v.z, z, tol);
 }
 
 /* ---- bad inputs ---- */
@@ -578,21 +573,21 @@ static void test_full_scene(void **state)
     assert_int_equal(s.width, 320);
     assert_int_equal(s.height, 200);
     assert_int_equal(s.max_depth, 7);
-    assert_vec_eq(s.background, 0.1f, 0.2f, 0.3f, 0);
+    assert_vec(s.background, 0.1f, 0.2f, 0.3f, 0);
 
-    assert_vec_eq(s.camera.eye, 1, 2, -3, 0);
-    assert_vec_eq(s.camera.target, 0, 1, 0, 0);
-    assert_vec_eq(s.camera.up, 0, 0, 1, 0);
+    assert_vec(s.camera.eye, 1, 2, -3, 0);
+    assert_vec(s.camera.target, 0, 1, 0, 0);
+    assert_vec(s.camera.up, 0, 0, 1, 0);
     assert_float_equal(s.camera.fovy, 55.5f, 0);
 
     assert_int_equal(s.nlights, 3);
-    assert_vec_eq(s.lights[0].pos, -6, 9, -6, 0);
-    assert_vec_eq(s.lights[0].color, 0.8f, 0.7f, 0.6f, 0);
+    assert_vec(s.lights[0].pos, -6, 9, -6, 0);
+    assert_vec(s.lights[0].color, 0.8f, 0.7f, 0.6f, 0);
     assert_float_equal(s.lights[0].fade_distance, 10, 0);
     assert_float_equal(s.lights[0].fade_power, 2, 0);
     assert_true(s.lights[0].shadowless);
-    assert_vec_eq(s.lights[1].pos, 1, 2, 3, 0);
-    assert_vec_eq(s.lights[1].color, 1, 1, 1, 0); /* defaults */
+    assert_vec(s.lights[1].pos, 1, 2, 3, 0);
+    assert_vec(s.lights[1].color, 1, 1, 1, 0); /* defaults */
     assert_float_equal(s.lights[1].fade_distance, 0, 0);
     assert_float_equal(s.lights[1].fade_power, 0, 0);
     assert_false(s.lights[1].shadowless);
@@ -602,7 +597,7 @@ static void test_full_scene(void **state)
     assert_int_equal(s.nmaterials, 3);
     const Material *m = &s.materials[0];
     assert_string_equal(m->name, "full");
-    assert_vec_eq(m->color, 0.9f, 0.5f, 0.1f, 0);
+    assert_vec(m->color, 0.9f, 0.5f, 0.1f, 0);
     assert_float_equal(m->ambient, 0.2f, 0);
     assert_float_equal(m->diffuse, 0.7f, 0);
     assert_float_equal(m->phong, 0.5f, 0);
@@ -612,7 +607,7 @@ static void test_full_scene(void **state)
     assert_float_equal(m->reflection, 0.25f, 0);
     m = &s.materials[1]; /* POV-Ray 3.7's defaults */
     assert_string_equal(m->name, "plain");
-    assert_vec_eq(m->color, 1, 1, 1, 0);
+    assert_vec(m->color, 1, 1, 1, 0);
     assert_float_equal(m->ambient, 0.1f, 0);
     assert_float_equal(m->diffuse, 0.6f, 0);
     assert_float_equal(m->phong, 0, 0);
@@ -622,7 +617,7 @@ static void test_full_scene(void **state)
     assert_float_equal(m->reflection, 0, 0);
     m = &s.materials[2]; /* zero is allowed wherever negative is the limit */
     assert_string_equal(m->name, "zero");
-    assert_vec_eq(m->color, 0, 0, 0, 0);
+    assert_vec(m->color, 0, 0, 0, 0);
     assert_float_equal(m->ambient, 0, 0);
     assert_float_equal(m->diffuse, 0, 0);
     assert_float_equal(m->phong_size, 0, 0);
@@ -632,45 +627,45 @@ static void test_full_scene(void **state)
     const Prim *p = s.prims;
     assert_int_equal(p[0].kind, PRIM_SPHERE);
     assert_int_equal(p[0].material, 0);
-    assert_vec_eq(p[0].g.sphere.c, 1, 2, 3, 0);
+    assert_vec(p[0].g.sphere.c, 1, 2, 3, 0);
     assert_float_equal(p[0].g.sphere.r, 0.5f, 0);
 
     assert_int_equal(p[1].kind, PRIM_PLANE);
     assert_int_equal(p[1].material, 1);
-    assert_vec_eq(p[1].g.plane.n, 0, 1, 0, 0); /* normalised */
+    assert_vec(p[1].g.plane.n, 0, 1, 0, 0); /* normalised */
     assert_float_equal(p[1].g.plane.d, -1, 0);
     assert_int_equal(p[2].kind, PRIM_PLANE);
     assert_int_equal(p[2].material, 2);
-    assert_vec_eq(p[2].g.plane.n, 0.6f, 0, -0.8f, 1e-6f);
+    assert_vec(p[2].g.plane.n, 0.6f, 0, -0.8f, 1e-6f);
     assert_float_equal(p[2].g.plane.d, 0, 0); /* default offset */
 
     assert_int_equal(p[3].kind, PRIM_TRIANGLE);
     assert_int_equal(p[3].material, 1);
-    assert_vec_eq(p[3].g.tri.a, 0, 0, 0, 0);
-    assert_vec_eq(p[3].g.tri.b, 1, 0, 0, 0);
-    assert_vec_eq(p[3].g.tri.c, 0, 1, 0, 0);
+    assert_vec(p[3].g.tri.a, 0, 0, 0, 0);
+    assert_vec(p[3].g.tri.b, 1, 0, 0, 0);
+    assert_vec(p[3].g.tri.c, 0, 1, 0, 0);
 
     assert_int_equal(p[4].kind, PRIM_SMOOTH_TRIANGLE);
     assert_int_equal(p[4].material, 0);
-    assert_vec_eq(p[4].g.tri.a, 0, 0, 1, 0);
-    assert_vec_eq(p[4].g.tri.b, 1, 0, 1, 0);
-    assert_vec_eq(p[4].g.tri.c, 0, 1, 1, 0);
-    assert_vec_eq(p[4].g.tri.na, 0, 0, 1, 1e-6f); /* normalised */
-    assert_vec_eq(p[4].g.tri.nb, 0, 0.6f, 0.8f, 1e-6f);
-    assert_vec_eq(p[4].g.tri.nc, -1, 0, 0, 1e-6f);
+    assert_vec(p[4].g.tri.a, 0, 0, 1, 0);
+    assert_vec(p[4].g.tri.b, 1, 0, 1, 0);
+    assert_vec(p[4].g.tri.c, 0, 1, 1, 0);
+    assert_vec(p[4].g.tri.na, 0, 0, 1, 1e-6f); /* normalised */
+    assert_vec(p[4].g.tri.nb, 0, 0.6f, 0.8f, 1e-6f);
+    assert_vec(p[4].g.tri.nc, -1, 0, 0, 1e-6f);
 
     assert_int_equal(p[5].kind, PRIM_BOX);
     assert_int_equal(p[5].material, 1);
-    assert_vec_eq(p[5].g.box.lo, -1, -2, -3, 0);
-    assert_vec_eq(p[5].g.box.hi, 1, 2, 3, 0);
+    assert_vec(p[5].g.box.lo, -1, -2, -3, 0);
+    assert_vec(p[5].g.box.hi, 1, 2, 3, 0);
 
     assert_int_equal(p[6].kind, PRIM_OBOX);
     assert_int_equal(p[6].material, 0);
     const OBox *b = &p[6].g.obox;
-    assert_vec_eq(b->c, 1, 1, 1, 0);
-    assert_vec_eq(b->u, 0.4f, 0, 0.25f, 0);
-    assert_vec_eq(b->v, 0, 0.35f, 0, 0);
-    assert_vec_eq(b->w, -0.15f, 0, 0.24f, 0);
+    assert_vec(b->c, 1, 1, 1, 0);
+    assert_vec(b->u, 0.4f, 0, 0.25f, 0);
+    assert_vec(b->v, 0, 0.35f, 0, 0);
+    assert_vec(b->w, -0.15f, 0, 0.24f, 0);
     const Vec3 axes[3] = {b->u, b->v, b->w};
     for (int i = 0; i < 3; i++)
         for (int j = 0; j < 3; j++)
@@ -689,8 +684,8 @@ static void test_defaults(void **state)
     assert_int_equal(s.width, 640);
     assert_int_equal(s.height, 480);
     assert_int_equal(s.max_depth, 5);
-    assert_vec_eq(s.background, 0, 0, 0, 0);
-    assert_vec_eq(s.camera.up, 0, 1, 0, 0);
+    assert_vec(s.background, 0, 0, 0, 0);
+    assert_vec(s.camera.up, 0, 1, 0, 0);
     assert_int_equal(s.nmaterials, 0);
     assert_int_equal(s.nlights, 0);
     assert_int_equal(s.nprims, 0);
@@ -740,8 +735,8 @@ static void test_comments(void **state)
              "}\n"
              "# trailing comment without a newline",
              &s);
-    assert_vec_eq(s.camera.eye, 0, 0, -5, 0);
-    assert_vec_eq(s.camera.target, 0, 0, 0, 0);
+    assert_vec(s.camera.eye, 0, 0, -5, 0);
+    assert_vec(s.camera.target, 0, 0, 0, 0);
     assert_float_equal(s.camera.fovy, 40, 0);
     assert_int_equal(s.nmaterials, 1);
     assert_int_equal(s.nprims, 1);
@@ -761,12 +756,12 @@ static void test_crlf_and_tabs(void **state)
              "sphere { center 1 2 3 radius 1 material m } # comment\r\n"
              "  \t  \r\n",
              &s);
-    assert_vec_eq(s.camera.target, 0, 0, 0, 0);
+    assert_vec(s.camera.target, 0, 0, 0, 0);
     assert_float_equal(s.camera.fovy, 40, 0);
     assert_int_equal(s.nmaterials, 1);
-    assert_vec_eq(s.materials[0].color, 0.5f, 0.25f, 1, 0);
+    assert_vec(s.materials[0].color, 0.5f, 0.25f, 1, 0);
     assert_int_equal(s.nprims, 1);
-    assert_vec_eq(s.prims[0].g.sphere.c, 1, 2, 3, 0);
+    assert_vec(s.prims[0].g.sphere.c, 1, 2, 3, 0);
     scene_free(&s);
 }
 
@@ -785,18 +780,18 @@ static void test_transform(void **state)
              &s);
     /* p -> 2p + (10, 20, 30) */
     assert_int_equal(scene_transform(&s, 2, vec3(10, 20, 30)), 0);
-    assert_vec_eq(s.camera.eye, 10, 22, 20, 0);
-    assert_vec_eq(s.camera.target, 10, 20, 30, 0);
-    assert_vec_eq(s.lights[0].pos, 12, 24, 36, 0);
-    assert_vec_eq(s.lights[0].area_v, 0, 0, 4, 0);
+    assert_vec(s.camera.eye, 10, 22, 20, 0);
+    assert_vec(s.camera.target, 10, 20, 30, 0);
+    assert_vec(s.lights[0].pos, 12, 24, 36, 0);
+    assert_vec(s.lights[0].area_v, 0, 0, 4, 0);
     assert_float_equal(s.lights[0].fade_distance, 4, 0);
-    assert_vec_eq(s.prims[0].g.sphere.c, 12, 24, 36, 0);
+    assert_vec(s.prims[0].g.sphere.c, 12, 24, 36, 0);
     assert_float_equal(s.prims[0].g.sphere.r, 1, 0);
     assert_float_equal(s.prims[1].g.plane.d, 22, 0); /* y = 1 moves to y = 22 */
-    assert_vec_eq(s.prims[2].g.box.hi, 12, 22, 32, 0);
-    assert_vec_eq(s.prims[3].g.obox.u, 2, 0, 0, 0);
+    assert_vec(s.prims[2].g.box.hi, 12, 22, 32, 0);
+    assert_vec(s.prims[3].g.obox.u, 2, 0, 0, 0);
     assert_float_equal(s.prims[3].g.obox.inv[0].x, 0.5f, 0); /* the inverse follows */
-    assert_vec_eq(s.prims[4].g.tri.b, 12, 20, 30, 0);
+    assert_vec(s.prims[4].g.tri.b, 12, 20, 30, 0);
     scene_free(&s);
 }
 
@@ -822,8 +817,8 @@ static void test_mesh_statement(void **state)
     assert_int_equal(s.prims[0].kind, PRIM_SMOOTH_TRIANGLE);
     /* (1, 0, 0): scaled to (2, 0, 0), turned 90 degrees about z to (0, 2, 0),
      * moved to (1, 4, 3) */
-    assert_vec_eq(s.prims[0].g.tri.b, 1, 4, 3, 1e-6);
-    assert_vec_eq(s.prims[0].g.tri.na, 0, 0, 1, 1e-6); /* the quad's normal, kept by the rotation */
+    assert_vec(s.prims[0].g.tri.b, 1, 4, 3, 1e-6);
+    assert_vec(s.prims[0].g.tri.na, 0, 0, 1, 1e-6); /* the quad's normal, kept by the rotation */
     scene_free(&s);
     /* a relative path is relative to the scene file's folder */
     snprintf(text, sizeof text, CAM "material m { }\nmesh { file \"quad.off\" material m }\n");
@@ -874,14 +869,14 @@ static void test_number_forms(void **state)
              "light { position 1e-3 2E+2 -.5 color 1.5e1 0.0 00012 }\n"
              "box { min -1E1 -0 -1e-0 max +.25e+1 7. 1e5 material m }\n",
              &s);
-    assert_vec_eq(s.prims[0].g.sphere.c, -1, 2.5f, 0.5f, 0);
+    assert_vec(s.prims[0].g.sphere.c, -1, 2.5f, 0.5f, 0);
     assert_float_equal(s.prims[0].g.sphere.r, 3, 0);
     assert_true(s.lights[0].pos.x == 1e-3f);
     assert_true(s.lights[0].pos.y == 200.0f);
     assert_true(s.lights[0].pos.z == -0.5f);
-    assert_vec_eq(s.lights[0].color, 15, 0, 12, 0);
-    assert_vec_eq(s.prims[1].g.box.lo, -10, 0, -1, 0);
-    assert_vec_eq(s.prims[1].g.box.hi, 2.5f, 7, 1e5f, 0);
+    assert_vec(s.lights[0].color, 15, 0, 12, 0);
+    assert_vec(s.prims[1].g.box.lo, -10, 0, -1, 0);
+    assert_vec(s.prims[1].g.box.hi, 2.5f, 7, 1e5f, 0);
     scene_free(&s);
 }
 
@@ -1011,8 +1006,8 @@ static void test_load_default_scene(void **state)
     assert_int_equal(s.width, 640);
     assert_int_equal(s.height, 480);
     assert_int_equal(s.max_depth, 5);
-    assert_vec_eq(s.background, 0.55f, 0.7f, 0.9f, 0);
-    assert_vec_eq(s.camera.eye, 0, 2.2f, -7.5f, 0);
+    assert_vec(s.background, 0.55f, 0.7f, 0.9f, 0);
+    assert_vec(s.camera.eye, 0, 2.2f, -7.5f, 0);
     assert_float_equal(s.camera.fovy, 40, 0);
     assert_int_equal(s.nlights, 2);
     assert_int_equal(s.nmaterials, 6);

@@ -9,14 +9,9 @@
 #include <string.h>
 #include <cmocka.h>
 
-#include "lancer/shade.h"
+#include "testutil.h"
 
-static void assert_vec(Vec3 v, float x, float y, float z, float tol)
-{
-    assert_float_equal(v.x, x, tol);
-    assert_float_equal(v.y, y, tol);
-    assert_float_equal(v.z, z, tol);
-}
+#include "lancer/shade.h"
 
 static const char *floor_scene =
     "image { background 0.2 0.4 0.6 }\n"
