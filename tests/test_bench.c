@@ -1,0 +1,68 @@
+/* Tests for bench.c: the generated rays and the timed passes. */
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <setjmp.h>
+#include <stdlib.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "lancer/bench.h"
+
+static void test_rays_and_passes(void **state)
+{
+    (void)state;
+    /* one unit sphere: framed by the camera, every hit has a normal */
+    Scene s;
+    memset(&s, 0, sizeof s);
+    s.prims = calloc(1, sizeof(Prim));
+    s.materials = calloc(1, sizeof(Material));
+    assert_non_null(s.prims);
+    assert_non_null(s.materials);
+    s.nprims = s.nmaterials = 1;
+    s.prims[0].kind = PRIM_SPHERE;
+    s.prims[0].g.sphere.c = vec3(0, 0, 0);
+    s.prims[0].g.sphere.r = 1;
+    Accel a;
+    assert_int_equal(accel_build(&a, &s, 1), 0);
+    RaySet p, sh, d;
+    assert_int_equal(bench_gen_rays(&a, 32, 24, 7, &p, &sh, &d), 0);
+    assert_int_equal(p.n, 32 * 24);
+    /* one shadow and one diffuse ray per primary hit */
+    BenchResult r;
+    bench_trace(&a, p.rays, p.n, 0, 1, &r);
+    assert_true(r.hits > p.n / 10 && r.hits < p.n);
+    assert_int_equal(sh.n, r.hits);
+    assert_int_equal(d.n, r.hits);
+    assert_true(r.sumt > 0 && r.mrays > 0);
+    for (size_t i = 0; i < d.n; i++) {
+        /* secondary rays start strictly outside the sphere, and diffuse ones
+         * leave it (the hemisphere of the outward normal) */
+        Vec3 o = d.rays[i].o;
+        assert_true(vec_dot(o, o) > 1.0f);
+        assert_true(vec_dot(d.rays[i].d, o) > 0.0f);
+        /* a shadow ray starts on the side it leaves to: outside towards a
+         * light in front, inside towards one behind (it then hits the sphere) */
+        Vec3 so = sh.rays[i].o;
+        assert_true((vec_dot(so, so) > 1.0f) == (vec_dot(sh.rays[i].d, so) > 0.0f));
+    }
+    /* so none of them hits the sphere again */
+    bench_trace(&a, d.rays, d.n, 0, 1, &r);
+    assert_int_equal(r.hits, 0);
+    bench_trace(&a, sh.rays, sh.n, 1, 1, &r);
+    assert_true(r.hits < sh.n); /* the light is outside: most shadow rays are clear */
+    bench_free(&p);
+    bench_free(&sh);
+    bench_free(&d);
+    assert_null(p.rays);
+    accel_free(&a);
+    scene_free(&s);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_rays_and_passes),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
