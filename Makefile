@@ -64,7 +64,17 @@ $(BUILD)/lancer: $(BUILD)/obj/main.o $(BUILD)/liblancer.a
 $(BUILD)/test_%: $(BUILD)/obj/tests/test_%.o $(BUILD)/liblancer.a
 	$(CC) $(LDFLAGS) $^ $(LDLIBS) -lcmocka -o $@
 
-tests: $(BUILD)/lancer $(TEST_BIN)
+# The BVH's scalar fallback (no SSE), run through the same tests as the
+# SIMD path.
+$(BUILD)/obj/bvh_scalar.o: src/bvh.c
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) -DLANCER_NO_SIMD $(ALLCFLAGS) -MMD -MP -c $< -o $@
+
+$(BUILD)/test_bvh_scalar: $(BUILD)/obj/tests/test_bvh.o $(BUILD)/obj/bvh_scalar.o \
+                          $(filter-out $(BUILD)/obj/bvh.o,$(LIB_OBJ))
+	$(CC) $(LDFLAGS) $^ $(LDLIBS) -lcmocka -o $@
+
+tests: $(BUILD)/lancer $(TEST_BIN) $(BUILD)/test_bvh_scalar
 
 # The exact judge (tests/exact): C++17 + CGAL, linked against the release
 # library build/liblancer.a, so it measures the very object code lancer runs

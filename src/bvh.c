@@ -6,12 +6,18 @@
  * BVH_BINS bins by centroid along each axis, and the best of the bin
  * boundaries by the surface area heuristic becomes the split.
  *
- * Traversal: a stack, nearer child first by entry distance, boxes tested
- * with the slab test made conservative after Ize 2013 (see bvh.h).
+ * Traversal: on a 4-wide copy of the tree (Bvh4Node), a stack, nearer
+ * children first by entry distance, four boxes tested at once with the slab
+ * test made conservative after Ize 2013 (see bvh.h); SSE where available,
+ * else a scalar loop (build with -DLANCER_NO_SIMD to force it).
  */
 #include "lancer/bvh.h"
 
 #include <float.h>
+#if defined(__SSE2__) && !defined(LANCER_NO_SIMD)
+#define BVH_SSE 1
+#include <emmintrin.h>
+#endif
 #include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -32,9 +38,8 @@
 #define BVH_PARALLEL_MIN 4096
 /* Past this depth, nodes are halved by index instead of split by the SAH,
  * so no input can make the tree deeper than BVH_SAH_DEPTH + 32 (2^32 >
- * any primitive count), within the traversal stack. */
+ * any primitive count), which bounds the traversal stack. */
 #define BVH_SAH_DEPTH 64
-#define BVH_STACK 128
 
 typedef struct {
     float lo[3], hi[3];
@@ -360,8 +365,84 @@ static int build_tree(Builder *B, int n, int threads)
     return 0;
 }
 
+/* ---- the 4-wide copy ---- */
+
+static void slot_box(Bvh4Node *n, int i, const BvhNode *src)
+{
+    for (int a = 0; a < 3; a++) {
+        n->lo[a][i] = src ? src->lo[a] : INFINITY; /* an empty box: never hit */
+        n->hi[a][i] = src ? src->hi[a] : -INFINITY;
+    }
+}
+
+/* Fills nodes4[at] from binary node ni (an inner node): its children are
+ * opened, largest surface area first, until four slots are taken, and every
+ * inner one among them becomes a 4-wide node in turn. */
+static void collapse(Bvh *b, int ni, int at)
+{
+    int kids[4] = {(int)b->nodes[ni].first, (int)b->nodes[ni].first + 1, -1, -1}, nk = 2;
+    while (nk < 4) {
+        int best = -1;
+        float area_best = -1.0f;
+        for (int k = 0; k < nk; k++) {
+            const BvhNode *c = &b->nodes[kids[k]];
+            float a = area(c->lo, c->hi);
+            if (c->count == 0 && a > area_best) {
+                area_best = a;
+                best = k;
+            }
+        }
+        if (best < 0)
+            break; /* only leaves left */
+        int c = kids[best];
+        kids[best] = (int)b->nodes[c].first;
+        kids[nk++] = (int)b->nodes[c].first + 1;
+    }
+    Bvh4Node *n = &b->nodes4[at];
+    memset(n, 0, sizeof *n);
+    for (int k = 0; k < 4; k++) {
+        const BvhNode *c = k < nk ? &b->nodes[kids[k]] : NULL;
+        slot_box(n, k, c);
+        n->child[k] = -1;
+        if (c && c->count > 0) {
+            n->child[k] = -1 - (int32_t)c->first;
+            n->count[k] = (uint8_t)c->count;
+        } else if (c) {
+            int sub = b->nnodes4++;
+            n->child[k] = sub;
+            collapse(b, kids[k], sub);
+            n = &b->nodes4[at]; /* (the array does not move: sized up front) */
+        }
+    }
+}
+
+static int build4(Bvh *b)
+{
+    /* never more 4-wide nodes than binary inner nodes, plus the root */
+    void *mem = NULL;
+    if (posix_memalign(&mem, 64, sizeof(Bvh4Node) * (size_t)(b->nnodes + 1)) != 0)
+        return -1;
+    b->nodes4 = mem;
+    b->nnodes4 = 1;
+    const BvhNode *root = &b->nodes[0];
+    if (root->count > 0) { /* a single leaf */
+        Bvh4Node *n = &b->nodes4[0];
+        memset(n, 0, sizeof *n);
+        for (int k = 0; k < 4; k++) {
+            slot_box(n, k, k == 0 ? root : NULL);
+            n->child[k] = -1;
+        }
+        n->child[0] = -1 - (int32_t)root->first;
+        n->count[0] = (uint8_t)root->count;
+        return 0;
+    }
+    collapse(b, 0, 0);
+    return 0;
+}
+
 void bvh_free(Bvh *b)
 {
+    free(b->nodes4);
     free(b->nodes);
     free(b->prims);
     free(b->order);
@@ -415,6 +496,11 @@ int bvh_build(Bvh *b, const Prim *prims, int n, PrimVariant v, int threads)
         b->nodes = aligned;
         b->nnodes = B.nnodes;
         b->nprims = m;
+        if (build4(b) != 0) {
+            free(B.refs);
+            bvh_free(b);
+            return -1;
+        }
     }
     free(B.refs);
     b->variant = v;
@@ -512,49 +598,78 @@ static void ray_pre(const Ray *r, RayPre *p)
     }
 }
 
-/* Entry distance into the node's box within [0, tmax], or INFINITY. The
- * near plane is picked by the direction's sign, so the NaN of 0 * inf (an
- * origin on a slab plane, parallel to it) is ignored by the comparisons:
- * such a ray lies in the closed slab. */
-static inline float box_enter(const BvhNode *n, const RayPre *p, float tmax)
+/* Ize 2013: each slab distance is within gamma(3) of exact. */
+#define BVH_PAD (1.0f + 2.0f * (float)(3.0 * 0.5 * FLT_EPSILON / (1.0 - 3.0 * 0.5 * FLT_EPSILON)))
+
+/* Entry distances of a 4-wide node's four slots within [0, tmax] into tn;
+ * bit i of the result is set when slot i is entered. The comparisons are
+ * written so that a NaN distance (0 * inf: an origin on a slab plane,
+ * parallel to it) leaves the running bound as it was: such a ray lies in
+ * the closed slab. */
+static inline int slots_enter(const Bvh4Node *n, const RayPre *p, float tmax, float tn[4])
 {
-    /* Ize 2013: each slab distance is within gamma(3) of exact */
-    const float pad = 1.0f + 2.0f * (float)(3.0 * 0.5 * FLT_EPSILON / (1.0 - 3.0 * 0.5 * FLT_EPSILON));
-    float tmin = 0.0f;
-    for (int i = 0; i < 3; i++) {
-        float lo = p->neg[i] ? n->hi[i] : n->lo[i], hi = p->neg[i] ? n->lo[i] : n->hi[i];
-        float t0 = (lo - p->o[i]) * p->inv[i];
-        float t1 = (hi - p->o[i]) * p->inv[i] * pad;
-        if (t0 > tmin)
-            tmin = t0;
-        if (t1 < tmax)
-            tmax = t1;
+#ifdef BVH_SSE
+    const __m128 pad = _mm_set1_ps(BVH_PAD);
+    __m128 lo = _mm_setzero_ps(), hi = _mm_set1_ps(tmax);
+    for (int a = 0; a < 3; a++) {
+        __m128 o = _mm_set1_ps(p->o[a]), inv = _mm_set1_ps(p->inv[a]);
+        __m128 t0 = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(p->neg[a] ? n->hi[a] : n->lo[a]), o), inv);
+        __m128 t1 = _mm_mul_ps(_mm_mul_ps(_mm_sub_ps(_mm_load_ps(p->neg[a] ? n->lo[a] : n->hi[a]), o), inv), pad);
+        lo = _mm_max_ps(t0, lo); /* MAXPS/MINPS return the second operand when */
+        hi = _mm_min_ps(t1, hi); /* the first is NaN: the bound is kept */
     }
-    return tmin <= tmax ? tmin : INFINITY;
+    _mm_storeu_ps(tn, lo);
+    return _mm_movemask_ps(_mm_cmple_ps(lo, hi));
+#else
+    int mask = 0;
+    for (int i = 0; i < 4; i++) {
+        float lo = 0.0f, hi = tmax;
+        for (int a = 0; a < 3; a++) {
+            float t0 = ((p->neg[a] ? n->hi[a][i] : n->lo[a][i]) - p->o[a]) * p->inv[a];
+            float t1 = ((p->neg[a] ? n->lo[a][i] : n->hi[a][i]) - p->o[a]) * p->inv[a] * BVH_PAD;
+            if (t0 > lo)
+                lo = t0;
+            if (t1 < hi)
+                hi = t1;
+        }
+        tn[i] = lo;
+        mask |= (lo <= hi) << i;
+    }
+    return mask;
+#endif
 }
+
+/* A traversal stack entry: a 4-wide node (count 0) or a leaf's primitives,
+ * and the distance at which the ray enters it. Each node pushes at most 4
+ * entries and pops 1, and the tree is at most BVH_SAH_DEPTH + 32 deep, so
+ * 3 (BVH_SAH_DEPTH + 32) + 4 entries always suffice. */
+typedef struct {
+    int32_t code;
+    int count;
+    float t;
+} Entry;
+
+#define BVH_ENTRIES (3 * (BVH_SAH_DEPTH + 32) + 4)
 
 int bvh_closest(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *tests)
 {
-    if (b->nnodes == 0)
+    if (b->nnodes4 == 0)
         return -1;
     RayPre p;
     ray_pre(r, &p);
     Ray q = *r; /* tmax shrinks to the nearest hit so far */
     int best = -1;
     unsigned long long nt = 0;
-    struct {
-        int node;
-        float t;
-    } stack[BVH_STACK];
+    Entry stack[BVH_ENTRIES];
     int sp = 0;
-    if (box_enter(&b->nodes[0], &p, q.tmax) == INFINITY)
-        return -1;
-    int ni = 0;
-    for (;;) {
-        const BvhNode *n = &b->nodes[ni];
-        if (n->count > 0) {
+    stack[sp++] = (Entry){0, 0, 0.0f};
+    while (sp > 0) {
+        Entry e = stack[--sp];
+        if (e.t > q.tmax) /* q.tmax: the nearest hit so far */
+            continue;
+        if (e.count > 0) {
             PrimHit cur;
-            for (int k = (int)n->first; k < (int)n->first + n->count; k++) {
+            for (int k = -1 - e.code; k < -1 - e.code + e.count; k++) {
                 nt++;
                 if (prim_intersect(&b->prims[k], &q, b->variant, &cur) &&
                     (best < 0 || cur.t < h->t || b->order[k] < b->order[best])) {
@@ -565,61 +680,53 @@ int bvh_closest(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *test
                     q.tmax = nextafterf(cur.t, INFINITY);
                 }
             }
-        } else {
-            int c = (int)n->first;
-            float t0 = box_enter(&b->nodes[c], &p, q.tmax), t1 = box_enter(&b->nodes[c + 1], &p, q.tmax);
-            if (t0 != INFINITY || t1 != INFINITY) {
-                int near = t0 <= t1 ? c : c + 1;
-                float tfar = t0 <= t1 ? t1 : t0;
-                if (tfar != INFINITY && sp < BVH_STACK) {
-                    stack[sp].node = near == c ? c + 1 : c;
-                    stack[sp++].t = tfar;
+            continue;
+        }
+        const Bvh4Node *n = &b->nodes4[e.code];
+        float tn[4];
+        int mask = slots_enter(n, &p, q.tmax, tn), idx[4], k = 0;
+        for (int i = 0; i < 4; i++)
+            if (mask >> i & 1) /* farthest first on the stack, nearest on top */
+                for (int j = k++; j >= 0; j--) {
+                    if (j == 0 || tn[idx[j - 1]] >= tn[i]) {
+                        idx[j] = i;
+                        break;
+                    }
+                    idx[j] = idx[j - 1];
                 }
-                ni = near;
-                continue;
-            }
-        }
-        /* pop the next subtree still nearer than the nearest hit */
-        for (;;) {
-            if (sp == 0)
-                goto done;
-            sp--;
-            if (stack[sp].t <= q.tmax) { /* q.tmax: the nearest hit so far */
-                ni = stack[sp].node;
-                break;
-            }
-        }
+        for (int i = 0; i < k; i++)
+            stack[sp++] = (Entry){n->child[idx[i]], n->count[idx[i]], tn[idx[i]]};
     }
-done:
     *tests += nt;
     return best < 0 ? -1 : b->order[best];
 }
 
 int bvh_occluded(const Bvh *b, const Ray *r, unsigned long long *tests)
 {
-    if (b->nnodes == 0)
+    if (b->nnodes4 == 0)
         return 0;
     RayPre p;
     ray_pre(r, &p);
-    int stack[BVH_STACK], sp = 0;
+    Entry stack[BVH_ENTRIES];
+    int sp = 0, hit = 0;
     unsigned long long nt = 0;
-    int hit = 0;
-    if (box_enter(&b->nodes[0], &p, r->tmax) != INFINITY)
-        stack[sp++] = 0;
+    stack[sp++] = (Entry){0, 0, 0.0f};
     while (sp > 0 && !hit) {
-        const BvhNode *n = &b->nodes[stack[--sp]];
-        if (n->count > 0) {
+        Entry e = stack[--sp];
+        if (e.count > 0) {
             PrimHit cur;
-            for (int k = (int)n->first; k < (int)n->first + n->count && !hit; k++) {
+            for (int k = -1 - e.code; k < -1 - e.code + e.count && !hit; k++) {
                 nt++;
                 hit = prim_intersect(&b->prims[k], r, b->variant, &cur);
             }
             continue;
         }
-        int c = (int)n->first;
-        for (int k = 0; k < 2 && sp < BVH_STACK; k++)
-            if (box_enter(&b->nodes[c + k], &p, r->tmax) != INFINITY)
-                stack[sp++] = c + k;
+        const Bvh4Node *n = &b->nodes4[e.code];
+        float tn[4];
+        int mask = slots_enter(n, &p, r->tmax, tn);
+        for (int i = 0; i < 4; i++)
+            if (mask >> i & 1)
+                stack[sp++] = (Entry){n->child[i], n->count[i], tn[i]};
     }
     *tests += nt;
     return hit;

@@ -16,6 +16,8 @@
  * root. Unbounded primitives (planes) are not in the tree: bvh_build skips
  * them, and the caller tests them separately.
  *
+ * Traversal runs on Bvh4Node, a 4-wide copy of the binary tree.
+ *
  * Conservative traversal (Ize, "Robust BVH Ray Traversal", JCGT 2013): box
  * bounds are rounded outwards when built, and every slab's far distance is
  * grown by 1 + 2 gamma(3), so the tree never culls a hit that the
@@ -36,9 +38,23 @@ typedef struct {
     uint16_t axis;
 } BvhNode;
 
+/* The 4-wide layout traversal uses, collapsed from the binary tree: four
+ * child boxes side by side per axis, so one node's boxes are tested at once
+ * (with SSE where the compiler offers it, else lane by lane). child[i] >= 0
+ * is an inner node; a leaf slot has child[i] = -1 - first and count[i] > 0;
+ * an empty slot has count 0, child -1 and an empty box. */
+typedef struct {
+    float lo[3][4], hi[3][4];
+    int32_t child[4];
+    uint8_t count[4];
+    uint8_t pad[12];
+} Bvh4Node;
+
 typedef struct {
     BvhNode *nodes;
     int nnodes;
+    Bvh4Node *nodes4;
+    int nnodes4;
     Prim *prims; /* bounded primitives in leaf order */
     int *order;  /* order[i]: the caller's index of prims[i] */
     int nprims;
