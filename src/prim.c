@@ -330,29 +330,35 @@ static float edge_err(float xi, float yi, float exi, float eyi, float xj, float 
     return gamma_f(3) * m + d * (1.0f + gamma_f(3));
 }
 
-static int watertight(const Triangle *tr, const Ray *r, PrimHit *h);
+static int watertight(const Vec3 v[3], const Ray *r, PrimHit *h);
 
 int prim_triangle_hit_watertight(const Triangle *tr, const Ray *r, PrimHit *h)
+{
+    const Vec3 v[3] = {tr->a, tr->b, tr->c};
+    return prim_triangle_hit_watertight3(v, r, h);
+}
+
+int prim_triangle_hit_watertight3(const Vec3 v[3], const Ray *r, PrimHit *h)
 {
     /* The float shear divides by the largest direction component: scale a
      * very short or very long direction by a power of two first (exact),
      * so that 1/dz cannot overflow, and scale t back. */
     float m = max3(fabsf(r->d.x), fabsf(r->d.y), fabsf(r->d.z));
     if (!(m < 0x1p-60f || m > 0x1p60f))
-        return watertight(tr, r, h);
+        return watertight(v, r, h);
     int e;
     frexpf(m, &e);
     double k = ldexp(1.0, -e); /* d' = k d, so t = k t'; in double, since k may exceed FLT_MAX */
     Vec3 d = vec3((float)(r->d.x * k), (float)(r->d.y * k), (float)(r->d.z * k));
     Ray q = ray_make(r->o, d, float_up(r->tmax / k)); /* rounded up: no hit lost */
-    if (!watertight(tr, &q, h))
+    if (!watertight(v, &q, h))
         return 0;
     h->t = (float)(h->t * k);
     h->terr = float_up(h->terr * k);
     return h->t < r->tmax && h->t > 0.0f;
 }
 
-static int watertight(const Triangle *tr, const Ray *r, PrimHit *h)
+static int watertight(const Vec3 v[3], const Ray *r, PrimHit *h)
 {
     /* Woop et al.: translate to the ray origin, make the largest direction
      * component z (keeping the winding), and shear so the ray runs along
@@ -364,7 +370,7 @@ static int watertight(const Triangle *tr, const Ray *r, PrimHit *h)
     if (dz == 0.0f)
         return 0; /* a zero direction */
     float sx = -comp(r->d, kx) / dz, sy = -comp(r->d, ky) / dz, sz = 1.0f / dz;
-    Vec3 A = vec_sub(tr->a, r->o), B = vec_sub(tr->b, r->o), C = vec_sub(tr->c, r->o);
+    Vec3 A = vec_sub(v[0], r->o), B = vec_sub(v[1], r->o), C = vec_sub(v[2], r->o);
     float az = comp(A, kz), bz = comp(B, kz), cz = comp(C, kz);
     float ax = comp(A, kx) + sx * az, ay = comp(A, ky) + sy * az;
     float bx = comp(B, kx) + sx * bz, by = comp(B, ky) + sy * bz;
@@ -388,11 +394,10 @@ static int watertight(const Triangle *tr, const Ray *r, PrimHit *h)
     int u2 = fabsf(e2) <= edge_err(ax, ay, exa, eya, bx, by, exb, eyb);
     if (u0 || u1 || u2) {
         double dsx = -(double)comp(r->d, kx) / dz, dsy = -(double)comp(r->d, ky) / dz;
-        const Vec3 *v[3] = {&tr->a, &tr->b, &tr->c};
         double X[3], Y[3];
         for (int k = 0; k < 3; k++) {
-            double px = (double)comp(*v[k], kx) - comp(r->o, kx), py = (double)comp(*v[k], ky) - comp(r->o, ky);
-            double pz = (double)comp(*v[k], kz) - comp(r->o, kz);
+            double px = (double)comp(v[k], kx) - comp(r->o, kx), py = (double)comp(v[k], ky) - comp(r->o, ky);
+            double pz = (double)comp(v[k], kz) - comp(r->o, kz);
             X[k] = px + dsx * pz;
             Y[k] = py + dsy * pz;
         }

@@ -172,6 +172,45 @@ static void test_agrees_with_brute_force(void **state)
     free(p);
 }
 
+static void test_mesh_leaves_agree_with_brute_force(void **state)
+{
+    (void)state;
+    /* triangles only: the BVH tests its compact copy of the vertices */
+    const int n = 400, rays = 200000;
+    Prim *p = calloc(n, sizeof(Prim));
+    assert_non_null(p);
+    for (int i = 0; i < n; i++) {
+        Vec3 c = rvec(-10, 10);
+        p[i].kind = i % 2 ? PRIM_TRIANGLE : PRIM_SMOOTH_TRIANGLE;
+        p[i].g.tri.a = c;
+        p[i].g.tri.b = vec_add(c, rvec(-2, 2));
+        p[i].g.tri.c = vec_add(c, rvec(-2, 2));
+    }
+    Bvh b;
+    build_ok(&b, p, n, 1);
+    assert_non_null(b.tri);
+    int bad = 0, hits = 0;
+    unsigned long long tests = 0;
+    for (int k = 0; k < rays; k++) {
+        Vec3 o = rvec(-14, 14);
+        Ray r = ray_make(o, vec_normalize(vec_sub(rvec(-10, 10), o)), INFINITY);
+        PrimHit h, c;
+        int got = bvh_closest(&b, &r, &h, &tests), want = -1;
+        Ray q = r;
+        for (int i = 0; i < n; i++)
+            if (prim_intersect(&p[i], &q, PRIM_ROBUST, &c) && (want < 0 || c.t < q.tmax)) {
+                want = i;
+                q.tmax = c.t;
+            }
+        hits += want >= 0;
+        bad += got != want || (want >= 0 && h.t != q.tmax) || bvh_occluded(&b, &r, &tests) != (want >= 0);
+    }
+    assert_true(hits > rays / 10);
+    assert_int_equal(bad, 0);
+    bvh_free(&b);
+    free(p);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -179,6 +218,7 @@ int main(void)
         cmocka_unit_test(test_coincident_centroids),
         cmocka_unit_test(test_validate_catches_damage),
         cmocka_unit_test(test_agrees_with_brute_force),
+        cmocka_unit_test(test_mesh_leaves_agree_with_brute_force),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

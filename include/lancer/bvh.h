@@ -57,6 +57,8 @@ typedef struct {
     int nnodes4;
     Prim *prims; /* bounded primitives in leaf order */
     int *order;  /* order[i]: the caller's index of prims[i] */
+    Vec3 (*tri)[3]; /* when every primitive is a triangle and the variant is
+                     * robust: their vertices, compact, in leaf order */
     int nprims;
     PrimVariant variant;
 } Bvh;

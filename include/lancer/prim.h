@@ -148,6 +148,9 @@ int prim_sphere_hit_robust(const Sphere *s, const Ray *r, PrimHit *h);
  * an edge may be reported by only one of the triangles sharing it (never by
  * none: the exact judge checks closed meshes and shared edges). */
 int prim_triangle_hit_watertight(const Triangle *tr, const Ray *r, PrimHit *h);
+/* The same on three vertices, for callers that keep triangles compact (the
+ * BVH's leaves of meshes). */
+int prim_triangle_hit_watertight3(const Vec3 v[3], const Ray *r, PrimHit *h);
 /* Axis-aligned box: the slab test of Williams et al. in double, made
  * conservative after Ize, "Robust BVH Ray Traversal", JCGT 2(2), 2013: the
  * far distance grows by 1 + 2 gamma(3), so no hit is lost; an origin on a
