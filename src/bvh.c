@@ -440,23 +440,24 @@ static int build4(Bvh *b)
     return 0;
 }
 
-/* Leaves of meshes hold only triangles: their 36 bytes of vertices, side
- * by side in leaf order, are all a leaf test reads, where a Prim would take
- * 92 bytes, most of a second cache line. */
+/* Triangles in leaves: their 36 bytes of vertices, side by side in leaf
+ * order, are all a leaf test reads, where a Prim would take 92 bytes, most
+ * of a second cache line; a byte per primitive says which are triangles. */
 static int compact_triangles(Bvh *b)
 {
     if (b->variant != PRIM_ROBUST)
         return 0;
-    for (int i = 0; i < b->nprims; i++)
-        if (b->prims[i].kind != PRIM_TRIANGLE && b->prims[i].kind != PRIM_SMOOTH_TRIANGLE)
-            return 0;
     b->tri = malloc(sizeof *b->tri * (size_t)b->nprims);
-    if (!b->tri)
+    b->is_tri = malloc((size_t)b->nprims);
+    if (!b->tri || !b->is_tri)
         return -1;
     for (int i = 0; i < b->nprims; i++) {
-        b->tri[i][0] = b->prims[i].g.tri.a;
-        b->tri[i][1] = b->prims[i].g.tri.b;
-        b->tri[i][2] = b->prims[i].g.tri.c;
+        const Prim *p = &b->prims[i];
+        b->is_tri[i] = p->kind == PRIM_TRIANGLE || p->kind == PRIM_SMOOTH_TRIANGLE;
+        Vec3 zero = vec3(0, 0, 0);
+        b->tri[i][0] = b->is_tri[i] ? p->g.tri.a : zero;
+        b->tri[i][1] = b->is_tri[i] ? p->g.tri.b : zero;
+        b->tri[i][2] = b->is_tri[i] ? p->g.tri.c : zero;
     }
     return 0;
 }
@@ -464,6 +465,7 @@ static int compact_triangles(Bvh *b)
 void bvh_free(Bvh *b)
 {
     free(b->tri);
+    free(b->is_tri);
     free(b->nodes4);
     free(b->nodes);
     free(b->prims);
@@ -693,8 +695,8 @@ int bvh_closest(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *test
             PrimHit cur;
             for (int k = -1 - e.code; k < -1 - e.code + e.count; k++) {
                 nt++;
-                int got = b->tri ? prim_triangle_hit_watertight3(b->tri[k], &q, &cur)
-                                 : prim_intersect(&b->prims[k], &q, b->variant, &cur);
+                int got = b->tri && b->is_tri[k] ? prim_triangle_hit_watertight3(b->tri[k], &q, &cur)
+                                                 : prim_intersect(&b->prims[k], &q, b->variant, &cur);
                 if (got &&
                     (best < 0 || cur.t < h->t || b->order[k] < b->order[best])) {
                     best = k;
@@ -741,8 +743,8 @@ int bvh_occluded(const Bvh *b, const Ray *r, unsigned long long *tests)
             PrimHit cur;
             for (int k = -1 - e.code; k < -1 - e.code + e.count && !hit; k++) {
                 nt++;
-                hit = b->tri ? prim_triangle_hit_watertight3(b->tri[k], r, &cur)
-                             : prim_intersect(&b->prims[k], r, b->variant, &cur);
+                hit = b->tri && b->is_tri[k] ? prim_triangle_hit_watertight3(b->tri[k], r, &cur)
+                                             : prim_intersect(&b->prims[k], r, b->variant, &cur);
             }
             continue;
         }

@@ -146,6 +146,7 @@ static void test_agrees_with_brute_force(void **state)
     Prim *p = random_prims(n);
     Bvh b;
     build_ok(&b, p, n, 2);
+    assert_non_null(b.is_tri); /* mixed leaves: triangles read compactly, the rest as Prims */
     int closest_bad = 0, any_bad = 0, hits = 0;
     unsigned long long tests = 0;
     for (int k = 0; k < rays; k++) {

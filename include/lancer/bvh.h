@@ -57,8 +57,9 @@ typedef struct {
     int nnodes4;
     Prim *prims; /* bounded primitives in leaf order */
     int *order;  /* order[i]: the caller's index of prims[i] */
-    Vec3 (*tri)[3]; /* when every primitive is a triangle and the variant is
-                     * robust: their vertices, compact, in leaf order */
+    Vec3 (*tri)[3]; /* robust variant: triangles' vertices, compact, in leaf
+                     * order (unused for other kinds) */
+    unsigned char *is_tri; /* robust variant: 1 where prims[i] is a triangle */
     int nprims;
     PrimVariant variant;
 } Bvh;

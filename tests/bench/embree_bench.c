@@ -164,7 +164,7 @@ int main(int argc, char **argv)
         sr = embree_scene(dev, &m, 1, &er[k]);
     }
     size_t bytes = sizeof(BvhNode) * (size_t)acc.bvh.nnodes + sizeof(Bvh4Node) * (size_t)acc.bvh.nnodes4 +
-                   (sizeof(Prim) + sizeof(int) + (acc.bvh.tri ? sizeof *acc.bvh.tri : 0)) * (size_t)acc.bvh.nprims;
+                   (sizeof(Prim) + sizeof(int) + (acc.bvh.tri ? sizeof *acc.bvh.tri + 1 : 0)) * (size_t)acc.bvh.nprims;
     printf("mesh %s: %d triangles, %d degenerate dropped\n", argv[1], m.nt, m.degenerate);
     printf("build (ms, median of %d, one thread): lancer %.1f, Embree %.1f, Embree robust %.1f; "
            "lancer / Embree = %.2f\n",
