@@ -139,36 +139,43 @@ static void test_validate_catches_damage(void **state)
     free(p);
 }
 
-static void test_agrees_with_brute_force(void **state)
+/* Traces `rays` random rays aimed into the primitives through the BVH and by
+ * brute force (ties to the lowest index) and counts the rays on which they
+ * disagree: on the closest primitive, its t, or whether anything is hit.
+ * Sets *hits to the rays that hit something. */
+static int disagreements(const Bvh *b, const Prim *p, int n, int rays, int *hits)
 {
-    (void)state;
-    const int n = 60, rays = 1000000;
-    Prim *p = random_prims(n);
-    Bvh b;
-    build_ok(&b, p, n, 2);
-    assert_non_null(b.is_tri); /* mixed leaves: triangles read compactly, the rest as Prims */
-    int closest_bad = 0, any_bad = 0, hits = 0;
     unsigned long long tests = 0;
+    int bad = 0;
+    *hits = 0;
     for (int k = 0; k < rays; k++) {
-        Vec3 o = rvec(-14, 14); /* aimed into the cloud of primitives */
+        Vec3 o = rvec(-14, 14);
         Ray r = ray_make(o, vec_normalize(vec_sub(rvec(-10, 10), o)), k % 3 ? INFINITY : uniform(1, 20));
         PrimHit h, c;
-        int got = bvh_closest(&b, &r, &h, &tests);
-        /* brute force, ties to the lowest index */
-        int want = -1;
+        int got = bvh_closest(b, &r, &h, &tests), want = -1;
         Ray q = r;
         for (int i = 0; i < n; i++)
             if (prim_intersect(&p[i], &q, PRIM_ROBUST, &c) && (want < 0 || c.t < q.tmax)) {
                 want = i;
                 q.tmax = c.t;
             }
-        hits += want >= 0;
-        closest_bad += got != want;
-        any_bad += bvh_occluded(&b, &r, &tests) != (want >= 0);
+        *hits += want >= 0;
+        bad += got != want || (want >= 0 && h.t != q.tmax) || bvh_occluded(b, &r, &tests) != (want >= 0);
     }
+    return bad;
+}
+
+static void test_agrees_with_brute_force(void **state)
+{
+    (void)state;
+    const int n = 60, rays = 1000000;
+    Prim *p = random_prims(n);
+    Bvh b;
+    int hits;
+    build_ok(&b, p, n, 2);
+    assert_non_null(b.is_tri); /* mixed leaves: triangles read compactly, the rest as Prims */
+    assert_int_equal(disagreements(&b, p, n, rays, &hits), 0);
     assert_true(hits > rays / 10);
-    assert_int_equal(closest_bad, 0);
-    assert_int_equal(any_bad, 0);
     bvh_free(&b);
     free(p);
 }
@@ -176,7 +183,7 @@ static void test_agrees_with_brute_force(void **state)
 static void test_mesh_leaves_agree_with_brute_force(void **state)
 {
     (void)state;
-    /* triangles only: the BVH tests its compact copy of the vertices */
+    /* triangles only: every leaf reads the compact copy of the vertices */
     const int n = 400, rays = 200000;
     Prim *p = calloc(n, sizeof(Prim));
     assert_non_null(p);
@@ -188,26 +195,11 @@ static void test_mesh_leaves_agree_with_brute_force(void **state)
         p[i].g.tri.c = vec_add(c, rvec(-2, 2));
     }
     Bvh b;
+    int hits;
     build_ok(&b, p, n, 1);
     assert_non_null(b.tri);
-    int bad = 0, hits = 0;
-    unsigned long long tests = 0;
-    for (int k = 0; k < rays; k++) {
-        Vec3 o = rvec(-14, 14);
-        Ray r = ray_make(o, vec_normalize(vec_sub(rvec(-10, 10), o)), INFINITY);
-        PrimHit h, c;
-        int got = bvh_closest(&b, &r, &h, &tests), want = -1;
-        Ray q = r;
-        for (int i = 0; i < n; i++)
-            if (prim_intersect(&p[i], &q, PRIM_ROBUST, &c) && (want < 0 || c.t < q.tmax)) {
-                want = i;
-                q.tmax = c.t;
-            }
-        hits += want >= 0;
-        bad += got != want || (want >= 0 && h.t != q.tmax) || bvh_occluded(&b, &r, &tests) != (want >= 0);
-    }
+    assert_int_equal(disagreements(&b, p, n, rays, &hits), 0);
     assert_true(hits > rays / 10);
-    assert_int_equal(bad, 0);
     bvh_free(&b);
     free(p);
 }
