@@ -13,6 +13,10 @@
 #include "lancer/prim.h"
 
 #include <float.h>
+#if defined(__SSE2__) && !defined(LANCER_NO_SIMD)
+#define PRIM_SSE 1
+#include <emmintrin.h>
+#endif
 
 #define UNIT_F (0.5 * (double)FLT_EPSILON)
 #define UNIT_D (0.5 * DBL_EPSILON)
@@ -443,6 +447,108 @@ static int watertight(const Vec3 v[3], const Ray *r, PrimHit *h)
     h->u = e1 * inv;
     h->v = e2 * inv;
     return 1;
+}
+
+void prim_triray_init(PrimTriRay *p, const Ray *r)
+{
+    /* The axes and shear of watertight(), computed the same way. */
+    const float d[3] = {r->d.x, r->d.y, r->d.z};
+    int kz = fabsf(d[0]) > fabsf(d[1]) ? (fabsf(d[0]) > fabsf(d[2]) ? 0 : 2) : (fabsf(d[1]) > fabsf(d[2]) ? 1 : 2);
+    int kx = kz == 2 ? 0 : kz + 1, ky = kx == 2 ? 0 : kx + 1;
+    float m = fabsf(d[kz]);
+    p->kx = kx;
+    p->ky = ky;
+    p->kz = kz;
+    p->o[0] = r->o.x;
+    p->o[1] = r->o.y;
+    p->o[2] = r->o.z;
+    /* Directions that prim_triangle_hit_watertight3 rescales go through it. */
+    p->simd = m >= 0x1p-60f && m <= 0x1p60f && isfinite(d[0]) && isfinite(d[1]) && isfinite(d[2]);
+    p->sx = p->simd ? -d[kx] / d[kz] : 0.0f;
+    p->sy = p->simd ? -d[ky] / d[kz] : 0.0f;
+    p->sz = p->simd ? 1.0f / d[kz] : 0.0f;
+}
+
+static int tri4_lane(const PrimTri4 *t, int i, const Ray *r, float *tt)
+{
+    Vec3 v[3];
+    PrimHit h;
+    for (int k = 0; k < 3; k++)
+        v[k] = vec3(t->v[k][0][i], t->v[k][1][i], t->v[k][2][i]);
+    if (!prim_triangle_hit_watertight3(v, r, &h))
+        return 0;
+    *tt = h.t;
+    return 1;
+}
+
+#ifdef PRIM_SSE
+#define ABS(x) _mm_andnot_ps(_mm_set1_ps(-0.0f), x)
+
+/* edge_err() on four lanes, operation for operation. */
+static __m128 edge_err4(__m128 xi, __m128 yi, __m128 exi, __m128 eyi, __m128 xj, __m128 yj, __m128 exj, __m128 eyj)
+{
+    __m128 m = _mm_add_ps(ABS(_mm_mul_ps(xi, yj)), ABS(_mm_mul_ps(yi, xj)));
+    __m128 d = _mm_add_ps(_mm_mul_ps(exi, ABS(yj)), _mm_mul_ps(eyj, ABS(xi)));
+    d = _mm_add_ps(d, _mm_mul_ps(eyi, ABS(xj)));
+    d = _mm_add_ps(d, _mm_mul_ps(exj, ABS(yi)));
+    d = _mm_add_ps(d, _mm_mul_ps(exi, eyj));
+    d = _mm_add_ps(d, _mm_mul_ps(eyi, exj));
+    return _mm_add_ps(_mm_mul_ps(_mm_set1_ps(gamma_f(3)), m), _mm_mul_ps(d, _mm_set1_ps(1.0f + gamma_f(3))));
+}
+#endif
+
+int prim_tri4_hit_watertight(const PrimTri4 *t, int lanes, const PrimTriRay *p, const Ray *r, float tt[4])
+{
+    int hit = 0, slow = lanes;
+#ifdef PRIM_SSE
+    if (p->simd) {
+        /* watertight() on four lanes, in the same operations and order, so
+         * each lane gets the same bits; lanes with an uncertain edge take
+         * the scalar routine and its double path. */
+        const __m128 g5 = _mm_set1_ps(gamma_f(5)), zero = _mm_setzero_ps();
+        __m128 X[3], Y[3], Z[3], EX[3], EY[3];
+        for (int k = 0; k < 3; k++) {
+            __m128 x = _mm_sub_ps(_mm_loadu_ps(t->v[k][p->kx]), _mm_set1_ps(p->o[p->kx]));
+            __m128 y = _mm_sub_ps(_mm_loadu_ps(t->v[k][p->ky]), _mm_set1_ps(p->o[p->ky]));
+            Z[k] = _mm_sub_ps(_mm_loadu_ps(t->v[k][p->kz]), _mm_set1_ps(p->o[p->kz]));
+            EX[k] = _mm_mul_ps(g5, _mm_add_ps(ABS(x), ABS(Z[k])));
+            EY[k] = _mm_mul_ps(g5, _mm_add_ps(ABS(y), ABS(Z[k])));
+            X[k] = _mm_add_ps(x, _mm_mul_ps(_mm_set1_ps(p->sx), Z[k]));
+            Y[k] = _mm_add_ps(y, _mm_mul_ps(_mm_set1_ps(p->sy), Z[k]));
+        }
+        __m128 e[3], unsure = zero;
+        for (int k = 0; k < 3; k++) { /* edge k joins vertices k + 1 and k + 2 */
+            int i = (k + 1) % 3, j = (k + 2) % 3;
+            e[k] = _mm_sub_ps(_mm_mul_ps(X[i], Y[j]), _mm_mul_ps(Y[i], X[j]));
+            __m128 err = edge_err4(X[i], Y[i], EX[i], EY[i], X[j], Y[j], EX[j], EY[j]);
+            unsure = _mm_or_ps(unsure, _mm_cmple_ps(ABS(e[k]), err));
+        }
+        __m128 anyneg = _mm_or_ps(_mm_or_ps(_mm_cmplt_ps(e[0], zero), _mm_cmplt_ps(e[1], zero)), _mm_cmplt_ps(e[2], zero));
+        __m128 anypos = _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(e[0], zero), _mm_cmpgt_ps(e[1], zero)), _mm_cmpgt_ps(e[2], zero));
+        __m128 det = _mm_add_ps(_mm_add_ps(e[0], e[1]), e[2]);
+        __m128 sz = _mm_set1_ps(p->sz);
+        __m128 ts = _mm_add_ps(_mm_add_ps(_mm_mul_ps(e[0], _mm_mul_ps(Z[0], sz)), _mm_mul_ps(e[1], _mm_mul_ps(Z[1], sz))),
+                               _mm_mul_ps(e[2], _mm_mul_ps(Z[2], sz)));
+        __m128 tmax = _mm_set1_ps(r->tmax), tmd = _mm_mul_ps(tmax, det);
+        __m128 neg = _mm_cmplt_ps(det, zero);
+        __m128 out_neg = _mm_or_ps(_mm_cmpge_ps(ts, zero), _mm_cmplt_ps(ts, tmd));
+        __m128 out_pos = _mm_or_ps(_mm_cmple_ps(ts, zero), _mm_cmpgt_ps(ts, tmd));
+        __m128 out = _mm_or_ps(_mm_and_ps(anyneg, anypos), _mm_cmpeq_ps(det, zero));
+        out = _mm_or_ps(out, _mm_or_ps(_mm_and_ps(neg, out_neg), _mm_andnot_ps(neg, out_pos)));
+        __m128 tv = _mm_mul_ps(ts, _mm_div_ps(_mm_set1_ps(1.0f), det));
+        __m128 in = _mm_and_ps(_mm_cmpgt_ps(tv, zero), _mm_cmplt_ps(tv, tmax));
+        int u = _mm_movemask_ps(unsure);
+        slow = lanes & u;
+        hit = lanes & ~u & _mm_movemask_ps(_mm_andnot_ps(out, in));
+        _mm_storeu_ps(tt, tv);
+    }
+#else
+    (void)p;
+#endif
+    for (int i = 0; i < 4; i++)
+        if (slow >> i & 1 && tri4_lane(t, i, r, &tt[i]))
+            hit |= 1 << i;
+    return hit;
 }
 
 int prim_box_hit_robust(const Box *b, const Ray *r, PrimHit *h)

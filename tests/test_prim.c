@@ -450,6 +450,74 @@ static void test_obox(void **state)
     assert_false(obox_hit(&b, &r, &t, &face));
 }
 
+/* ---- four triangles at once ---- */
+
+static unsigned long long rng = 0x2545F4914F6CDD1DULL;
+
+static float uniform(float lo, float hi) /* xorshift64 */
+{
+    rng ^= rng << 13;
+    rng ^= rng >> 7;
+    rng ^= rng << 17;
+    return lo + (hi - lo) * (float)((double)(rng >> 11) / 9007199254740992.0);
+}
+
+static Vec3 rvec(float lo, float hi) { return vec3(uniform(lo, hi), uniform(lo, hi), uniform(lo, hi)); }
+
+static void test_tri4_matches_scalar(void **state)
+{
+    (void)state;
+    /* A fan of four triangles around a shared vertex, so that lanes share
+     * edges, and rays aimed at its vertices, at points of its edges and
+     * inside it, with directions from tiny to huge (those take the rescaled
+     * scalar path) and finite or infinite tmax. Every lane must get the
+     * scalar routine's verdict and the same t, bit for bit. */
+    int hits = 0, shared = 0;
+    for (int n = 0; n < 200000; n++) {
+        Vec3 c = rvec(-2, 2), rim[4], v[4][3];
+        for (int i = 0; i < 4; i++)
+            rim[i] = vec_add(c, rvec(-1, 1));
+        PrimTri4 t;
+        for (int i = 0; i < 4; i++) {
+            v[i][0] = c;
+            v[i][1] = rim[i];
+            v[i][2] = rim[(i + 1) % 4];
+            for (int k = 0; k < 3; k++) {
+                t.v[k][0][i] = v[i][k].x;
+                t.v[k][1][i] = v[i][k].y;
+                t.v[k][2][i] = v[i][k].z;
+            }
+        }
+        int i = n % 4, kind = n / 4 % 4;
+        float s = uniform(0, 1);
+        Vec3 target = kind == 0 ? rim[i] : kind == 1 ? vec_add(c, vec_scale(vec_sub(rim[i], c), s))
+                    : kind == 2 ? vec_add(rim[i], vec_scale(vec_sub(rim[(i + 1) % 4], rim[i]), s))
+                                : vec_add(c, rvec(-1, 1));
+        Vec3 o = rvec(-6, 6);
+        const float scales[] = {1, 0x1p-70f, 0x1p-20f, 0x1p20f, 0x1p70f, 3};
+        Vec3 d = vec_scale(vec_sub(target, o), scales[n / 16 % 6]);
+        float tmax = n % 3 ? INFINITY : uniform(0.5f, 1.5f) / scales[n / 16 % 6];
+        Ray r = ray_make(o, d, tmax);
+        PrimTriRay p;
+        prim_triray_init(&p, &r);
+        int lanes = 1 + n / 96 % 15;
+        float tt[4];
+        int got = prim_tri4_hit_watertight(&t, lanes, &p, &r, tt), nhit = 0;
+        for (int l = 0; l < 4; l++) {
+            PrimHit h;
+            int want = (lanes >> l & 1) && prim_triangle_hit_watertight3(v[l], &r, &h);
+            assert_int_equal(got >> l & 1, want);
+            if (want)
+                assert_memory_equal(&tt[l], &h.t, sizeof(float));
+            nhit += want;
+        }
+        hits += nhit > 0;
+        shared += nhit > 1;
+    }
+    assert_true(hits > 50000);
+    assert_true(shared > 1000); /* rays through shared edges and the centre */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -468,6 +536,10 @@ int main(void)
         cmocka_unit_test(test_box_origin_on_slab_plane),
         cmocka_unit_test(test_watertight_shared_edge),
     };
+    const struct CMUnitTest robust_only[] = {
+        cmocka_unit_test(test_tri4_matches_scalar),
+    };
     int failed = cmocka_run_group_tests_name("classic", tests, setup_classic, NULL);
-    return failed + cmocka_run_group_tests_name("robust", tests, setup_robust, NULL);
+    failed += cmocka_run_group_tests_name("robust", tests, setup_robust, NULL);
+    return failed + cmocka_run_group_tests_name("robust, four lanes", robust_only, NULL, NULL);
 }

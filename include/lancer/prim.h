@@ -151,6 +151,28 @@ int prim_triangle_hit_watertight(const Triangle *tr, const Ray *r, PrimHit *h);
 /* The same on three vertices, for callers that keep triangles compact (the
  * BVH's leaves of meshes). */
 int prim_triangle_hit_watertight3(const Vec3 v[3], const Ray *r, PrimHit *h);
+/* Four triangles side by side for the SIMD test below: v[vertex][axis][lane]. */
+typedef struct {
+    float v[3][3][4];
+} PrimTri4;
+
+/* What the four-lane test needs of a ray, computed once per ray by
+ * prim_triray_init: the axes and shear of the watertight test. */
+typedef struct {
+    float o[3], sx, sy, sz;
+    int kx, ky, kz;
+    int simd; /* 0: the direction is rescaled first, so every lane is
+               * handed to prim_triangle_hit_watertight3 */
+} PrimTriRay;
+
+void prim_triray_init(PrimTriRay *p, const Ray *r);
+/* The lanes of t named by `lanes` (bit i for lane i), each judged exactly as
+ * prim_triangle_hit_watertight3 judges it, bit for bit: four lanes at once
+ * with SSE, and the lanes with an edge function too close to 0 one by one
+ * through the scalar routine and its double path. Returns the lanes hit and
+ * sets tt[i] for each; a caller wanting terr, u and v calls the scalar
+ * routine on the lane it keeps. */
+int prim_tri4_hit_watertight(const PrimTri4 *t, int lanes, const PrimTriRay *p, const Ray *r, float tt[4]);
 /* Axis-aligned box: the slab test of Williams et al. in double, made
  * conservative after Ize, "Robust BVH Ray Traversal", JCGT 2(2), 2013: the
  * far distance grows by 1 + 2 gamma(3), so no hit is lost; an origin on a
@@ -165,6 +187,19 @@ int prim_obox_hit_robust(const OBox *b, const Ray *r, PrimHit *h);
 /* Computes b->inv from u, v, w. Returns 0, or -1 when the axes are linearly
  * dependent (the box would be flat). */
 int prim_obox_init(OBox *b);
+
+/* The tmax with which to search on after a hit at t, for a ray of tmax
+ * tmax, so that no hit at t or nearer is lost and ties can be seen: one
+ * float past t is not enough, since the watertight test rejects early by
+ * comparing t * det, rounded, with tmax * det, which can differ from t by
+ * a few ulps; 2^-18 relative covers that, and every other routine only
+ * compares its t with tmax. Never past the ray's own tmax, so the hits
+ * found are always among those a test with the ray itself finds. */
+static inline float prim_tmax_past(float t, float tmax)
+{
+    float past = nextafterf(t * (1.0f + 0x1p-18f), INFINITY);
+    return past < tmax ? past : tmax;
+}
 
 /* Dispatches to the routine for p->kind in the given variant. */
 int prim_intersect(const Prim *p, const Ray *r, PrimVariant v, PrimHit *h);
