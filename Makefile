@@ -64,14 +64,14 @@ $(BUILD)/lancer: $(BUILD)/obj/main.o $(BUILD)/liblancer.a
 $(BUILD)/test_%: $(BUILD)/obj/tests/test_%.o $(BUILD)/liblancer.a
 	$(CC) $(LDFLAGS) $^ $(LDLIBS) -lcmocka -o $@
 
-# The BVH's scalar fallback (no SSE), run through the same tests as the
-# SIMD path.
-$(BUILD)/obj/bvh_scalar.o: src/bvh.c
+# The scalar fallbacks of the BVH and of the four-lane triangle test (no
+# SSE), run through the same tests as the SIMD paths.
+$(BUILD)/obj/%_scalar.o: src/%.c
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) -DLANCER_NO_SIMD $(ALLCFLAGS) -MMD -MP -c $< -o $@
 
-$(BUILD)/test_bvh_scalar: $(BUILD)/obj/tests/test_bvh.o $(BUILD)/obj/bvh_scalar.o \
-                          $(filter-out $(BUILD)/obj/bvh.o,$(LIB_OBJ))
+$(BUILD)/test_bvh_scalar: $(BUILD)/obj/tests/test_bvh.o $(BUILD)/obj/bvh_scalar.o $(BUILD)/obj/prim_scalar.o \
+                          $(filter-out $(BUILD)/obj/bvh.o $(BUILD)/obj/prim.o,$(LIB_OBJ))
 	$(CC) $(LDFLAGS) $^ $(LDLIBS) -lcmocka -o $@
 
 tests: $(BUILD)/lancer $(TEST_BIN) $(BUILD)/test_bvh_scalar

@@ -38,18 +38,19 @@ void accel_free(Accel *a)
 
 int accel_closest(const Accel *a, const Ray *r, PrimHit *h, RayStats *st)
 {
-    Ray q = *r; /* tmax: one float past the nearest hit so far, to see ties */
+    Ray q = *r; /* tmax: past the nearest hit so far, to see ties */
     int best = bvh_closest(&a->bvh, r, h, &st->isect_tests);
     if (best >= 0)
-        q.tmax = nextafterf(h->t, INFINITY);
+        q.tmax = prim_tmax_past(h->t, r->tmax);
     PrimHit cur;
     for (int k = 0; k < a->nunbounded; k++) {
         int i = a->unbounded[k];
         /* of hits at the same t the lowest scene index wins, as in the BVH */
-        if (prim_intersect(&a->prims[i], &q, a->variant, &cur) && (best < 0 || cur.t < h->t || i < best)) {
+        if (prim_intersect(&a->prims[i], &q, a->variant, &cur) &&
+            (best < 0 || cur.t < h->t || (cur.t == h->t && i < best))) {
             best = i;
             *h = cur;
-            q.tmax = nextafterf(cur.t, INFINITY);
+            q.tmax = prim_tmax_past(cur.t, r->tmax);
         }
     }
     st->isect_tests += (unsigned long long)a->nunbounded;

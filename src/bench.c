@@ -46,8 +46,8 @@ int bench_gen_rays(const Accel *a, int w, int h, unsigned long long seed, RaySet
         return -1;
     }
     /* Frame the root box from the front, a little above, 40 degrees high. */
-    const BvhNode *root = &a->bvh.nodes[0];
-    Vec3 lo = vec3(root->lo[0], root->lo[1], root->lo[2]), hi = vec3(root->hi[0], root->hi[1], root->hi[2]);
+    const Bvh *b = &a->bvh;
+    Vec3 lo = vec3(b->lo[0], b->lo[1], b->lo[2]), hi = vec3(b->hi[0], b->hi[1], b->hi[2]);
     Vec3 c = vec_scale(vec_add(lo, hi), 0.5f);
     float radius = 0.5f * vec_length(vec_sub(hi, lo));
     CameraSpec spec = {vec_madd(c, vec_normalize(vec3(0.0f, 0.3f, 1.0f)), 3.0f * radius), c, vec3(0, 1, 0), 40.0f};

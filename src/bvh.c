@@ -6,10 +6,13 @@
  * BVH_BINS bins by centroid along each axis, and the best of the bin
  * boundaries by the surface area heuristic becomes the split.
  *
- * Traversal: on a 4-wide copy of the tree (Bvh4Node), a stack, nearer
- * children first by entry distance, four boxes tested at once with the slab
- * test made conservative after Ize 2013 (see bvh.h); SSE where available,
- * else a scalar loop (build with -DLANCER_NO_SIMD to force it).
+ * The binary tree is then collapsed into 4-wide nodes and leaves of up to
+ * four primitives (bvh.h), and dropped.
+ *
+ * Traversal: a stack, nearer children first by entry distance, four boxes
+ * tested at once with the slab test made conservative after Ize 2013 (see
+ * bvh.h), a leaf's triangles tested at once; SSE where available, else a
+ * scalar loop (build with -DLANCER_NO_SIMD to force it).
  */
 #include "lancer/bvh.h"
 
@@ -26,13 +29,14 @@
 /* 16 bins: Wald reports SAH quality within a few percent of a full sweep
  * from 8-32 bins; 16 keeps the binning pass cheap. */
 #define BVH_BINS 16
-/* Leaves of at most 4 primitives: more makes leaves slow to test, fewer
- * makes the tree deep; the SAH may stop earlier. */
+/* Leaves of up to 4 primitives, the lanes of one SIMD triangle test. The
+ * SAH counts primitives in blocks of 4, as Embree does: testing 4 costs
+ * what testing 1 does. So a node of at most 4 is always a leaf (splitting
+ * it would add a box test and save no triangle test), and a larger one is
+ * always split, where sum(area(child) * blocks(child)) is least; the
+ * traversal and intersection costs of the SAH then drop out. */
 #define BVH_MAX_LEAF 4
-/* SAH costs: one box test against one primitive test. Watertight triangle
- * and box tests cost about the same as a slab test pair. */
-#define BVH_TRAVERSAL_COST 1.0f
-#define BVH_INTERSECT_COST 1.0f
+#define BVH_BLOCKS(n) (((n) + BVH_MAX_LEAF - 1) / BVH_MAX_LEAF)
 /* Below this many primitives a subtree is built on the calling thread:
  * starting a thread costs more than it saves. */
 #define BVH_PARALLEL_MIN 4096
@@ -46,6 +50,16 @@ typedef struct {
     float c[3]; /* centroid */
     int idx;    /* the caller's index */
 } Ref;
+
+/* The binary tree of the build: a leaf has count > 0 and holds
+ * refs[first .. first + count - 1]; an inner node has count 0 and children
+ * first and first + 1. */
+typedef struct {
+    float lo[3], hi[3];
+    uint32_t first;
+    uint16_t count;
+    uint16_t axis;
+} BvhNode;
 
 typedef struct {
     Ref *refs;
@@ -182,9 +196,11 @@ static int split(Builder *B, BvhNode *node, int begin, int end, int depth)
 {
     Ref *refs = B->refs;
     int count = end - begin;
+    if (count <= BVH_MAX_LEAF)
+        return -1;
     if (depth >= BVH_SAH_DEPTH) {
         node->axis = 0;
-        return count <= BVH_MAX_LEAF ? -1 : begin + count / 2;
+        return begin + count / 2;
     }
     float clo[3], chi[3];
     box_empty(clo, chi);
@@ -192,7 +208,6 @@ static int split(Builder *B, BvhNode *node, int begin, int end, int depth)
         box_grow(clo, chi, refs[i].c, refs[i].c);
     float best_cost = INFINITY;
     int best_axis = -1, best_bin = 0;
-    float parent = area(node->lo, node->hi);
     for (int axis = 0; axis < 3; axis++) {
         float extent = chi[axis] - clo[axis];
         if (!(extent > 0.0f))
@@ -225,7 +240,7 @@ static int split(Builder *B, BvhNode *node, int begin, int end, int depth)
             n += bcount[k];
             if (n == 0 || rcount[k + 1] == 0)
                 continue;
-            float cost = area(llo, lhi) * (float)n + rarea[k + 1] * (float)rcount[k + 1];
+            float cost = area(llo, lhi) * (float)BVH_BLOCKS(n) + rarea[k + 1] * (float)BVH_BLOCKS(rcount[k + 1]);
             if (cost < best_cost) {
                 best_cost = cost;
                 best_axis = axis;
@@ -233,11 +248,7 @@ static int split(Builder *B, BvhNode *node, int begin, int end, int depth)
             }
         }
     }
-    float leaf_cost = BVH_INTERSECT_COST * (float)count;
     if (best_axis >= 0) {
-        float cost = BVH_TRAVERSAL_COST + BVH_INTERSECT_COST * best_cost / (parent > 0.0f ? parent : 1.0f);
-        if (cost >= leaf_cost && count <= BVH_MAX_LEAF)
-            return -1;
         float scale = (float)BVH_BINS / (chi[best_axis] - clo[best_axis]);
         int i = begin, j = end - 1;
         while (i <= j) {
@@ -255,8 +266,6 @@ static int split(Builder *B, BvhNode *node, int begin, int end, int depth)
         if (i > begin && i < end)
             return i;
     }
-    if (count <= BVH_MAX_LEAF)
-        return -1;
     /* All centroids coincide (or binning failed): halve by index, which
      * keeps the depth logarithmic whatever the input. */
     node->axis = 0;
@@ -365,27 +374,56 @@ static int build_tree(Builder *B, int n, int threads)
     return 0;
 }
 
-/* ---- the 4-wide copy ---- */
+/* ---- the 4-wide tree ---- */
+
+typedef struct {
+    Bvh *b;
+    const BvhNode *bin; /* the binary tree */
+} Collapse;
 
 static void slot_box(Bvh4Node *n, int i, const BvhNode *src)
 {
     for (int a = 0; a < 3; a++) {
-        n->lo[a][i] = src ? src->lo[a] : INFINITY; /* an empty box: never hit */
+        n->lo[a][i] = src ? src->lo[a] : INFINITY; /* an empty box: never entered */
         n->hi[a][i] = src ? src->hi[a] : -INFINITY;
     }
 }
 
-/* Fills nodes4[at] from binary node ni (an inner node): its children are
- * opened, largest surface area first, until four slots are taken, and every
- * inner one among them becomes a 4-wide node in turn. */
-static void collapse(Bvh *b, int ni, int at)
+/* A leaf from binary leaf c: its primitives, and its triangles side by side. */
+static int32_t make_leaf4(Bvh *b, const BvhNode *c)
 {
-    int kids[4] = {(int)b->nodes[ni].first, (int)b->nodes[ni].first + 1, -1, -1}, nk = 2;
+    BvhLeaf *L = &b->leaves[b->nleaves];
+    memset(L, 0, sizeof *L);
+    L->first = (int32_t)c->first;
+    L->count = (uint8_t)c->count;
+    for (int i = 0; i < c->count; i++) {
+        const Prim *p = &b->prims[b->order[c->first + (uint32_t)i]];
+        if (b->variant != PRIM_ROBUST || (p->kind != PRIM_TRIANGLE && p->kind != PRIM_SMOOTH_TRIANGLE))
+            continue;
+        L->tris |= (uint8_t)(1 << i);
+        const Vec3 v[3] = {p->g.tri.a, p->g.tri.b, p->g.tri.c};
+        for (int k = 0; k < 3; k++) {
+            L->tri.v[k][0][i] = v[k].x;
+            L->tri.v[k][1][i] = v[k].y;
+            L->tri.v[k][2][i] = v[k].z;
+        }
+    }
+    return -1 - b->nleaves++;
+}
+
+/* Fills nodes[at] from binary inner node ni: its children are opened,
+ * largest surface area first, until four slots are taken, and every inner
+ * one among them becomes a 4-wide node in turn. */
+static void collapse(Collapse *C, int ni, int at)
+{
+    const BvhNode *bin = C->bin;
+    Bvh *b = C->b;
+    int kids[4] = {(int)bin[ni].first, (int)bin[ni].first + 1, -1, -1}, nk = 2;
     while (nk < 4) {
         int best = -1;
         float area_best = -1.0f;
         for (int k = 0; k < nk; k++) {
-            const BvhNode *c = &b->nodes[kids[k]];
+            const BvhNode *c = &bin[kids[k]];
             float a = area(c->lo, c->hi);
             if (c->count == 0 && a > area_best) {
                 area_best = a;
@@ -395,88 +433,85 @@ static void collapse(Bvh *b, int ni, int at)
         if (best < 0)
             break; /* only leaves left */
         int c = kids[best];
-        kids[best] = (int)b->nodes[c].first;
-        kids[nk++] = (int)b->nodes[c].first + 1;
+        kids[best] = (int)bin[c].first;
+        kids[nk++] = (int)bin[c].first + 1;
     }
-    Bvh4Node *n = &b->nodes4[at];
-    memset(n, 0, sizeof *n);
+    memset(&b->nodes[at], 0, sizeof(Bvh4Node));
     for (int k = 0; k < 4; k++) {
-        const BvhNode *c = k < nk ? &b->nodes[kids[k]] : NULL;
-        slot_box(n, k, c);
-        n->child[k] = -1;
+        const BvhNode *c = k < nk ? &bin[kids[k]] : NULL;
+        slot_box(&b->nodes[at], k, c);
         if (c && c->count > 0) {
-            n->child[k] = -1 - (int32_t)c->first;
-            n->count[k] = (uint8_t)c->count;
+            b->nodes[at].child[k] = make_leaf4(b, c);
         } else if (c) {
-            int sub = b->nnodes4++;
-            n->child[k] = sub;
-            collapse(b, kids[k], sub);
-            n = &b->nodes4[at]; /* (the array does not move: sized up front) */
+            int sub = b->nnodes++;
+            b->nodes[at].child[k] = sub;
+            collapse(C, kids[k], sub);
         }
     }
 }
 
-static int build4(Bvh *b)
+/* A copy of n bytes of *p in memory aligned to a cache line, in place of
+ * *p; 0, or -1 when memory runs out (*p is then left). */
+static int shrink(void **p, size_t n)
 {
-    /* never more 4-wide nodes than binary inner nodes, plus the root */
-    void *mem = NULL;
-    if (posix_memalign(&mem, 64, sizeof(Bvh4Node) * (size_t)(b->nnodes + 1)) != 0)
+    void *q = NULL;
+    if (posix_memalign(&q, 64, n) != 0)
         return -1;
-    b->nodes4 = mem;
-    b->nnodes4 = 1;
-    const BvhNode *root = &b->nodes[0];
-    if (root->count > 0) { /* a single leaf */
-        Bvh4Node *n = &b->nodes4[0];
-        memset(n, 0, sizeof *n);
-        for (int k = 0; k < 4; k++) {
-            slot_box(n, k, k == 0 ? root : NULL);
-            n->child[k] = -1;
-        }
-        n->child[0] = -1 - (int32_t)root->first;
-        n->count[0] = (uint8_t)root->count;
-        return 0;
-    }
-    collapse(b, 0, 0);
+    memcpy(q, *p, n);
+    free(*p);
+    *p = q;
     return 0;
 }
 
-/* Triangles in leaves: their 36 bytes of vertices, side by side in leaf
- * order, are all a leaf test reads, where a Prim would take 92 bytes, most
- * of a second cache line; a byte per primitive says which are triangles. */
-static int compact_triangles(Bvh *b)
+/* Builds b->nodes and b->leaves from the binary tree of nbin nodes. */
+static int build4(Bvh *b, const BvhNode *bin, int nbin)
 {
-    if (b->variant != PRIM_ROBUST)
-        return 0;
-    b->tri = malloc(sizeof *b->tri * (size_t)b->nprims);
-    b->is_tri = malloc((size_t)b->nprims);
-    if (!b->tri || !b->is_tri)
+    /* never more 4-wide nodes or leaves than binary nodes: collapsed into
+     * that much, then copied into exactly what is used */
+    b->nodes = malloc(sizeof(Bvh4Node) * (size_t)nbin);
+    b->leaves = malloc(sizeof(BvhLeaf) * (size_t)nbin);
+    if (!b->nodes || !b->leaves)
         return -1;
-    for (int i = 0; i < b->nprims; i++) {
-        const Prim *p = &b->prims[i];
-        b->is_tri[i] = p->kind == PRIM_TRIANGLE || p->kind == PRIM_SMOOTH_TRIANGLE;
-        Vec3 zero = vec3(0, 0, 0);
-        b->tri[i][0] = b->is_tri[i] ? p->g.tri.a : zero;
-        b->tri[i][1] = b->is_tri[i] ? p->g.tri.b : zero;
-        b->tri[i][2] = b->is_tri[i] ? p->g.tri.c : zero;
+    b->nnodes = 1;
+    if (bin[0].count > 0) { /* a single leaf */
+        memset(&b->nodes[0], 0, sizeof(Bvh4Node));
+        for (int k = 0; k < 4; k++)
+            slot_box(&b->nodes[0], k, k == 0 ? &bin[0] : NULL);
+        b->nodes[0].child[0] = make_leaf4(b, &bin[0]);
+    } else {
+        Collapse C = {b, bin};
+        collapse(&C, 0, 0);
     }
-    return 0;
+    for (int a = 0; a < 3; a++) {
+        b->lo[a] = bin[0].lo[a];
+        b->hi[a] = bin[0].hi[a];
+    }
+    void *nodes = b->nodes, *leaves = b->leaves;
+    int rc = shrink(&nodes, sizeof(Bvh4Node) * (size_t)b->nnodes) | shrink(&leaves, sizeof(BvhLeaf) * (size_t)b->nleaves);
+    b->nodes = nodes;
+    b->leaves = leaves;
+    return rc;
 }
 
 void bvh_free(Bvh *b)
 {
-    free(b->tri);
-    free(b->is_tri);
-    free(b->nodes4);
+    free(b->leaves);
     free(b->nodes);
-    free(b->prims);
     free(b->order);
     memset(b, 0, sizeof *b);
+}
+
+size_t bvh_bytes(const Bvh *b)
+{
+    return sizeof(Bvh4Node) * (size_t)b->nnodes + sizeof(BvhLeaf) * (size_t)b->nleaves +
+           sizeof(int) * (size_t)b->nprims;
 }
 
 int bvh_build(Bvh *b, const Prim *prims, int n, PrimVariant v, int threads)
 {
     memset(b, 0, sizeof *b);
     b->variant = v;
+    b->prims = prims;
     Builder B;
     memset(&B, 0, sizeof B);
     B.refs = malloc(sizeof(Ref) * (size_t)(n > 0 ? n : 1));
@@ -495,39 +530,22 @@ int bvh_build(Bvh *b, const Prim *prims, int n, PrimVariant v, int threads)
     int rc = 0;
     if (m > 0) {
         rc = build_tree(&B, m, threads);
-        b->prims = malloc(sizeof(Prim) * (size_t)m);
         b->order = malloc(sizeof(int) * (size_t)m);
-        if (rc != 0 || !b->prims || !b->order) {
-            free(B.refs);
-            free(B.nodes);
-            bvh_free(b);
-            return -1;
-        }
-        for (int i = 0; i < m; i++) {
-            b->prims[i] = prims[B.refs[i].idx];
-            b->order[i] = B.refs[i].idx;
-        }
-        /* the final array, aligned to a cache line (see new_pair) */
-        void *aligned = NULL;
-        if (posix_memalign(&aligned, 64, sizeof(BvhNode) * (size_t)B.nnodes) != 0) {
-            free(B.refs);
-            free(B.nodes);
-            bvh_free(b);
-            return -1;
-        }
-        memcpy(aligned, B.nodes, sizeof(BvhNode) * (size_t)B.nnodes);
-        free(B.nodes);
-        b->nodes = aligned;
-        b->nnodes = B.nnodes;
-        b->nprims = m;
-        if (build4(b) != 0 || compact_triangles(b) != 0) {
-            free(B.refs);
-            bvh_free(b);
-            return -1;
+        if (rc == 0 && b->order) {
+            for (int i = 0; i < m; i++)
+                b->order[i] = B.refs[i].idx;
+            b->nprims = m;
+            rc = build4(b, B.nodes, B.nnodes);
+        } else {
+            rc = -1;
         }
     }
     free(B.refs);
-    b->variant = v;
+    free(B.nodes);
+    if (rc != 0) {
+        bvh_free(b);
+        return -1;
+    }
     return 0;
 }
 
@@ -541,67 +559,96 @@ static int inside(const float lo[3], const float hi[3], const float l[3], const 
     return 1;
 }
 
+/* Checks leaf li, in a slot of box lo, hi; seen[] counts references. */
+static int validate_leaf(const Bvh *b, int li, const float lo[3], const float hi[3], int *seen, char *err,
+                         size_t errlen)
+{
+    if (li < 0 || li >= b->nleaves)
+        return snprintf(err, errlen, "leaf %d does not exist", li), -1;
+    const BvhLeaf *L = &b->leaves[li];
+    if (L->count < 1 || L->count > BVH_MAX_LEAF || L->first < 0 || L->first + L->count > b->nprims)
+        return snprintf(err, errlen, "leaf %d refers past the primitives", li), -1;
+    for (int i = 0; i < L->count; i++) {
+        int k = L->first + i, idx = b->order[k];
+        float l[3], h[3];
+        if (seen[k]++)
+            return snprintf(err, errlen, "primitive %d is referenced twice", k), -1;
+        const Prim *p = &b->prims[idx];
+        if (!bvh_prim_bounds(p, l, h) || !inside(lo, hi, l, h))
+            return snprintf(err, errlen, "primitive %d lies outside leaf %d", idx, li), -1;
+        int tri = b->variant == PRIM_ROBUST && (p->kind == PRIM_TRIANGLE || p->kind == PRIM_SMOOTH_TRIANGLE);
+        if (tri != (L->tris >> i & 1))
+            return snprintf(err, errlen, "leaf %d marks primitive %d wrongly as triangle or not", li, idx), -1;
+        const Vec3 v[3] = {p->g.tri.a, p->g.tri.b, p->g.tri.c};
+        for (int c = 0; tri && c < 3; c++)
+            if (L->tri.v[c][0][i] != v[c].x || L->tri.v[c][1][i] != v[c].y || L->tri.v[c][2][i] != v[c].z)
+                return snprintf(err, errlen, "leaf %d holds other vertices than primitive %d", li, idx), -1;
+    }
+    return 0;
+}
+
 int bvh_validate(const Bvh *b, char *err, size_t errlen)
 {
     if (b->nprims == 0)
         return b->nnodes == 0 ? 0 : (snprintf(err, errlen, "nodes without primitives"), -1);
     int *seen = calloc((size_t)b->nprims, sizeof(int));
-    int *stack = malloc(sizeof(int) * (size_t)b->nnodes);
+    int *stack = malloc(sizeof(int) * (size_t)(3 * b->nnodes + 1));
+    float(*box)[2][3] = malloc(sizeof *box * (size_t)(3 * b->nnodes + 1)); /* each entry's parent slot box */
     int rc = 0, sp = 0, visited = 0;
-    if (!seen || !stack) {
+    if (!seen || !stack || !box) {
         snprintf(err, errlen, "out of memory");
         rc = -1;
         goto done;
     }
-    stack[sp++] = 0;
+    stack[sp] = 0;
+    memcpy(box[sp][0], b->lo, sizeof b->lo);
+    memcpy(box[sp++][1], b->hi, sizeof b->hi);
     while (sp > 0 && rc == 0) {
         int ni = stack[--sp];
-        const BvhNode *n = &b->nodes[ni];
-        if (++visited > b->nnodes) {
-            snprintf(err, errlen, "node %d reached twice: the tree has a cycle", ni);
+        if (ni >= b->nnodes || ++visited > b->nnodes) {
+            snprintf(err, errlen, "node %d does not exist or is reached twice", ni);
             rc = -1;
             break;
         }
-        if (n->count > 0) {
-            if ((int)n->first + n->count > b->nprims) {
-                snprintf(err, errlen, "leaf %d refers past the primitives", ni);
+        const Bvh4Node *n = &b->nodes[ni];
+        float plo[3], phi[3], slo[4][3], shi[4][3]; /* (box[sp] is overwritten below) */
+        memcpy(plo, box[sp][0], sizeof plo);
+        memcpy(phi, box[sp][1], sizeof phi);
+        for (int k = 0; k < 4; k++)
+            for (int a = 0; a < 3; a++) {
+                slo[k][a] = n->lo[a][k];
+                shi[k][a] = n->hi[a][k];
+            }
+        for (int k = 0; k < 4 && rc == 0; k++) {
+            int empty = 1;
+            for (int a = 0; a < 3; a++)
+                empty &= slo[k][a] == INFINITY && shi[k][a] == -INFINITY;
+            if (empty)
+                continue;
+            if (!inside(plo, phi, slo[k], shi[k])) {
+                snprintf(err, errlen, "slot %d of node %d lies outside its parent", k, ni);
                 rc = -1;
-                break;
-            }
-            for (int k = (int)n->first; k < (int)n->first + n->count; k++) {
-                float lo[3], hi[3];
-                if (seen[k]++) {
-                    snprintf(err, errlen, "primitive %d is referenced twice", k);
-                    rc = -1;
-                } else if (!bvh_prim_bounds(&b->prims[k], lo, hi) || !inside(n->lo, n->hi, lo, hi)) {
-                    snprintf(err, errlen, "primitive %d lies outside leaf %d", k, ni);
-                    rc = -1;
-                }
-            }
-            continue;
-        }
-        int c = (int)n->first;
-        if (c <= ni || c + 1 >= b->nnodes) {
-            snprintf(err, errlen, "inner node %d has children %d, %d out of order or range", ni, c, c + 1);
-            rc = -1;
-            break;
-        }
-        for (int k = 0; k < 2; k++) {
-            if (!inside(n->lo, n->hi, b->nodes[c + k].lo, b->nodes[c + k].hi)) {
-                snprintf(err, errlen, "node %d lies outside its parent %d", c + k, ni);
+            } else if (n->child[k] < 0) {
+                rc = validate_leaf(b, -1 - n->child[k], slo[k], shi[k], seen, err, errlen);
+            } else if (n->child[k] <= ni) {
+                snprintf(err, errlen, "node %d has child %d out of order", ni, n->child[k]);
                 rc = -1;
+            } else {
+                stack[sp] = n->child[k];
+                memcpy(box[sp][0], slo[k], sizeof slo[k]);
+                memcpy(box[sp++][1], shi[k], sizeof shi[k]);
             }
-            stack[sp++] = c + k;
         }
     }
     for (int k = 0; rc == 0 && k < b->nprims; k++)
         if (!seen[k]) {
-            snprintf(err, errlen, "primitive %d is in no leaf", k);
+            snprintf(err, errlen, "primitive %d is in no leaf", b->order[k]);
             rc = -1;
         }
 done:
     free(seen);
     free(stack);
+    free(box);
     return rc;
 }
 
@@ -610,6 +657,7 @@ done:
 typedef struct {
     float o[3], inv[3];
     int neg[3];
+    PrimTriRay tri;
 } RayPre;
 
 static void ray_pre(const Ray *r, RayPre *p)
@@ -620,6 +668,7 @@ static void ray_pre(const Ray *r, RayPre *p)
         p->inv[i] = 1.0f / d[i];
         p->neg[i] = p->inv[i] < 0.0f;
     }
+    prim_triray_init(&p->tri, r);
 }
 
 /* Ize 2013: each slab distance is within gamma(3) of exact. */
@@ -663,13 +712,12 @@ static inline int slots_enter(const Bvh4Node *n, const RayPre *p, float tmax, fl
 #endif
 }
 
-/* A traversal stack entry: a 4-wide node (count 0) or a leaf's primitives,
- * and the distance at which the ray enters it. Each node pushes at most 4
+/* A traversal stack entry: a node (code >= 0) or a leaf (-1 - code), and
+ * the distance at which the ray enters it. Each node pushes at most 4
  * entries and pops 1, and the tree is at most BVH_SAH_DEPTH + 32 deep, so
  * 3 (BVH_SAH_DEPTH + 32) + 4 entries always suffice. */
 typedef struct {
     int32_t code;
-    int count;
     float t;
 } Entry;
 
@@ -677,38 +725,44 @@ typedef struct {
 
 int bvh_closest(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *tests)
 {
-    if (b->nnodes4 == 0)
+    if (b->nnodes == 0)
         return -1;
     RayPre p;
     ray_pre(r, &p);
-    Ray q = *r; /* tmax shrinks to the nearest hit so far */
-    int best = -1;
+    Ray q = *r; /* tmax: past the nearest hit so far, to see ties */
+    int best = -1, best_tri = 0;
+    float best_t = 0.0f;
     unsigned long long nt = 0;
     Entry stack[BVH_ENTRIES];
     int sp = 0;
-    stack[sp++] = (Entry){0, 0, 0.0f};
+    stack[sp++] = (Entry){0, 0.0f};
     while (sp > 0) {
         Entry e = stack[--sp];
-        if (e.t > q.tmax) /* q.tmax: the nearest hit so far */
+        if (e.t > q.tmax)
             continue;
-        if (e.count > 0) {
-            PrimHit cur;
-            for (int k = -1 - e.code; k < -1 - e.code + e.count; k++) {
-                nt++;
-                int got = b->tri && b->is_tri[k] ? prim_triangle_hit_watertight3(b->tri[k], &q, &cur)
-                                                 : prim_intersect(&b->prims[k], &q, b->variant, &cur);
-                if (got &&
-                    (best < 0 || cur.t < h->t || b->order[k] < b->order[best])) {
+        if (e.code < 0) {
+            const BvhLeaf *L = &b->leaves[-1 - e.code];
+            float tt[4];
+            int hits = L->tris ? prim_tri4_hit_watertight(&L->tri, L->tris, &p.tri, &q, tt) : 0;
+            nt += L->count;
+            for (int i = 0; i < L->count; i++) {
+                int k = L->first + i, tri = L->tris >> i & 1;
+                PrimHit cur;
+                if (tri ? !(hits >> i & 1) : !prim_intersect(&b->prims[b->order[k]], &q, b->variant, &cur))
+                    continue;
+                float t = tri ? tt[i] : cur.t;
+                if (best < 0 || t < best_t || (t == best_t && b->order[k] < b->order[best])) {
                     best = k;
-                    *h = cur;
-                    /* one float further, so that a hit at the same t is still
-                     * found and the tie goes to the lower index */
-                    q.tmax = nextafterf(cur.t, INFINITY);
+                    best_t = t;
+                    best_tri = tri;
+                    if (!tri)
+                        *h = cur;
+                    q.tmax = prim_tmax_past(t, r->tmax);
                 }
             }
             continue;
         }
-        const Bvh4Node *n = &b->nodes4[e.code];
+        const Bvh4Node *n = &b->nodes[e.code];
         float tn[4];
         int mask = slots_enter(n, &p, q.tmax, tn), idx[4], k = 0;
         for (int i = 0; i < 4; i++)
@@ -721,39 +775,50 @@ int bvh_closest(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *test
                     idx[j] = idx[j - 1];
                 }
         for (int i = 0; i < k; i++)
-            stack[sp++] = (Entry){n->child[idx[i]], n->count[idx[i]], tn[idx[i]]};
+            stack[sp++] = (Entry){n->child[idx[i]], tn[idx[i]]};
     }
     *tests += nt;
-    return best < 0 ? -1 : b->order[best];
+    if (best < 0)
+        return -1;
+    if (best_tri) {
+        /* The lane test gave t only. The scalar routine, on the whole ray,
+         * gives the same t (its verdict can only pass at a larger tmax)
+         * and the rest of the hit. */
+        prim_triangle_hit_watertight(&b->prims[b->order[best]].g.tri, r, h);
+        h->t = best_t;
+    }
+    return b->order[best];
 }
 
 int bvh_occluded(const Bvh *b, const Ray *r, unsigned long long *tests)
 {
-    if (b->nnodes4 == 0)
+    if (b->nnodes == 0)
         return 0;
     RayPre p;
     ray_pre(r, &p);
     Entry stack[BVH_ENTRIES];
     int sp = 0, hit = 0;
     unsigned long long nt = 0;
-    stack[sp++] = (Entry){0, 0, 0.0f};
+    stack[sp++] = (Entry){0, 0.0f};
     while (sp > 0 && !hit) {
         Entry e = stack[--sp];
-        if (e.count > 0) {
-            PrimHit cur;
-            for (int k = -1 - e.code; k < -1 - e.code + e.count && !hit; k++) {
-                nt++;
-                hit = b->tri && b->is_tri[k] ? prim_triangle_hit_watertight3(b->tri[k], r, &cur)
-                                             : prim_intersect(&b->prims[k], r, b->variant, &cur);
+        if (e.code < 0) {
+            const BvhLeaf *L = &b->leaves[-1 - e.code];
+            float tt[4];
+            nt += L->count;
+            hit = L->tris && prim_tri4_hit_watertight(&L->tri, L->tris, &p.tri, r, tt);
+            for (int i = 0; i < L->count && !hit; i++) {
+                PrimHit cur;
+                hit = !(L->tris >> i & 1) && prim_intersect(&b->prims[b->order[L->first + i]], r, b->variant, &cur);
             }
             continue;
         }
-        const Bvh4Node *n = &b->nodes4[e.code];
+        const Bvh4Node *n = &b->nodes[e.code];
         float tn[4];
         int mask = slots_enter(n, &p, r->tmax, tn);
         for (int i = 0; i < 4; i++)
             if (mask >> i & 1)
-                stack[sp++] = (Entry){n->child[i], n->count[i], tn[i]};
+                stack[sp++] = (Entry){n->child[i], tn[i]};
     }
     *tests += nt;
     return hit;

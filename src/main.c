@@ -622,8 +622,7 @@ static int build_series(Scene *s, long max_tris)
                 return 1;
             }
             ms[t] = 1e3 * (now() - t0);
-            bytes = sizeof(BvhNode) * (size_t)acc.bvh.nnodes + sizeof(Bvh4Node) * (size_t)acc.bvh.nnodes4 +
-                    (sizeof(Prim) + sizeof(int) + (acc.bvh.tri ? sizeof *acc.bvh.tri + 1 : 0)) * (size_t)acc.bvh.nprims;
+            bytes = bvh_bytes(&acc.bvh);
             accel_free(&acc);
         }
         printf("| %d | %.1f | %.1f | %.0f | %.1f |\n", s->nprims, ms[0], ms[1], 1e6 * ms[0] / s->nprims,

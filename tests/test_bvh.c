@@ -122,27 +122,55 @@ static void test_validate_catches_damage(void **state)
     Bvh b;
     char err[256];
     build_ok(&b, p, 200, 1);
-    /* a child box sticking out of its parent */
-    int c = (int)b.nodes[0].first;
-    float saved = b.nodes[c].hi[0];
-    b.nodes[c].hi[0] = b.nodes[0].hi[0] + 1;
+    /* a slot box sticking out of its parent slot: the first inner node
+     * under the root, its first slot */
+    int k = 0;
+    while (b.nodes[0].child[k] <= 0)
+        k++;
+    Bvh4Node *c = &b.nodes[b.nodes[0].child[k]];
+    float saved = c->hi[0][0];
+    c->hi[0][0] = b.nodes[0].hi[0][k] + 1;
     assert_int_equal(bvh_validate(&b, err, sizeof err), -1);
     assert_non_null(strstr(err, "outside its parent"));
-    b.nodes[c].hi[0] = saved;
+    c->hi[0][0] = saved;
+    assert_int_equal(bvh_validate(&b, err, sizeof err), 0);
+    /* a leaf's copied vertex that is not its triangle's */
+    int l = 0;
+    while (b.leaves[l].tris == 0)
+        l++;
+    int lane = 0;
+    while (!(b.leaves[l].tris >> lane & 1))
+        lane++;
+    saved = b.leaves[l].tri.v[1][2][lane];
+    b.leaves[l].tri.v[1][2][lane] = saved + 1;
+    assert_int_equal(bvh_validate(&b, err, sizeof err), -1);
+    assert_non_null(strstr(err, "other vertices"));
+    b.leaves[l].tri.v[1][2][lane] = saved;
     /* a primitive referenced twice (and so another not at all) */
-    int leaf = 0; /* the leftmost leaf */
-    while (b.nodes[leaf].count == 0)
-        leaf = (int)b.nodes[leaf].first;
-    b.nodes[leaf].first = b.nodes[leaf].first == 0 ? 1 : 0;
+    b.leaves[0].first = b.leaves[0].first == 0 ? 1 : 0;
     assert_int_equal(bvh_validate(&b, err, sizeof err), -1);
     bvh_free(&b);
     free(p);
 }
 
+/* The closest hit by brute force: each primitive tested with the ray
+ * itself, the smallest t kept, ties to the lowest index. */
+static int brute_closest(const Prim *p, int n, const Ray *r, float *t)
+{
+    int want = -1;
+    PrimHit c;
+    for (int i = 0; i < n; i++)
+        if (prim_intersect(&p[i], r, PRIM_ROBUST, &c) && (want < 0 || c.t < *t)) {
+            want = i;
+            *t = c.t;
+        }
+    return want;
+}
+
 /* Traces `rays` random rays aimed into the primitives through the BVH and by
- * brute force (ties to the lowest index) and counts the rays on which they
- * disagree: on the closest primitive, its t, or whether anything is hit.
- * Sets *hits to the rays that hit something. */
+ * brute force and counts the rays on which they disagree: on the closest
+ * primitive, its t, or whether anything is hit. Sets *hits to the rays that
+ * hit something. */
 static int disagreements(const Bvh *b, const Prim *p, int n, int rays, int *hits)
 {
     unsigned long long tests = 0;
@@ -151,16 +179,11 @@ static int disagreements(const Bvh *b, const Prim *p, int n, int rays, int *hits
     for (int k = 0; k < rays; k++) {
         Vec3 o = rvec(-14, 14);
         Ray r = ray_make(o, vec_normalize(vec_sub(rvec(-10, 10), o)), k % 3 ? INFINITY : uniform(1, 20));
-        PrimHit h, c;
-        int got = bvh_closest(b, &r, &h, &tests), want = -1;
-        Ray q = r;
-        for (int i = 0; i < n; i++)
-            if (prim_intersect(&p[i], &q, PRIM_ROBUST, &c) && (want < 0 || c.t < q.tmax)) {
-                want = i;
-                q.tmax = c.t;
-            }
+        PrimHit h;
+        float t = 0;
+        int got = bvh_closest(b, &r, &h, &tests), want = brute_closest(p, n, &r, &t);
         *hits += want >= 0;
-        bad += got != want || (want >= 0 && h.t != q.tmax) || bvh_occluded(b, &r, &tests) != (want >= 0);
+        bad += got != want || (want >= 0 && h.t != t) || bvh_occluded(b, &r, &tests) != (want >= 0);
     }
     return bad;
 }
@@ -173,7 +196,10 @@ static void test_agrees_with_brute_force(void **state)
     Bvh b;
     int hits;
     build_ok(&b, p, n, 2);
-    assert_non_null(b.is_tri); /* mixed leaves: triangles read compactly, the rest as Prims */
+    int mixed = 0; /* leaves whose triangles take the SIMD test and the rest their own */
+    for (int l = 0; l < b.nleaves; l++)
+        mixed += b.leaves[l].tris != 0 && b.leaves[l].tris != (1 << b.leaves[l].count) - 1;
+    assert_true(mixed > 0);
     assert_int_equal(disagreements(&b, p, n, rays, &hits), 0);
     assert_true(hits > rays / 10);
     bvh_free(&b);
@@ -183,7 +209,7 @@ static void test_agrees_with_brute_force(void **state)
 static void test_mesh_leaves_agree_with_brute_force(void **state)
 {
     (void)state;
-    /* triangles only: every leaf reads the compact copy of the vertices */
+    /* triangles only: every leaf is one SIMD test */
     const int n = 400, rays = 200000;
     Prim *p = calloc(n, sizeof(Prim));
     assert_non_null(p);
@@ -197,9 +223,74 @@ static void test_mesh_leaves_agree_with_brute_force(void **state)
     Bvh b;
     int hits;
     build_ok(&b, p, n, 1);
-    assert_non_null(b.tri);
+    for (int l = 0; l < b.nleaves; l++)
+        assert_int_equal(b.leaves[l].tris, (1 << b.leaves[l].count) - 1);
     assert_int_equal(disagreements(&b, p, n, rays, &hits), 0);
     assert_true(hits > rays / 10);
+    bvh_free(&b);
+    free(p);
+}
+
+/* The surface of the cube [-1, 1]^3, each face a g x g grid of quads split
+ * into two triangles; returns the triangle count (12 g^2). */
+static int grid_cube(Prim *p, int g)
+{
+    int n = 0;
+    for (int axis = 0; axis < 3; axis++)
+        for (int side = -1; side <= 1; side += 2)
+            for (int i = 0; i < g; i++)
+                for (int j = 0; j < g; j++) {
+                    Vec3 q[4];
+                    for (int c = 0; c < 4; c++) {
+                        float u = -1 + 2 * (float)(i + (c == 1 || c == 2)) / (float)g;
+                        float v = -1 + 2 * (float)(j + (c >= 2)) / (float)g, w[3];
+                        w[axis] = (float)side;
+                        w[(axis + 1) % 3] = u;
+                        w[(axis + 2) % 3] = v;
+                        q[c] = vec3(w[0], w[1], w[2]);
+                    }
+                    for (int t = 0; t < 2; t++) {
+                        p[n].kind = PRIM_TRIANGLE;
+                        p[n].g.tri.a = q[0];
+                        p[n].g.tri.b = q[t ? 2 : 1];
+                        p[n].g.tri.c = q[t ? 3 : 2];
+                        n++;
+                    }
+                }
+    return n;
+}
+
+static void test_closed_mesh_has_no_leaks(void **state)
+{
+    (void)state;
+    /* Rays from inside a closed mesh aimed at its vertices and at points
+     * of its edges, whose lanes' edge functions are 0 or nearly: every ray
+     * must hit, and the BVH must agree with brute force, ties included (a
+     * ray through a shared edge hits two triangles at the same t; before
+     * prim_tmax_past, the one the traversal met first could win). */
+    const int g = 8, rays = 100000;
+    Prim *p = calloc(12 * g * g, sizeof(Prim));
+    assert_non_null(p);
+    int n = grid_cube(p, g);
+    Bvh b;
+    build_ok(&b, p, n, 1);
+    unsigned long long tests = 0;
+    int bad = 0, leaks = 0;
+    for (int k = 0; k < rays; k++) {
+        const Triangle *tr = &p[k % n].g.tri;
+        float s = uniform(0, 1);
+        Vec3 target = k % 3 == 0 ? tr->a : k % 3 == 1 ? vec_add(tr->a, vec_scale(vec_sub(tr->b, tr->a), s))
+                                                      : vec_add(tr->b, vec_scale(vec_sub(tr->c, tr->b), s));
+        Vec3 o = rvec(-0.9f, 0.9f);
+        Ray r = ray_make(o, vec_sub(target, o), INFINITY);
+        PrimHit h;
+        float t = 0;
+        int got = bvh_closest(&b, &r, &h, &tests), want = brute_closest(p, n, &r, &t);
+        leaks += got < 0 || !bvh_occluded(&b, &r, &tests);
+        bad += got != want || (want >= 0 && h.t != t);
+    }
+    assert_int_equal(leaks, 0);
+    assert_int_equal(bad, 0);
     bvh_free(&b);
     free(p);
 }
@@ -212,6 +303,7 @@ int main(void)
         cmocka_unit_test(test_validate_catches_damage),
         cmocka_unit_test(test_agrees_with_brute_force),
         cmocka_unit_test(test_mesh_leaves_agree_with_brute_force),
+        cmocka_unit_test(test_closed_mesh_has_no_leaks),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

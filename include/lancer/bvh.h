@@ -8,15 +8,19 @@
  *     int blocked = bvh_occluded(&b, &shadow_ray, &stats);
  *     bvh_free(&b);
  *
- * Layout. Nodes are 32 bytes: a float box, then `first` and `count`. A leaf
- * has count > 0 and holds prims[first .. first + count - 1], a copy of the
- * primitives in leaf order (order[] maps each back to the caller's index).
- * An inner node has count == 0; its children are nodes[first] and
- * nodes[first + 1], and `axis` is the axis it was split on. Node 0 is the
- * root. Unbounded primitives (planes) are not in the tree: bvh_build skips
- * them, and the caller tests them separately.
+ * The tree is built binary (binned SAH) and collapsed into 4-wide nodes,
+ * which are what traversal reads: four child boxes side by side per axis,
+ * tested at once (SSE where the compiler offers it, else lane by lane).
+ * A slot's child is an inner node (child >= 0) or a leaf (-1 - leaf index);
+ * an unused slot has an empty box (lo = +inf, hi = -inf), which no ray
+ * enters. Node 0 is the root.
  *
- * Traversal runs on Bvh4Node, a 4-wide copy of the binary tree.
+ * A leaf holds one to four primitives, order[first .. first + count - 1]
+ * in the caller's numbering; the triangles among them (robust variant) are
+ * copied into the leaf side by side, so that one SIMD test judges them all
+ * (prim_tri4_hit_watertight). The caller's primitives are not copied: they
+ * must outlive the tree. Unbounded primitives (planes) are not in the
+ * tree: bvh_build skips them, and the caller tests them separately.
  *
  * Conservative traversal (Ize, "Robust BVH Ray Traversal", JCGT 2013): box
  * bounds are rounded outwards when built, and every slab's far distance is
@@ -32,47 +36,44 @@
 #include "lancer/prim.h"
 
 typedef struct {
-    float lo[3], hi[3];
-    uint32_t first;
-    uint16_t count;
-    uint16_t axis;
-} BvhNode;
-
-/* The 4-wide layout traversal uses, collapsed from the binary tree: four
- * child boxes side by side per axis, so one node's boxes are tested at once
- * (with SSE where the compiler offers it, else lane by lane). child[i] >= 0
- * is an inner node; a leaf slot has child[i] = -1 - first and count[i] > 0;
- * an empty slot has count 0, child -1 and an empty box. */
-typedef struct {
     float lo[3][4], hi[3][4];
     int32_t child[4];
-    uint8_t count[4];
-    uint8_t pad[12];
+    uint8_t pad[16]; /* to two cache lines */
 } Bvh4Node;
 
 typedef struct {
-    BvhNode *nodes;
+    PrimTri4 tri;  /* lane i: primitive first + i, when bit i of tris is set */
+    int32_t first; /* into order[] */
+    uint8_t count; /* 1 to 4 */
+    uint8_t tris;  /* bit i: primitive first + i is a triangle (robust only) */
+    uint8_t pad[10];
+} BvhLeaf;
+
+typedef struct {
+    Bvh4Node *nodes;
     int nnodes;
-    Bvh4Node *nodes4;
-    int nnodes4;
-    Prim *prims; /* bounded primitives in leaf order */
-    int *order;  /* order[i]: the caller's index of prims[i] */
-    Vec3 (*tri)[3]; /* robust variant: triangles' vertices, compact, in leaf
-                     * order (unused for other kinds) */
-    unsigned char *is_tri; /* robust variant: 1 where prims[i] is a triangle */
-    int nprims;
+    BvhLeaf *leaves;
+    int nleaves;
+    const Prim *prims; /* the caller's array */
+    int *order;        /* order[i]: the caller's index of the i-th primitive in leaf order */
+    int nprims;        /* bounded primitives: the length of order[] */
+    float lo[3], hi[3]; /* the root box */
     PrimVariant variant;
 } Bvh;
 
 /* Builds the tree over the bounded primitives among prims[0 .. n-1] with
  * binned SAH, on up to `threads` threads. Returns 0, or -1 when memory runs
- * out (b is then empty and bvh_free is safe). */
+ * out (b is then empty and bvh_free is safe). prims must outlive b. */
 int bvh_build(Bvh *b, const Prim *prims, int n, PrimVariant v, int threads);
 void bvh_free(Bvh *b);
 
-/* Checks the invariants: every child box lies inside its parent's, every
- * leaf box holds its primitives' bounds, and every primitive is referenced
- * exactly once. Returns 0, or -1 with what is wrong in err. */
+/* The memory the tree holds, in bytes (not counting the caller's prims). */
+size_t bvh_bytes(const Bvh *b);
+
+/* Checks the invariants: every slot's box lies inside its parent slot's,
+ * every leaf's box holds its primitives' bounds and its copied vertices
+ * are theirs, and every primitive is referenced exactly once. Returns 0,
+ * or -1 with what is wrong in err. */
 int bvh_validate(const Bvh *b, char *err, size_t errlen);
 
 /* The caller's index of the primitive with the nearest hit in (0, r->tmax),

@@ -163,14 +163,13 @@ int main(int argc, char **argv)
         sd = embree_scene(dev, &m, 0, &ed[k]);
         sr = embree_scene(dev, &m, 1, &er[k]);
     }
-    size_t bytes = sizeof(BvhNode) * (size_t)acc.bvh.nnodes + sizeof(Bvh4Node) * (size_t)acc.bvh.nnodes4 +
-                   (sizeof(Prim) + sizeof(int) + (acc.bvh.tri ? sizeof *acc.bvh.tri + 1 : 0)) * (size_t)acc.bvh.nprims;
+    size_t bytes = bvh_bytes(&acc.bvh);
     printf("mesh %s: %d triangles, %d degenerate dropped\n", argv[1], m.nt, m.degenerate);
     printf("build (ms, median of %d, one thread): lancer %.1f, Embree %.1f, Embree robust %.1f; "
            "lancer / Embree = %.2f\n",
            passes, median(lb, passes), median(ed, passes), median(er, passes), median(lb, passes) / median(ed, passes));
-    printf("lancer BVH memory: %.1f bytes per triangle (binary and 4-wide nodes, leaf-ordered primitives and "
-           "vertices)\n",
+    printf("lancer BVH memory: %.1f bytes per triangle (4-wide nodes, leaves with their triangles' vertices, "
+           "leaf order)\n",
            (double)bytes / m.nt);
     printf("| rays | kind | lancer Mrays/s | Embree | Embree robust | lancer / Embree | lancer / robust | hits "
            "(lancer, Embree, robust) |\n| --- | --- | --- | --- | --- | --- | --- | --- |\n");
