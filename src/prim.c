@@ -506,23 +506,27 @@ int prim_tri4_hit_watertight(const PrimTri4 *t, int lanes, const PrimTriRay *p, 
          * each lane gets the same bits; lanes with an uncertain edge take
          * the scalar routine and its double path. */
         const __m128 g5 = _mm_set1_ps(gamma_f(5)), zero = _mm_setzero_ps();
-        __m128 X[3], Y[3], Z[3], EX[3], EY[3];
-        for (int k = 0; k < 3; k++) {
-            __m128 x = _mm_sub_ps(_mm_loadu_ps(t->v[k][p->kx]), _mm_set1_ps(p->o[p->kx]));
-            __m128 y = _mm_sub_ps(_mm_loadu_ps(t->v[k][p->ky]), _mm_set1_ps(p->o[p->ky]));
-            Z[k] = _mm_sub_ps(_mm_loadu_ps(t->v[k][p->kz]), _mm_set1_ps(p->o[p->kz]));
-            EX[k] = _mm_mul_ps(g5, _mm_add_ps(ABS(x), ABS(Z[k])));
-            EY[k] = _mm_mul_ps(g5, _mm_add_ps(ABS(y), ABS(Z[k])));
-            X[k] = _mm_add_ps(x, _mm_mul_ps(_mm_set1_ps(p->sx), Z[k]));
-            Y[k] = _mm_add_ps(y, _mm_mul_ps(_mm_set1_ps(p->sy), Z[k]));
-        }
-        __m128 e[3], unsure = zero;
-        for (int k = 0; k < 3; k++) { /* edge k joins vertices k + 1 and k + 2 */
-            int i = (k + 1) % 3, j = (k + 2) % 3;
-            e[k] = _mm_sub_ps(_mm_mul_ps(X[i], Y[j]), _mm_mul_ps(Y[i], X[j]));
-            __m128 err = edge_err4(X[i], Y[i], EX[i], EY[i], X[j], Y[j], EX[j], EY[j]);
-            unsure = _mm_or_ps(unsure, _mm_cmple_ps(ABS(e[k]), err));
-        }
+        const __m128 ox = _mm_set1_ps(p->o[p->kx]), oy = _mm_set1_ps(p->o[p->ky]), oz = _mm_set1_ps(p->o[p->kz]);
+        const __m128 sx = _mm_set1_ps(p->sx), sy = _mm_set1_ps(p->sy);
+        /* (written out: a loop over arrays of vectors is not unrolled at -O2) */
+#define VERTEX(k, X, Y, Z, EX, EY)                                                                     \
+    __m128 X = _mm_sub_ps(_mm_loadu_ps(t->v[k][p->kx]), ox), Y = _mm_sub_ps(_mm_loadu_ps(t->v[k][p->ky]), oy); \
+    __m128 Z = _mm_sub_ps(_mm_loadu_ps(t->v[k][p->kz]), oz);                                            \
+    __m128 EX = _mm_mul_ps(g5, _mm_add_ps(ABS(X), ABS(Z))), EY = _mm_mul_ps(g5, _mm_add_ps(ABS(Y), ABS(Z))); \
+    X = _mm_add_ps(X, _mm_mul_ps(sx, Z));                                                               \
+    Y = _mm_add_ps(Y, _mm_mul_ps(sy, Z))
+        VERTEX(0, ax, ay, az, exa, eya);
+        VERTEX(1, bx, by, bz, exb, eyb);
+        VERTEX(2, cx, cy, cz, exc, eyc);
+#undef VERTEX
+        __m128 e[3];
+        e[0] = _mm_sub_ps(_mm_mul_ps(bx, cy), _mm_mul_ps(by, cx));
+        e[1] = _mm_sub_ps(_mm_mul_ps(cx, ay), _mm_mul_ps(cy, ax));
+        e[2] = _mm_sub_ps(_mm_mul_ps(ax, by), _mm_mul_ps(ay, bx));
+        __m128 unsure = _mm_cmple_ps(ABS(e[0]), edge_err4(bx, by, exb, eyb, cx, cy, exc, eyc));
+        unsure = _mm_or_ps(unsure, _mm_cmple_ps(ABS(e[1]), edge_err4(cx, cy, exc, eyc, ax, ay, exa, eya)));
+        unsure = _mm_or_ps(unsure, _mm_cmple_ps(ABS(e[2]), edge_err4(ax, ay, exa, eya, bx, by, exb, eyb)));
+        __m128 Z[3] = {az, bz, cz};
         __m128 anyneg = _mm_or_ps(_mm_or_ps(_mm_cmplt_ps(e[0], zero), _mm_cmplt_ps(e[1], zero)), _mm_cmplt_ps(e[2], zero));
         __m128 anypos = _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(e[0], zero), _mm_cmpgt_ps(e[1], zero)), _mm_cmpgt_ps(e[2], zero));
         __m128 det = _mm_add_ps(_mm_add_ps(e[0], e[1]), e[2]);
