@@ -197,7 +197,7 @@ int prim_obox_init(OBox *b);
  * found are always among those a test with the ray itself finds. */
 static inline float prim_tmax_past(float t, float tmax)
 {
-    float past = nextafterf(t * (1.0f + 0x1p-18f), INFINITY);
+    float past = t * (1.0f + 0x1p-18f) + 0x1p-149f; /* (the tiniest float: past a subnormal t too) */
     return past < tmax ? past : tmax;
 }
 
