@@ -203,12 +203,10 @@ static float area(const float lo[3], const float hi[3])
 
 /* ---- build ---- */
 
-/* Children come in pairs at even indices, so that with the array aligned
- * to 64 bytes a pair of 32-byte nodes shares one cache line: traversal
- * reads both children at once. */
+/* Two new nodes side by side: a node's children are first and first + 1. */
 static int new_pair(Builder *B)
 {
-    if (B->nnodes + 3 > B->cap) {
+    if (B->nnodes + 2 > B->cap) {
         int cap = B->cap ? B->cap * 2 : 64;
         BvhNode *n = realloc(B->nodes, sizeof(BvhNode) * (size_t)cap);
         if (!n)
@@ -216,8 +214,6 @@ static int new_pair(Builder *B)
         B->nodes = n;
         B->cap = cap;
     }
-    if (B->nnodes & 1) /* skip a slot, zeroed so that it reads as nothing */
-        memset(&B->nodes[B->nnodes++], 0, sizeof(BvhNode));
     B->nnodes += 2;
     return B->nnodes - 2;
 }
@@ -442,10 +438,9 @@ static int build_tree(Builder *B, int n, int threads)
         free(right.b.nodes);
         return -1;
     }
-    /* Append the right subtree: its local node j >= 1 goes to base + j
-     * (base even, so its pairs stay on even indices), and its local root
-     * to node c + 1. */
-    int base = B->nnodes + (B->nnodes & 1), extra = right.b.nnodes + base - B->nnodes;
+    /* Append the right subtree: its local node j >= 1 goes to base + j,
+     * and its local root to node c + 1. */
+    int base = B->nnodes - 1, extra = right.b.nnodes - 1;
     if (B->nnodes + extra > B->cap) {
         BvhNode *nn = realloc(B->nodes, sizeof(BvhNode) * (size_t)(B->nnodes + extra));
         if (!nn) {
@@ -461,8 +456,6 @@ static int build_tree(Builder *B, int n, int threads)
             nd.first = (uint32_t)(base + (int)nd.first);
         B->nodes[j == 0 ? c + 1 : base + j] = nd;
     }
-    /* the slots left unused (padding, and base + 0) read as nothing */
-    memset(&B->nodes[B->nnodes], 0, sizeof(BvhNode) * (size_t)(base + 1 - B->nnodes));
     B->nnodes += extra;
     free(right.b.nodes);
     return 0;

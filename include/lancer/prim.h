@@ -148,8 +148,8 @@ int prim_sphere_hit_robust(const Sphere *s, const Ray *r, PrimHit *h);
  * an edge may be reported by only one of the triangles sharing it (never by
  * none: the exact judge checks closed meshes and shared edges). */
 int prim_triangle_hit_watertight(const Triangle *tr, const Ray *r, PrimHit *h);
-/* The same on three vertices, for callers that keep triangles compact (the
- * BVH's leaves of meshes). */
+/* The same on three vertices (the four-lane test's lanes that need the
+ * double path). */
 int prim_triangle_hit_watertight3(const Vec3 v[3], const Ray *r, PrimHit *h);
 /* Four triangles side by side for the SIMD test below: v[vertex][axis][lane]. */
 typedef struct {
