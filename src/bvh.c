@@ -767,10 +767,9 @@ typedef struct {
     int near[3], far[3]; /* byte offsets in a node of the near and far planes, by axis */
     PrimTriRay tri; /* set up at the first leaf: many rays reach none */
     int tri_ready;
-    const Bvh *b;
 } RayPre;
 
-static void ray_pre(const Bvh *b, const Ray *r, RayPre *p)
+static void ray_pre(const Ray *r, RayPre *p)
 {
     const float o[3] = {r->o.x, r->o.y, r->o.z}, d[3] = {r->d.x, r->d.y, r->d.z};
     for (int i = 0; i < 3; i++) {
@@ -787,7 +786,6 @@ static void ray_pre(const Bvh *b, const Ray *r, RayPre *p)
 #endif
     }
     p->tri_ready = 0;
-    p->b = b;
 }
 
 #ifdef BVH_SSE
@@ -882,7 +880,7 @@ int bvh_closest(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *test
     if (b->nnodes == 0)
         return -1;
     RayPre p;
-    ray_pre(b, r, &p);
+    ray_pre(r, &p);
     Ray q = *r; /* tmax: past the nearest hit so far, to see ties */
     int best = -1, best_tri = 0;
     float best_t = 0.0f;
@@ -982,7 +980,7 @@ int bvh_occluded(const Bvh *b, const Ray *r, unsigned long long *tests)
     if (b->nnodes == 0)
         return 0;
     RayPre p;
-    ray_pre(b, r, &p);
+    ray_pre(r, &p);
     Entry stack[BVH_ENTRIES];
     int sp = 0, hit = 0;
     unsigned long long nt = 0;

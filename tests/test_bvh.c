@@ -9,19 +9,11 @@
 #include <string.h>
 #include <cmocka.h>
 
+#include "testutil.h"
+
 #include "lancer/bvh.h"
 
 static unsigned long long rng = 0x9E3779B97F4A7C15ULL;
-
-static float uniform(float lo, float hi) /* xorshift64 */
-{
-    rng ^= rng << 13;
-    rng ^= rng >> 7;
-    rng ^= rng << 17;
-    return lo + (hi - lo) * (float)((double)(rng >> 11) / 9007199254740992.0);
-}
-
-static Vec3 rvec(float lo, float hi) { return vec3(uniform(lo, hi), uniform(lo, hi), uniform(lo, hi)); }
 
 /* n primitives of every bounded kind, plus a plane, scattered in a cube. */
 static Prim *random_prims(int n)
@@ -29,30 +21,30 @@ static Prim *random_prims(int n)
     Prim *p = calloc((size_t)n + 1, sizeof(Prim));
     assert_non_null(p);
     for (int i = 0; i < n; i++) {
-        Vec3 c = rvec(-10, 10);
+        Vec3 c = test_rvec(&rng, -10, 10);
         switch (i % 4) {
         case 0:
             p[i].kind = PRIM_SPHERE;
             p[i].g.sphere.c = c;
-            p[i].g.sphere.r = uniform(0.1f, 1.5f);
+            p[i].g.sphere.r = test_uniform(&rng, 0.1f, 1.5f);
             break;
         case 1:
             p[i].kind = PRIM_TRIANGLE;
             p[i].g.tri.a = c;
-            p[i].g.tri.b = vec_add(c, rvec(-2, 2));
-            p[i].g.tri.c = vec_add(c, rvec(-2, 2));
+            p[i].g.tri.b = vec_add(c, test_rvec(&rng, -2, 2));
+            p[i].g.tri.c = vec_add(c, test_rvec(&rng, -2, 2));
             break;
         case 2:
             p[i].kind = PRIM_BOX;
             p[i].g.box.lo = c;
-            p[i].g.box.hi = vec_add(c, rvec(0.1f, 2));
+            p[i].g.box.hi = vec_add(c, test_rvec(&rng, 0.1f, 2));
             break;
         default:
             p[i].kind = PRIM_OBOX;
             p[i].g.obox.c = c;
-            p[i].g.obox.u = rvec(-1, 1);
-            p[i].g.obox.v = rvec(-1, 1);
-            p[i].g.obox.w = rvec(-1, 1);
+            p[i].g.obox.u = test_rvec(&rng, -1, 1);
+            p[i].g.obox.v = test_rvec(&rng, -1, 1);
+            p[i].g.obox.w = test_rvec(&rng, -1, 1);
             if (prim_obox_init(&p[i].g.obox) != 0) { /* flat by chance: make it a sphere */
                 p[i].kind = PRIM_SPHERE;
                 p[i].g.sphere.c = c;
@@ -177,8 +169,8 @@ static int disagreements(const Bvh *b, const Prim *p, int n, int rays, int *hits
     int bad = 0;
     *hits = 0;
     for (int k = 0; k < rays; k++) {
-        Vec3 o = rvec(-14, 14);
-        Ray r = ray_make(o, vec_normalize(vec_sub(rvec(-10, 10), o)), k % 3 ? INFINITY : uniform(1, 20));
+        Vec3 o = test_rvec(&rng, -14, 14);
+        Ray r = ray_make(o, vec_normalize(vec_sub(test_rvec(&rng, -10, 10), o)), k % 3 ? INFINITY : test_uniform(&rng, 1, 20));
         PrimHit h;
         float t = 0;
         int got = bvh_closest(b, &r, &h, &tests), want = brute_closest(p, n, &r, &t);
@@ -214,11 +206,11 @@ static void test_mesh_leaves_agree_with_brute_force(void **state)
     Prim *p = calloc(n, sizeof(Prim));
     assert_non_null(p);
     for (int i = 0; i < n; i++) {
-        Vec3 c = rvec(-10, 10);
+        Vec3 c = test_rvec(&rng, -10, 10);
         p[i].kind = i % 2 ? PRIM_TRIANGLE : PRIM_SMOOTH_TRIANGLE;
         p[i].g.tri.a = c;
-        p[i].g.tri.b = vec_add(c, rvec(-2, 2));
-        p[i].g.tri.c = vec_add(c, rvec(-2, 2));
+        p[i].g.tri.b = vec_add(c, test_rvec(&rng, -2, 2));
+        p[i].g.tri.c = vec_add(c, test_rvec(&rng, -2, 2));
     }
     Bvh b;
     int hits;
@@ -278,10 +270,10 @@ static void test_closed_mesh_has_no_leaks(void **state)
     int bad = 0, leaks = 0;
     for (int k = 0; k < rays; k++) {
         const Triangle *tr = &p[k % n].g.tri;
-        float s = uniform(0, 1);
+        float s = test_uniform(&rng, 0, 1);
         Vec3 target = k % 3 == 0 ? tr->a : k % 3 == 1 ? vec_add(tr->a, vec_scale(vec_sub(tr->b, tr->a), s))
                                                       : vec_add(tr->b, vec_scale(vec_sub(tr->c, tr->b), s));
-        Vec3 o = rvec(-0.9f, 0.9f);
+        Vec3 o = test_rvec(&rng, -0.9f, 0.9f);
         Ray r = ray_make(o, vec_sub(target, o), INFINITY);
         PrimHit h;
         float t = 0;

@@ -454,16 +454,6 @@ static void test_obox(void **state)
 
 static unsigned long long rng = 0x2545F4914F6CDD1DULL;
 
-static float uniform(float lo, float hi) /* xorshift64 */
-{
-    rng ^= rng << 13;
-    rng ^= rng >> 7;
-    rng ^= rng << 17;
-    return lo + (hi - lo) * (float)((double)(rng >> 11) / 9007199254740992.0);
-}
-
-static Vec3 rvec(float lo, float hi) { return vec3(uniform(lo, hi), uniform(lo, hi), uniform(lo, hi)); }
-
 static void test_tri4_matches_scalar(void **state)
 {
     (void)state;
@@ -474,9 +464,9 @@ static void test_tri4_matches_scalar(void **state)
      * scalar routine's verdict and the same t, bit for bit. */
     int hits = 0, shared = 0;
     for (int n = 0; n < 200000; n++) {
-        Vec3 c = rvec(-2, 2), rim[4], v[4][3];
+        Vec3 c = test_rvec(&rng, -2, 2), rim[4], v[4][3];
         for (int i = 0; i < 4; i++)
-            rim[i] = vec_add(c, rvec(-1, 1));
+            rim[i] = vec_add(c, test_rvec(&rng, -1, 1));
         PrimTri4 t;
         for (int i = 0; i < 4; i++) {
             v[i][0] = c;
@@ -489,14 +479,14 @@ static void test_tri4_matches_scalar(void **state)
             }
         }
         int i = n % 4, kind = n / 4 % 4;
-        float s = uniform(0, 1);
+        float s = test_uniform(&rng, 0, 1);
         Vec3 target = kind == 0 ? rim[i] : kind == 1 ? vec_add(c, vec_scale(vec_sub(rim[i], c), s))
                     : kind == 2 ? vec_add(rim[i], vec_scale(vec_sub(rim[(i + 1) % 4], rim[i]), s))
-                                : vec_add(c, rvec(-1, 1));
-        Vec3 o = rvec(-6, 6);
+                                : vec_add(c, test_rvec(&rng, -1, 1));
+        Vec3 o = test_rvec(&rng, -6, 6);
         const float scales[] = {1, 0x1p-70f, 0x1p-20f, 0x1p20f, 0x1p70f, 3};
         Vec3 d = vec_scale(vec_sub(target, o), scales[n / 16 % 6]);
-        float tmax = n % 3 ? INFINITY : uniform(0.5f, 1.5f) / scales[n / 16 % 6];
+        float tmax = n % 3 ? INFINITY : test_uniform(&rng, 0.5f, 1.5f) / scales[n / 16 % 6];
         Ray r = ray_make(o, d, tmax);
         PrimTriRay p;
         prim_triray_init(&p, &r);
