@@ -772,17 +772,26 @@ typedef struct {
 static void ray_pre(const Ray *r, RayPre *p)
 {
     const float o[3] = {r->o.x, r->o.y, r->o.z}, d[3] = {r->d.x, r->d.y, r->d.z};
+#ifdef BVH_SSE
+    /* one division for the three axes (lane 3 is 1/1) */
+    float inv[4];
+    _mm_storeu_ps(inv, _mm_div_ps(_mm_set1_ps(1.0f), _mm_setr_ps(d[0], d[1], d[2], 1.0f)));
+#else
+    const float inv[3] = {1.0f / d[0], 1.0f / d[1], 1.0f / d[2]};
+#endif
     for (int i = 0; i < 3; i++) {
         p->o[i] = o[i];
-        p->inv[i] = 1.0f / d[i];
-        int neg = p->inv[i] < 0.0f;
+        p->inv[i] = inv[i];
+        /* the planes by arithmetic: a branch on a random ray's signs
+         * mispredicts half the time */
+        int neg = inv[i] < 0.0f;
         int lo = (int)(offsetof(Bvh4Node, lo) + sizeof(float[4]) * (size_t)i);
         int hi = (int)(offsetof(Bvh4Node, hi) + sizeof(float[4]) * (size_t)i);
-        p->near[i] = neg ? hi : lo;
-        p->far[i] = neg ? lo : hi;
+        p->near[i] = lo + neg * (hi - lo);
+        p->far[i] = hi - neg * (hi - lo);
 #ifdef BVH_SSE
         p->o4[i] = _mm_set1_ps(o[i]);
-        p->inv4[i] = _mm_set1_ps(p->inv[i]);
+        p->inv4[i] = _mm_set1_ps(inv[i]);
 #endif
     }
     p->tri_ready = 0;
@@ -882,7 +891,8 @@ int bvh_closest(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *test
     RayPre p;
     ray_pre(r, &p);
     Ray q = *r; /* tmax: past the nearest hit so far, to see ties */
-    int best = -1, best_tri = 0;
+    int best = -1, best_lane = -1; /* best_lane: of best_leaf's triangles, or -1 */
+    const BvhLeaf *best_leaf = NULL;
     float best_t = 0.0f;
     unsigned long long nt = 0;
     Entry stack[BVH_ENTRIES];
@@ -949,7 +959,8 @@ int bvh_closest(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *test
                 if (best < 0 || t < best_t || (t == best_t && b->order[k] < b->order[best])) {
                     best = k;
                     best_t = t;
-                    best_tri = tri;
+                    best_leaf = L;
+                    best_lane = tri ? i : -1;
                     if (!tri)
                         *h = cur;
                     q.tmax = prim_tmax_past(t, r->tmax);
@@ -965,11 +976,11 @@ int bvh_closest(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *test
     *tests += nt;
     if (best < 0)
         return -1;
-    if (best_tri) {
+    if (best_lane >= 0) {
         /* The lane test gave t only. The scalar routine, on the whole ray,
          * gives the same t (its verdict can only pass at a larger tmax)
          * and the rest of the hit. */
-        prim_triangle_hit_watertight(&b->prims[b->order[best]].g.tri, r, h);
+        prim_tri4_lane_hit(&best_leaf->tri, best_lane, &p.tri, r, h);
         h->t = best_t;
     }
     return b->order[best];

@@ -337,7 +337,7 @@ static float edge_err(float xi, float yi, float exi, float eyi, float xj, float 
     return gamma_f(3) * m + d * (1.0f + gamma_f(3));
 }
 
-static int watertight(const Vec3 v[3], const Ray *r, PrimHit *h);
+static int watertight(const Vec3 v[3], const Ray *r, const PrimTriRay *p, PrimHit *h);
 
 int prim_triangle_hit_watertight(const Triangle *tr, const Ray *r, PrimHit *h)
 {
@@ -351,32 +351,35 @@ int prim_triangle_hit_watertight3(const Vec3 v[3], const Ray *r, PrimHit *h)
      * very short or very long direction by a power of two first (exact),
      * so that 1/dz cannot overflow, and scale t back. */
     float m = max3(fabsf(r->d.x), fabsf(r->d.y), fabsf(r->d.z));
-    if (!(m < 0x1p-60f || m > 0x1p60f))
-        return watertight(v, r, h);
+    PrimTriRay p;
+    if (!(m < 0x1p-60f || m > 0x1p60f)) {
+        prim_triray_init(&p, r);
+        return watertight(v, r, &p, h);
+    }
     int e;
     frexpf(m, &e);
     double k = ldexp(1.0, -e); /* d' = k d, so t = k t'; in double, since k may exceed FLT_MAX */
     Vec3 d = vec3((float)(r->d.x * k), (float)(r->d.y * k), (float)(r->d.z * k));
     Ray q = ray_make(r->o, d, float_up(r->tmax / k)); /* rounded up: no hit lost */
-    if (!watertight(v, &q, h))
+    prim_triray_init(&p, &q);
+    if (!watertight(v, &q, &p, h))
         return 0;
     h->t = (float)(h->t * k);
     h->terr = float_up(h->terr * k);
     return h->t < r->tmax && h->t > 0.0f;
 }
 
-static int watertight(const Vec3 v[3], const Ray *r, PrimHit *h)
+static int watertight(const Vec3 v[3], const Ray *r, const PrimTriRay *p, PrimHit *h)
 {
     /* Woop et al.: translate to the ray origin, make the largest direction
      * component z (keeping the winding), and shear so the ray runs along
-     * +z. Written as in pbrt-v3/v4, whose error analysis bounds t below. */
-    int kz = fabsf(r->d.x) > fabsf(r->d.y) ? (fabsf(r->d.x) > fabsf(r->d.z) ? 0 : 2)
-                                           : (fabsf(r->d.y) > fabsf(r->d.z) ? 1 : 2);
-    int kx = kz == 2 ? 0 : kz + 1, ky = kx == 2 ? 0 : kx + 1;
+     * +z (prim_triray_init). Written as in pbrt-v3/v4, whose error analysis
+     * bounds t below. */
+    int kx = p->kx, ky = p->ky, kz = p->kz;
     float dz = comp(r->d, kz);
     if (dz == 0.0f)
         return 0; /* a zero direction */
-    float sx = -comp(r->d, kx) / dz, sy = -comp(r->d, ky) / dz, sz = 1.0f / dz;
+    float sx = p->sx, sy = p->sy, sz = p->sz;
     Vec3 A = vec_sub(v[0], r->o), B = vec_sub(v[1], r->o), C = vec_sub(v[2], r->o);
     float az = comp(A, kz), bz = comp(B, kz), cz = comp(C, kz);
     float ax = comp(A, kx) + sx * az, ay = comp(A, ky) + sy * az;
@@ -454,7 +457,6 @@ static int watertight(const Vec3 v[3], const Ray *r, PrimHit *h)
 
 void prim_triray_init(PrimTriRay *p, const Ray *r)
 {
-    /* The axes and shear of watertight(), computed the same way. */
     const float d[3] = {r->d.x, r->d.y, r->d.z};
     int kz = fabsf(d[0]) > fabsf(d[1]) ? (fabsf(d[0]) > fabsf(d[2]) ? 0 : 2) : (fabsf(d[1]) > fabsf(d[2]) ? 1 : 2);
     int kx = kz == 2 ? 0 : kz + 1, ky = kx == 2 ? 0 : kx + 1;
@@ -467,21 +469,17 @@ void prim_triray_init(PrimTriRay *p, const Ray *r)
     p->o[2] = r->o.z;
     /* Directions that prim_triangle_hit_watertight3 rescales go through it. */
     p->simd = m >= 0x1p-60f && m <= 0x1p60f && isfinite(d[0]) && isfinite(d[1]) && isfinite(d[2]);
-    p->sx = p->simd ? -d[kx] / d[kz] : 0.0f;
-    p->sy = p->simd ? -d[ky] / d[kz] : 0.0f;
-    p->sz = p->simd ? 1.0f / d[kz] : 0.0f;
+    p->sx = -d[kx] / d[kz];
+    p->sy = -d[ky] / d[kz];
+    p->sz = 1.0f / d[kz];
 }
 
-static int tri4_lane(const PrimTri4 *t, int i, const Ray *r, float *tt)
+int prim_tri4_lane_hit(const PrimTri4 *t, int lane, const PrimTriRay *p, const Ray *r, PrimHit *h)
 {
     Vec3 v[3];
-    PrimHit h;
     for (int k = 0; k < 3; k++)
-        v[k] = vec3(t->v[k][0][i], t->v[k][1][i], t->v[k][2][i]);
-    if (!prim_triangle_hit_watertight3(v, r, &h))
-        return 0;
-    *tt = h.t;
-    return 1;
+        v[k] = vec3(t->v[k][0][lane], t->v[k][1][lane], t->v[k][2][lane]);
+    return p->simd ? watertight(v, r, p, h) : prim_triangle_hit_watertight3(v, r, h);
 }
 
 #ifdef PRIM_SSE
@@ -552,9 +550,13 @@ int prim_tri4_hit_watertight(const PrimTri4 *t, int lanes, const PrimTriRay *p, 
 #else
     (void)p;
 #endif
-    for (int i = 0; i < 4; i++)
-        if (slow >> i & 1 && tri4_lane(t, i, r, &tt[i]))
+    for (int i = 0; i < 4; i++) {
+        PrimHit h;
+        if (slow >> i & 1 && prim_tri4_lane_hit(t, i, p, r, &h)) {
+            tt[i] = h.t;
             hit |= 1 << i;
+        }
+    }
     return hit;
 }
 

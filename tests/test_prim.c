@@ -461,7 +461,8 @@ static void test_tri4_matches_scalar(void **state)
      * edges, and rays aimed at its vertices, at points of its edges and
      * inside it, with directions from tiny to huge (those take the rescaled
      * scalar path) and finite or infinite tmax. Every lane must get the
-     * scalar routine's verdict and the same t, bit for bit. */
+     * scalar routine's verdict and the same t, bit for bit, and
+     * prim_tri4_lane_hit the same whole hit. */
     int hits = 0, shared = 0;
     for (int n = 0; n < 200000; n++) {
         Vec3 c = test_rvec(&rng, -2, 2), rim[4], v[4][3];
@@ -497,8 +498,16 @@ static void test_tri4_matches_scalar(void **state)
             PrimHit h;
             int want = (lanes >> l & 1) && prim_triangle_hit_watertight3(v[l], &r, &h);
             assert_int_equal(got >> l & 1, want);
-            if (want)
+            if (want) {
                 assert_memory_equal(&tt[l], &h.t, sizeof(float));
+                /* and the lane through the scalar routine: the whole hit */
+                PrimHit g;
+                assert_true(prim_tri4_lane_hit(&t, l, &p, &r, &g));
+                assert_memory_equal(&g.t, &h.t, sizeof(float));
+                assert_memory_equal(&g.terr, &h.terr, sizeof(float));
+                assert_memory_equal(&g.u, &h.u, sizeof(float));
+                assert_memory_equal(&g.v, &h.v, sizeof(float));
+            }
             nhit += want;
         }
         hits += nhit > 0;

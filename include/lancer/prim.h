@@ -170,9 +170,13 @@ void prim_triray_init(PrimTriRay *p, const Ray *r);
  * prim_triangle_hit_watertight3 judges it, bit for bit: four lanes at once
  * with SSE, and the lanes with an edge function too close to 0 one by one
  * through the scalar routine and its double path. Returns the lanes hit and
- * sets tt[i] for each; a caller wanting terr, u and v calls the scalar
- * routine on the lane it keeps. */
+ * sets tt[i] for each; a caller wanting terr, u and v calls
+ * prim_tri4_lane_hit on the lane it keeps. */
 int prim_tri4_hit_watertight(const PrimTri4 *t, int lanes, const PrimTriRay *p, const Ray *r, float tt[4]);
+/* Lane `lane` of t through the scalar routine: the same verdict and t as
+ * prim_triangle_hit_watertight3, and the rest of the hit, without setting
+ * up the ray again. */
+int prim_tri4_lane_hit(const PrimTri4 *t, int lane, const PrimTriRay *p, const Ray *r, PrimHit *h);
 /* Axis-aligned box: the slab test of Williams et al. in double, made
  * conservative after Ize, "Robust BVH Ray Traversal", JCGT 2(2), 2013: the
  * far distance grows by 1 + 2 gamma(3), so no hit is lost; an origin on a
