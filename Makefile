@@ -38,6 +38,11 @@ LDFLAGS  += -pthread $(SANLINK)
 
 LIB_SRC  := $(filter-out src/main.c,$(wildcard src/*.c))
 LIB_OBJ  := $(LIB_SRC:src/%.c=$(BUILD)/obj/%.o)
+# On x86-64 the BVH traversal is built once more for AVX2, and picked at
+# run time when the processor has it (src/bvh_traverse.c).
+ifeq ($(shell uname -m),x86_64)
+LIB_OBJ  += $(BUILD)/obj/bvh_traverse_avx2.o
+endif
 TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/%)
 
@@ -64,17 +69,32 @@ $(BUILD)/lancer: $(BUILD)/obj/main.o $(BUILD)/liblancer.a
 $(BUILD)/test_%: $(BUILD)/obj/tests/test_%.o $(BUILD)/liblancer.a
 	$(CC) $(LDFLAGS) $^ $(LDLIBS) -lcmocka -o $@
 
-# The scalar fallbacks of the BVH and of the four-lane triangle test (no
-# SSE), run through the same tests as the SIMD paths.
+$(BUILD)/obj/bvh_traverse_avx2.o: src/bvh_traverse.c
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) -DLANCER_AVX2_VARIANT -mavx2 $(ALLCFLAGS) -MMD -MP -c $< -o $@
+
+# The BVH and the four-lane triangle test without SIMD (scalar), and the
+# traversal with SSE only (no AVX2), run through the same tests as what
+# the processor picks.
 $(BUILD)/obj/%_scalar.o: src/%.c
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) -DLANCER_NO_SIMD $(ALLCFLAGS) -MMD -MP -c $< -o $@
 
-$(BUILD)/test_bvh_scalar: $(BUILD)/obj/tests/test_bvh.o $(BUILD)/obj/bvh_scalar.o $(BUILD)/obj/prim_scalar.o \
-                          $(filter-out $(BUILD)/obj/bvh.o $(BUILD)/obj/prim.o,$(LIB_OBJ))
+$(BUILD)/obj/%_sse.o: src/%.c
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) -DLANCER_NO_AVX2 $(ALLCFLAGS) -MMD -MP -c $< -o $@
+
+BVH_OBJ := $(BUILD)/obj/bvh.o $(BUILD)/obj/bvh_traverse.o $(BUILD)/obj/bvh_traverse_avx2.o $(BUILD)/obj/prim.o
+
+$(BUILD)/test_bvh_scalar: $(BUILD)/obj/tests/test_bvh.o $(BUILD)/obj/bvh_scalar.o $(BUILD)/obj/bvh_traverse_scalar.o \
+                          $(BUILD)/obj/prim_scalar.o $(filter-out $(BVH_OBJ),$(LIB_OBJ))
 	$(CC) $(LDFLAGS) $^ $(LDLIBS) -lcmocka -o $@
 
-tests: $(BUILD)/lancer $(TEST_BIN) $(BUILD)/test_bvh_scalar
+$(BUILD)/test_bvh_sse: $(BUILD)/obj/tests/test_bvh.o $(BUILD)/obj/bvh_traverse_sse.o \
+                       $(filter-out $(BUILD)/obj/bvh_traverse.o $(BUILD)/obj/bvh_traverse_avx2.o,$(LIB_OBJ))
+	$(CC) $(LDFLAGS) $^ $(LDLIBS) -lcmocka -o $@
+
+tests: $(BUILD)/lancer $(TEST_BIN) $(BUILD)/test_bvh_scalar $(BUILD)/test_bvh_sse
 
 # The exact judge (tests/exact): C++17 + CGAL, linked against the release
 # library build/liblancer.a, so it measures the very object code lancer runs

@@ -6,13 +6,10 @@
  * BVH_BINS bins by centroid along each axis, and the best of the bin
  * boundaries by the surface area heuristic becomes the split.
  *
- * The binary tree is then collapsed into 4-wide nodes and leaves of up to
+ * The binary tree is then collapsed into BVH_WIDTH-wide nodes and leaves of up to
  * four primitives (bvh.h), and dropped.
  *
- * Traversal: a stack, nearer children first by entry distance, four boxes
- * tested at once with the slab test made conservative after Ize 2013 (see
- * bvh.h), a leaf's triangles tested at once; SSE where available, else a
- * scalar loop (build with -DLANCER_NO_SIMD to force it).
+ * Traversal is in bvh_traverse.c.
  */
 #include "lancer/bvh.h"
 
@@ -43,8 +40,8 @@
 #define BVH_PARALLEL_MIN 4096
 /* Past this depth, nodes are halved by index instead of split by the SAH,
  * so no input can make the tree deeper than BVH_SAH_DEPTH + 32 (2^32 >
- * any primitive count), which bounds the traversal stack. */
-#define BVH_SAH_DEPTH 64
+ * any primitive count) = BVH_MAX_DEPTH. */
+#define BVH_SAH_DEPTH (BVH_MAX_DEPTH - 32)
 
 /* A primitive's bounds, as four lanes (the fourth is 0); the builder
  * works on lo + hi, twice the centroid, which bins the same. */
@@ -461,14 +458,14 @@ static int build_tree(Builder *B, int n, int threads)
     return 0;
 }
 
-/* ---- the 4-wide tree ---- */
+/* ---- the wide tree ---- */
 
 typedef struct {
     Bvh *b;
     const BvhNode *bin; /* the binary tree */
 } Collapse;
 
-static void slot_box(Bvh4Node *n, int i, const BvhNode *src)
+static void slot_box(BvhWideNode *n, int i, const BvhNode *src)
 {
     for (int a = 0; a < 3; a++) {
         n->lo[a][i] = src ? src->lo[a] : INFINITY; /* an empty box: never entered */
@@ -511,14 +508,14 @@ static void fill_leaves(Bvh *b)
 }
 
 /* Fills nodes[at] from binary inner node ni: its children are opened,
- * largest surface area first, until four slots are taken, and every inner
- * one among them becomes a 4-wide node in turn. */
+ * largest surface area first, until the slots are taken, and every inner
+ * one among them becomes a wide node in turn. */
 static void collapse(Collapse *C, int ni, int at)
 {
     const BvhNode *bin = C->bin;
     Bvh *b = C->b;
-    int kids[4] = {(int)bin[ni].first, (int)bin[ni].first + 1, -1, -1}, nk = 2;
-    while (nk < 4) {
+    int kids[BVH_WIDTH] = {(int)bin[ni].first, (int)bin[ni].first + 1}, nk = 2;
+    while (nk < BVH_WIDTH) {
         int best = -1;
         float area_best = -1.0f;
         for (int k = 0; k < nk; k++) {
@@ -535,8 +532,8 @@ static void collapse(Collapse *C, int ni, int at)
         kids[best] = (int)bin[c].first;
         kids[nk++] = (int)bin[c].first + 1;
     }
-    memset(&b->nodes[at], 0, sizeof(Bvh4Node));
-    for (int k = 0; k < 4; k++) {
+    memset(&b->nodes[at], 0, sizeof(BvhWideNode));
+    for (int k = 0; k < BVH_WIDTH; k++) {
         const BvhNode *c = k < nk ? &bin[kids[k]] : NULL;
         slot_box(&b->nodes[at], k, c);
         if (c && c->count > 0) {
@@ -565,16 +562,16 @@ static int shrink(void **p, size_t n)
 /* Builds b->nodes and b->leaves from the binary tree of nbin nodes. */
 static int build4(Bvh *b, const BvhNode *bin, int nbin)
 {
-    /* never more 4-wide nodes or leaves than binary nodes: collapsed into
+    /* never more wide nodes or leaves than binary nodes: collapsed into
      * that much, then copied into exactly what is used */
-    b->nodes = malloc(sizeof(Bvh4Node) * (size_t)nbin);
+    b->nodes = malloc(sizeof(BvhWideNode) * (size_t)nbin);
     b->leaves = malloc(sizeof(BvhLeaf) * (size_t)nbin);
     if (!b->nodes || !b->leaves)
         return -1;
     b->nnodes = 1;
     if (bin[0].count > 0) { /* a single leaf */
-        memset(&b->nodes[0], 0, sizeof(Bvh4Node));
-        for (int k = 0; k < 4; k++)
+        memset(&b->nodes[0], 0, sizeof(BvhWideNode));
+        for (int k = 0; k < BVH_WIDTH; k++)
             slot_box(&b->nodes[0], k, k == 0 ? &bin[0] : NULL);
         b->nodes[0].child[0] = make_leaf4(b, &bin[0]);
     } else {
@@ -587,7 +584,7 @@ static int build4(Bvh *b, const BvhNode *bin, int nbin)
     }
     fill_leaves(b);
     void *nodes = b->nodes, *leaves = b->leaves;
-    int rc = shrink(&nodes, sizeof(Bvh4Node) * (size_t)b->nnodes) | shrink(&leaves, sizeof(BvhLeaf) * (size_t)b->nleaves);
+    int rc = shrink(&nodes, sizeof(BvhWideNode) * (size_t)b->nnodes) | shrink(&leaves, sizeof(BvhLeaf) * (size_t)b->nleaves);
     b->nodes = nodes;
     b->leaves = leaves;
     return rc;
@@ -603,7 +600,7 @@ void bvh_free(Bvh *b)
 
 size_t bvh_bytes(const Bvh *b)
 {
-    return sizeof(Bvh4Node) * (size_t)b->nnodes + sizeof(BvhLeaf) * (size_t)b->nleaves +
+    return sizeof(BvhWideNode) * (size_t)b->nnodes + sizeof(BvhLeaf) * (size_t)b->nleaves +
            sizeof(int) * (size_t)b->nprims;
 }
 
@@ -697,8 +694,8 @@ int bvh_validate(const Bvh *b, char *err, size_t errlen)
     if (b->nprims == 0)
         return b->nnodes == 0 ? 0 : (snprintf(err, errlen, "nodes without primitives"), -1);
     int *seen = calloc((size_t)b->nprims, sizeof(int));
-    int *stack = malloc(sizeof(int) * (size_t)(3 * b->nnodes + 1));
-    float(*box)[2][3] = malloc(sizeof *box * (size_t)(3 * b->nnodes + 1)); /* each entry's parent slot box */
+    int *stack = malloc(sizeof(int) * (size_t)(BVH_WIDTH * b->nnodes + 1));
+    float(*box)[2][3] = malloc(sizeof *box * (size_t)(BVH_WIDTH * b->nnodes + 1)); /* each entry's parent slot box */
     int rc = 0, sp = 0, visited = 0;
     if (!seen || !stack || !box) {
         snprintf(err, errlen, "out of memory");
@@ -715,16 +712,16 @@ int bvh_validate(const Bvh *b, char *err, size_t errlen)
             rc = -1;
             break;
         }
-        const Bvh4Node *n = &b->nodes[ni];
-        float plo[3], phi[3], slo[4][3], shi[4][3]; /* (box[sp] is overwritten below) */
+        const BvhWideNode *n = &b->nodes[ni];
+        float plo[3], phi[3], slo[BVH_WIDTH][3], shi[BVH_WIDTH][3]; /* (box[sp] is overwritten below) */
         memcpy(plo, box[sp][0], sizeof plo);
         memcpy(phi, box[sp][1], sizeof phi);
-        for (int k = 0; k < 4; k++)
+        for (int k = 0; k < BVH_WIDTH; k++)
             for (int a = 0; a < 3; a++) {
                 slo[k][a] = n->lo[a][k];
                 shi[k][a] = n->hi[a][k];
             }
-        for (int k = 0; k < 4 && rc == 0; k++) {
+        for (int k = 0; k < BVH_WIDTH && rc == 0; k++) {
             int empty = 1;
             for (int a = 0; a < 3; a++)
                 empty &= slo[k][a] == INFINITY && shi[k][a] == -INFINITY;
@@ -755,267 +752,4 @@ done:
     free(stack);
     free(box);
     return rc;
-}
-
-/* ---- traversal ---- */
-
-typedef struct {
-#ifdef BVH_SSE
-    __m128 o4[3], inv4[3];
-#endif
-    float o[3], inv[3];
-    int near[3], far[3]; /* byte offsets in a node of the near and far planes, by axis */
-    PrimTriRay tri; /* set up at the first leaf: many rays reach none */
-    int tri_ready;
-} RayPre;
-
-static void ray_pre(const Ray *r, RayPre *p)
-{
-    const float o[3] = {r->o.x, r->o.y, r->o.z}, d[3] = {r->d.x, r->d.y, r->d.z};
-#ifdef BVH_SSE
-    /* one division for the three axes (lane 3 is 1/1) */
-    float inv[4];
-    _mm_storeu_ps(inv, _mm_div_ps(_mm_set1_ps(1.0f), _mm_setr_ps(d[0], d[1], d[2], 1.0f)));
-#else
-    const float inv[3] = {1.0f / d[0], 1.0f / d[1], 1.0f / d[2]};
-#endif
-    for (int i = 0; i < 3; i++) {
-        p->o[i] = o[i];
-        p->inv[i] = inv[i];
-        /* the planes by arithmetic: a branch on a random ray's signs
-         * mispredicts half the time */
-        int neg = inv[i] < 0.0f;
-        int lo = (int)(offsetof(Bvh4Node, lo) + sizeof(float[4]) * (size_t)i);
-        int hi = (int)(offsetof(Bvh4Node, hi) + sizeof(float[4]) * (size_t)i);
-        p->near[i] = lo + neg * (hi - lo);
-        p->far[i] = hi - neg * (hi - lo);
-#ifdef BVH_SSE
-        p->o4[i] = _mm_set1_ps(o[i]);
-        p->inv4[i] = _mm_set1_ps(inv[i]);
-#endif
-    }
-    p->tri_ready = 0;
-}
-
-#ifdef BVH_SSE
-/* Starts loading a child the ray will visit, while the current node is
- * still being worked on. */
-static inline void prefetch_child(const Bvh *b, int32_t c)
-{
-    const char *m = c >= 0 ? (const char *)&b->nodes[c] : (const char *)&b->leaves[-1 - c];
-    _mm_prefetch(m, _MM_HINT_T0);
-    _mm_prefetch(m + 64, _MM_HINT_T0);
-    if (c < 0)
-        _mm_prefetch(m + 128, _MM_HINT_T0);
-}
-#else
-static inline void prefetch_child(const Bvh *b, int32_t c)
-{
-    (void)b;
-    (void)c;
-}
-#endif
-
-/* Ize 2013: each slab distance is within gamma(3) of exact. */
-#define BVH_PAD (1.0f + 2.0f * (float)(3.0 * 0.5 * FLT_EPSILON / (1.0 - 3.0 * 0.5 * FLT_EPSILON)))
-
-static inline const float *plane(const Bvh4Node *n, int offset) { return (const float *)((const char *)n + offset); }
-
-/* Entry distances of a 4-wide node's four slots within [0, tmax] into tn;
- * bit i of the result is set when slot i is entered. The comparisons are
- * written so that a NaN distance (0 * inf: an origin on a slab plane,
- * parallel to it) leaves the running bound as it was: such a ray lies in
- * the closed slab. */
-static inline int slots_enter(const Bvh4Node *n, const RayPre *p, float tmax, float tn[4])
-{
-#ifdef BVH_SSE
-    const __m128 pad = _mm_set1_ps(BVH_PAD);
-    __m128 lo = _mm_setzero_ps(), hi = _mm_set1_ps(tmax);
-    /* MAXPS/MINPS return the second operand when the first is NaN: the
-     * bound is kept. (Written out: the loop is not unrolled at -O2.) */
-#define SLAB(a)                                                                                           \
-    lo = _mm_max_ps(_mm_mul_ps(_mm_sub_ps(_mm_load_ps(plane(n, p->near[a])), p->o4[a]), p->inv4[a]), lo); \
-    hi = _mm_min_ps(_mm_mul_ps(_mm_mul_ps(_mm_sub_ps(_mm_load_ps(plane(n, p->far[a])), p->o4[a]), p->inv4[a]), pad), hi)
-    SLAB(0);
-    SLAB(1);
-    SLAB(2);
-#undef SLAB
-    _mm_storeu_ps(tn, lo);
-    return _mm_movemask_ps(_mm_cmple_ps(lo, hi));
-#else
-    int mask = 0;
-    for (int i = 0; i < 4; i++) {
-        float lo = 0.0f, hi = tmax;
-        for (int a = 0; a < 3; a++) {
-            float t0 = (plane(n, p->near[a])[i] - p->o[a]) * p->inv[a];
-            float t1 = (plane(n, p->far[a])[i] - p->o[a]) * p->inv[a] * BVH_PAD;
-            if (t0 > lo)
-                lo = t0;
-            if (t1 < hi)
-                hi = t1;
-        }
-        tn[i] = lo;
-        mask |= (lo <= hi) << i;
-    }
-    return mask;
-#endif
-}
-
-/* A traversal stack entry: a node (code >= 0) or a leaf (-1 - code), and
- * the distance at which the ray enters it. Each node pushes at most 4
- * entries and pops 1, and the tree is at most BVH_SAH_DEPTH + 32 deep, so
- * 3 (BVH_SAH_DEPTH + 32) + 4 entries always suffice. */
-typedef struct {
-    int32_t code;
-    float t;
-} Entry;
-
-#define BVH_ENTRIES (3 * (BVH_SAH_DEPTH + 32) + 4)
-
-static inline int tri4(const BvhLeaf *L, RayPre *p, const Ray *r, float tt[4])
-{
-    if (!p->tri_ready) {
-        prim_triray_init(&p->tri, r);
-        p->tri_ready = 1;
-    }
-    return prim_tri4_hit_watertight(&L->tri, L->tris, &p->tri, r, tt);
-}
-
-/* The lowest set bit of a 4-bit mask. */
-static const signed char low_bit[16] = {-1, 0, 1, 0, 2, 0, 1, 0, 3, 0, 1, 0, 2, 0, 1, 0};
-
-int bvh_closest(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *tests)
-{
-    if (b->nnodes == 0)
-        return -1;
-    RayPre p;
-    ray_pre(r, &p);
-    Ray q = *r; /* tmax: past the nearest hit so far, to see ties */
-    int best = -1, best_lane = -1; /* best_lane: of best_leaf's triangles, or -1 */
-    const BvhLeaf *best_leaf = NULL;
-    float best_t = 0.0f;
-    unsigned long long nt = 0;
-    Entry stack[BVH_ENTRIES];
-    int sp = 0;
-    int32_t code = 0; /* what is visited next: the nearest entered child */
-    for (;;) {
-        if (code >= 0) {
-            /* The nearest entered child is visited next, the others wait on
-             * the stack, farthest deepest; one or two entered (the common
-             * cases) take no loop. */
-            const Bvh4Node *n = &b->nodes[code];
-            float tn[4];
-            int mask = slots_enter(n, &p, q.tmax, tn);
-            if (mask) {
-                int i0 = low_bit[mask];
-                mask &= mask - 1;
-                if (!mask) {
-                    code = n->child[i0];
-                    continue;
-                }
-                int i1 = low_bit[mask];
-                mask &= mask - 1;
-                if (!mask) {
-                    int near = tn[i1] < tn[i0] ? i1 : i0, far = near == i0 ? i1 : i0;
-                    prefetch_child(b, n->child[far]);
-                    stack[sp++] = (Entry){n->child[far], tn[far]};
-                    code = n->child[near];
-                    continue;
-                }
-                int32_t c[4] = {n->child[i0], n->child[i1], 0, 0};
-                float t[4] = {tn[i0], tn[i1], 0, 0};
-                int k = 2;
-                for (; mask; mask &= mask - 1, k++) {
-                    c[k] = n->child[low_bit[mask]];
-                    t[k] = tn[low_bit[mask]];
-                }
-                for (int i = 1; i < k; i++) /* insertion sort */
-                    for (int j = i; j > 0 && t[j] < t[j - 1]; j--) {
-                        float tt = t[j];
-                        int32_t cc = c[j];
-                        t[j] = t[j - 1];
-                        c[j] = c[j - 1];
-                        t[j - 1] = tt;
-                        c[j - 1] = cc;
-                    }
-                for (int i = k - 1; i > 0; i--) {
-                    prefetch_child(b, c[i]);
-                    stack[sp++] = (Entry){c[i], t[i]};
-                }
-                code = c[0];
-                continue;
-            }
-        } else {
-            const BvhLeaf *L = &b->leaves[-1 - code];
-            float tt[4];
-            int hits = L->tris ? tri4(L, &p, &q, tt) : 0;
-            nt += L->count;
-            for (int i = 0; i < L->count; i++) {
-                int k = L->first + i, tri = L->tris >> i & 1;
-                PrimHit cur;
-                if (tri ? !(hits >> i & 1) : !prim_intersect(&b->prims[b->order[k]], &q, b->variant, &cur))
-                    continue;
-                float t = tri ? tt[i] : cur.t;
-                if (best < 0 || t < best_t || (t == best_t && b->order[k] < b->order[best])) {
-                    best = k;
-                    best_t = t;
-                    best_leaf = L;
-                    best_lane = tri ? i : -1;
-                    if (!tri)
-                        *h = cur;
-                    q.tmax = prim_tmax_past(t, r->tmax);
-                }
-            }
-        }
-        while (sp > 0 && stack[sp - 1].t > q.tmax) /* entered past the nearest hit */
-            sp--;
-        if (sp == 0)
-            break;
-        code = stack[--sp].code;
-    }
-    *tests += nt;
-    if (best < 0)
-        return -1;
-    if (best_lane >= 0) {
-        /* The lane test gave t only. The scalar routine, on the whole ray,
-         * gives the same t (its verdict can only pass at a larger tmax)
-         * and the rest of the hit. */
-        prim_tri4_lane_hit(&best_leaf->tri, best_lane, &p.tri, r, h);
-        h->t = best_t;
-    }
-    return b->order[best];
-}
-
-int bvh_occluded(const Bvh *b, const Ray *r, unsigned long long *tests)
-{
-    if (b->nnodes == 0)
-        return 0;
-    RayPre p;
-    ray_pre(r, &p);
-    Entry stack[BVH_ENTRIES];
-    int sp = 0, hit = 0;
-    unsigned long long nt = 0;
-    stack[sp++] = (Entry){0, 0.0f};
-    while (sp > 0 && !hit) {
-        Entry e = stack[--sp];
-        if (e.code < 0) {
-            const BvhLeaf *L = &b->leaves[-1 - e.code];
-            float tt[4];
-            nt += L->count;
-            hit = L->tris && tri4(L, &p, r, tt);
-            for (int i = 0; i < L->count && !hit; i++) {
-                PrimHit cur;
-                hit = !(L->tris >> i & 1) && prim_intersect(&b->prims[b->order[L->first + i]], r, b->variant, &cur);
-            }
-            continue;
-        }
-        const Bvh4Node *n = &b->nodes[e.code];
-        float tn[4];
-        int mask = slots_enter(n, &p, r->tmax, tn);
-        for (int i = 0; i < 4; i++)
-            if (mask >> i & 1)
-                stack[sp++] = (Entry){n->child[i], tn[i]};
-    }
-    *tests += nt;
-    return hit;
 }

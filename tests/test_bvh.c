@@ -119,7 +119,7 @@ static void test_validate_catches_damage(void **state)
     int k = 0;
     while (b.nodes[0].child[k] <= 0)
         k++;
-    Bvh4Node *c = &b.nodes[b.nodes[0].child[k]];
+    BvhWideNode *c = &b.nodes[b.nodes[0].child[k]];
     float saved = c->hi[0][0];
     c->hi[0][0] = b.nodes[0].hi[0][k] + 1;
     assert_int_equal(bvh_validate(&b, err, sizeof err), -1);

@@ -8,9 +8,10 @@
  *     int blocked = bvh_occluded(&b, &shadow_ray, &stats);
  *     bvh_free(&b);
  *
- * The tree is built binary (binned SAH) and collapsed into 4-wide nodes,
- * which are what traversal reads: four child boxes side by side per axis,
- * tested at once (SSE where the compiler offers it, else lane by lane).
+ * The tree is built binary (binned SAH) and collapsed into BVH_WIDTH-wide
+ * nodes, which are what traversal reads: the child boxes side by side per
+ * axis, tested at once (SSE where the compiler offers it, else lane by
+ * lane).
  * A slot's child is an inner node (child >= 0) or a leaf (-1 - leaf index);
  * an unused slot has an empty box (lo = +inf, hi = -inf), which no ray
  * enters. Node 0 is the root.
@@ -35,11 +36,16 @@
 
 #include "lancer/prim.h"
 
+/* Children per node: 8, one AVX register or two SSE ones per plane. */
+#define BVH_WIDTH 8
+/* No input makes the tree deeper (bvh.c), which bounds traversal stacks. */
+#define BVH_MAX_DEPTH 96
+
 typedef struct {
-    float lo[3][4], hi[3][4];
-    int32_t child[4];
-    uint8_t pad[16]; /* to two cache lines */
-} Bvh4Node;
+    float lo[3][BVH_WIDTH], hi[3][BVH_WIDTH];
+    int32_t child[BVH_WIDTH];
+    uint8_t pad[(64 - 28 * BVH_WIDTH % 64) % 64]; /* to whole cache lines */
+} BvhWideNode;
 
 typedef struct {
     PrimTri4 tri;  /* lane i: primitive first + i, when bit i of tris is set */
@@ -50,7 +56,7 @@ typedef struct {
 } BvhLeaf;
 
 typedef struct {
-    Bvh4Node *nodes;
+    BvhWideNode *nodes;
     int nnodes;
     BvhLeaf *leaves;
     int nleaves;

@@ -1,0 +1,369 @@
+/*
+ * bvh_traverse.c - closest-hit and any-hit traversal of the tree that
+ * bvh.c builds (see bvh.h for the layout).
+ *
+ * A stack; closest-hit rays visit the nearest entered child next, the
+ * others wait farthest deepest. A node's boxes are tested at once with the
+ * slab test made conservative after Ize 2013 (bvh.h), a leaf's triangles
+ * at once by prim_tri4_hit_watertight.
+ *
+ * This file is compiled up to three ways: with SSE (the baseline on
+ * x86-64, or -DLANCER_NO_SIMD for a scalar loop), and on x86-64 once more
+ * with -mavx2 -DLANCER_AVX2_VARIANT, which tests eight boxes in one
+ * register. The baseline object picks the AVX2 one at run time when the
+ * processor has it (not with -DLANCER_NO_AVX2). All give the same answers:
+ * the same operations, lane by lane, with no FMA.
+ */
+#include "lancer/bvh.h"
+
+#include <float.h>
+#include <stddef.h>
+#if defined(__SSE2__) && !defined(LANCER_NO_SIMD)
+#define BVH_SSE 1
+#include <emmintrin.h>
+#endif
+#if defined(LANCER_AVX2_VARIANT)
+#include <immintrin.h>
+#define BVH_AVX 1
+#define CLOSEST bvh_closest_avx2
+#define OCCLUDED bvh_occluded_avx2
+#elif defined(BVH_SSE) && defined(__x86_64__) && defined(__GNUC__) && !defined(LANCER_NO_AVX2)
+#define BVH_DISPATCH 1
+#define CLOSEST closest_base
+#define OCCLUDED occluded_base
+#else
+#define CLOSEST bvh_closest
+#define OCCLUDED bvh_occluded
+#endif
+
+#ifdef BVH_AVX
+int bvh_closest_avx2(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *tests);
+int bvh_occluded_avx2(const Bvh *b, const Ray *r, unsigned long long *tests);
+#endif
+
+/* ---- traversal ---- */
+
+typedef struct {
+#ifdef BVH_AVX
+    __m256 o8[3], inv8[3];
+#elif defined(BVH_SSE)
+    __m128 o4[3], inv4[3];
+#endif
+    float o[3], inv[3];
+    int near[3], far[3]; /* byte offsets in a node of the near and far planes, by axis */
+    PrimTriRay tri; /* set up at the first leaf: many rays reach none */
+    int tri_ready;
+} RayPre;
+
+static void ray_pre(const Ray *r, RayPre *p)
+{
+    const float o[3] = {r->o.x, r->o.y, r->o.z}, d[3] = {r->d.x, r->d.y, r->d.z};
+#ifdef BVH_SSE
+    /* one division for the three axes (lane 3 is 1/1) */
+    float inv[4];
+    _mm_storeu_ps(inv, _mm_div_ps(_mm_set1_ps(1.0f), _mm_setr_ps(d[0], d[1], d[2], 1.0f)));
+#else
+    const float inv[3] = {1.0f / d[0], 1.0f / d[1], 1.0f / d[2]};
+#endif
+    for (int i = 0; i < 3; i++) {
+        p->o[i] = o[i];
+        p->inv[i] = inv[i];
+        /* the planes by arithmetic: a branch on a random ray's signs
+         * mispredicts half the time */
+        int neg = inv[i] < 0.0f;
+        int lo = (int)(offsetof(BvhWideNode, lo) + sizeof(float[BVH_WIDTH]) * (size_t)i);
+        int hi = (int)(offsetof(BvhWideNode, hi) + sizeof(float[BVH_WIDTH]) * (size_t)i);
+        p->near[i] = lo + neg * (hi - lo);
+        p->far[i] = hi - neg * (hi - lo);
+#ifdef BVH_AVX
+        p->o8[i] = _mm256_set1_ps(o[i]);
+        p->inv8[i] = _mm256_set1_ps(inv[i]);
+#elif defined(BVH_SSE)
+        p->o4[i] = _mm_set1_ps(o[i]);
+        p->inv4[i] = _mm_set1_ps(inv[i]);
+#endif
+    }
+    p->tri_ready = 0;
+}
+
+#ifdef BVH_SSE
+/* Starts loading a child the ray will visit, while the current node is
+ * still being worked on. */
+static inline void prefetch_child(const Bvh *b, int32_t c)
+{
+    const char *m = c >= 0 ? (const char *)&b->nodes[c] : (const char *)&b->leaves[-1 - c];
+    size_t n = c >= 0 ? sizeof(BvhWideNode) : sizeof(BvhLeaf);
+    for (size_t k = 0; k < n; k += 64)
+        _mm_prefetch(m + k, _MM_HINT_T0);
+}
+#else
+static inline void prefetch_child(const Bvh *b, int32_t c)
+{
+    (void)b;
+    (void)c;
+}
+#endif
+
+/* Ize 2013: each slab distance is within gamma(3) of exact. */
+#define BVH_PAD (1.0f + 2.0f * (float)(3.0 * 0.5 * FLT_EPSILON / (1.0 - 3.0 * 0.5 * FLT_EPSILON)))
+
+static inline const float *plane(const BvhWideNode *n, int offset) { return (const float *)((const char *)n + offset); }
+
+#if defined(BVH_SSE) && !defined(BVH_AVX)
+/* Slots 4h .. 4h + 3 of slots_enter. MAXPS/MINPS return the second
+ * operand when the first is NaN: the bound is kept. (Written out: the
+ * loops are not unrolled at -O2.) */
+static inline int slots_enter4(const BvhWideNode *n, const RayPre *p, __m128 tmax, int h, float tn[4])
+{
+    const __m128 pad = _mm_set1_ps(BVH_PAD);
+    __m128 lo = _mm_setzero_ps(), hi = tmax;
+    const int at = 16 * h;
+#define SLAB(a)                                                                                                \
+    lo = _mm_max_ps(_mm_mul_ps(_mm_sub_ps(_mm_load_ps(plane(n, p->near[a] + at)), p->o4[a]), p->inv4[a]), lo); \
+    hi = _mm_min_ps(_mm_mul_ps(_mm_mul_ps(_mm_sub_ps(_mm_load_ps(plane(n, p->far[a] + at)), p->o4[a]), p->inv4[a]), pad), hi)
+    SLAB(0);
+    SLAB(1);
+    SLAB(2);
+#undef SLAB
+    _mm_storeu_ps(tn, lo);
+    return _mm_movemask_ps(_mm_cmple_ps(lo, hi));
+}
+#endif
+
+/* Entry distances of a node's slots within [0, tmax] into tn; bit i of
+ * the result is set when slot i is entered. The comparisons are written
+ * so that a NaN distance (0 * inf: an origin on a slab plane, parallel to
+ * it) leaves the running bound as it was: such a ray lies in the closed
+ * slab. */
+static inline int slots_enter(const BvhWideNode *n, const RayPre *p, float tmax, float tn[BVH_WIDTH])
+{
+#ifdef BVH_AVX
+    /* as slots_enter4, eight at once */
+    const __m256 pad = _mm256_set1_ps(BVH_PAD);
+    __m256 lo = _mm256_setzero_ps(), hi = _mm256_set1_ps(tmax);
+#define SLAB(a)                                                                                                     \
+    lo = _mm256_max_ps(_mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(plane(n, p->near[a])), p->o8[a]), p->inv8[a]), lo); \
+    hi = _mm256_min_ps(_mm256_mul_ps(_mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(plane(n, p->far[a])), p->o8[a]), p->inv8[a]), pad), hi)
+    SLAB(0);
+    SLAB(1);
+    SLAB(2);
+#undef SLAB
+    _mm256_storeu_ps(tn, lo);
+    return _mm256_movemask_ps(_mm256_cmp_ps(lo, hi, _CMP_LE_OQ));
+#elif defined(BVH_SSE)
+    const __m128 tm = _mm_set1_ps(tmax);
+#if BVH_WIDTH == 8
+    return slots_enter4(n, p, tm, 0, tn) | slots_enter4(n, p, tm, 1, tn + 4) << 4;
+#else
+    return slots_enter4(n, p, tm, 0, tn);
+#endif
+#else
+    int mask = 0;
+    for (int i = 0; i < BVH_WIDTH; i++) {
+        float lo = 0.0f, hi = tmax;
+        for (int a = 0; a < 3; a++) {
+            float t0 = (plane(n, p->near[a])[i] - p->o[a]) * p->inv[a];
+            float t1 = (plane(n, p->far[a])[i] - p->o[a]) * p->inv[a] * BVH_PAD;
+            if (t0 > lo)
+                lo = t0;
+            if (t1 < hi)
+                hi = t1;
+        }
+        tn[i] = lo;
+        mask |= (lo <= hi) << i;
+    }
+    return mask;
+#endif
+}
+
+/* A traversal stack entry: a node (code >= 0) or a leaf (-1 - code), and
+ * the distance at which the ray enters it. Each node pushes at most
+ * BVH_WIDTH entries and pops 1, and the tree is at most BVH_MAX_DEPTH deep,
+ * so this many entries always suffice. */
+typedef struct {
+    int32_t code;
+    float t;
+} Entry;
+
+#define BVH_ENTRIES ((BVH_WIDTH - 1) * BVH_MAX_DEPTH + BVH_WIDTH)
+
+static inline int tri4(const BvhLeaf *L, RayPre *p, const Ray *r, float tt[4])
+{
+    if (!p->tri_ready) {
+        prim_triray_init(&p->tri, r);
+        p->tri_ready = 1;
+    }
+    return prim_tri4_hit_watertight(&L->tri, L->tris, &p->tri, r, tt);
+}
+
+/* The lowest set bit of a non-zero mask. */
+static inline int low_bit(unsigned m)
+{
+#ifdef __GNUC__
+    return __builtin_ctz(m);
+#else
+    int i = 0;
+    while (!(m >> i & 1))
+        i++;
+    return i;
+#endif
+}
+
+#ifdef BVH_DISPATCH
+static
+#endif
+int CLOSEST(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *tests)
+{
+    if (b->nnodes == 0)
+        return -1;
+    RayPre p;
+    ray_pre(r, &p);
+    Ray q = *r; /* tmax: past the nearest hit so far, to see ties */
+    int best = -1, best_lane = -1; /* best_lane: of best_leaf's triangles, or -1 */
+    const BvhLeaf *best_leaf = NULL;
+    float best_t = 0.0f;
+    unsigned long long nt = 0;
+    Entry stack[BVH_ENTRIES];
+    int sp = 0;
+    int32_t code = 0; /* what is visited next: the nearest entered child */
+    for (;;) {
+        if (code >= 0) {
+            /* The nearest entered child is visited next, the others wait on
+             * the stack, farthest deepest; one or two entered (the common
+             * cases) take no loop. */
+            const BvhWideNode *n = &b->nodes[code];
+            float tn[BVH_WIDTH];
+            unsigned mask = (unsigned)slots_enter(n, &p, q.tmax, tn);
+            if (mask) {
+                int i0 = low_bit(mask);
+                mask &= mask - 1;
+                if (!mask) {
+                    code = n->child[i0];
+                    continue;
+                }
+                int i1 = low_bit(mask);
+                mask &= mask - 1;
+                if (!mask) {
+                    int near = tn[i1] < tn[i0] ? i1 : i0, far = near == i0 ? i1 : i0;
+                    prefetch_child(b, n->child[far]);
+                    stack[sp++] = (Entry){n->child[far], tn[far]};
+                    code = n->child[near];
+                    continue;
+                }
+                int32_t c[BVH_WIDTH] = {n->child[i0], n->child[i1]};
+                float t[BVH_WIDTH] = {tn[i0], tn[i1]};
+                int k = 2;
+                for (; mask; mask &= mask - 1, k++) {
+                    c[k] = n->child[low_bit(mask)];
+                    t[k] = tn[low_bit(mask)];
+                }
+                for (int i = 1; i < k; i++) /* insertion sort */
+                    for (int j = i; j > 0 && t[j] < t[j - 1]; j--) {
+                        float tt = t[j];
+                        int32_t cc = c[j];
+                        t[j] = t[j - 1];
+                        c[j] = c[j - 1];
+                        t[j - 1] = tt;
+                        c[j - 1] = cc;
+                    }
+                for (int i = k - 1; i > 0; i--) {
+                    prefetch_child(b, c[i]);
+                    stack[sp++] = (Entry){c[i], t[i]};
+                }
+                code = c[0];
+                continue;
+            }
+        } else {
+            const BvhLeaf *L = &b->leaves[-1 - code];
+            float tt[4];
+            int hits = L->tris ? tri4(L, &p, &q, tt) : 0;
+            nt += L->count;
+            for (int i = 0; i < L->count; i++) {
+                int k = L->first + i, tri = L->tris >> i & 1;
+                PrimHit cur;
+                if (tri ? !(hits >> i & 1) : !prim_intersect(&b->prims[b->order[k]], &q, b->variant, &cur))
+                    continue;
+                float t = tri ? tt[i] : cur.t;
+                if (best < 0 || t < best_t || (t == best_t && b->order[k] < b->order[best])) {
+                    best = k;
+                    best_t = t;
+                    best_leaf = L;
+                    best_lane = tri ? i : -1;
+                    if (!tri)
+                        *h = cur;
+                    q.tmax = prim_tmax_past(t, r->tmax);
+                }
+            }
+        }
+        while (sp > 0 && stack[sp - 1].t > q.tmax) /* entered past the nearest hit */
+            sp--;
+        if (sp == 0)
+            break;
+        code = stack[--sp].code;
+    }
+    *tests += nt;
+    if (best < 0)
+        return -1;
+    if (best_lane >= 0) {
+        /* The lane test gave t only. The scalar routine, on the whole ray,
+         * gives the same t (its verdict can only pass at a larger tmax)
+         * and the rest of the hit. */
+        prim_tri4_lane_hit(&best_leaf->tri, best_lane, &p.tri, r, h);
+        h->t = best_t;
+    }
+    return b->order[best];
+}
+
+#ifdef BVH_DISPATCH
+static
+#endif
+int OCCLUDED(const Bvh *b, const Ray *r, unsigned long long *tests)
+{
+    if (b->nnodes == 0)
+        return 0;
+    RayPre p;
+    ray_pre(r, &p);
+    Entry stack[BVH_ENTRIES];
+    int sp = 0, hit = 0;
+    unsigned long long nt = 0;
+    stack[sp++] = (Entry){0, 0.0f};
+    while (sp > 0 && !hit) {
+        Entry e = stack[--sp];
+        if (e.code < 0) {
+            const BvhLeaf *L = &b->leaves[-1 - e.code];
+            float tt[4];
+            nt += L->count;
+            hit = L->tris && tri4(L, &p, r, tt);
+            for (int i = 0; i < L->count && !hit; i++) {
+                PrimHit cur;
+                hit = !(L->tris >> i & 1) && prim_intersect(&b->prims[b->order[L->first + i]], r, b->variant, &cur);
+            }
+            continue;
+        }
+        const BvhWideNode *n = &b->nodes[e.code];
+        float tn[BVH_WIDTH];
+        int mask = slots_enter(n, &p, r->tmax, tn);
+        for (int i = 0; i < BVH_WIDTH; i++)
+            if (mask >> i & 1)
+                stack[sp++] = (Entry){n->child[i], tn[i]};
+    }
+    *tests += nt;
+    return hit;
+}
+
+#ifdef BVH_DISPATCH
+/* The AVX2 object (bvh_traverse.c again, with -mavx2) when the processor
+ * runs it. */
+int bvh_closest_avx2(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *tests);
+int bvh_occluded_avx2(const Bvh *b, const Ray *r, unsigned long long *tests);
+
+int bvh_closest(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *tests)
+{
+    return __builtin_cpu_supports("avx2") ? bvh_closest_avx2(b, r, h, tests) : closest_base(b, r, h, tests);
+}
+
+int bvh_occluded(const Bvh *b, const Ray *r, unsigned long long *tests)
+{
+    return __builtin_cpu_supports("avx2") ? bvh_occluded_avx2(b, r, tests) : occluded_base(b, r, tests);
+}
+#endif
