@@ -15,6 +15,7 @@
  * the same operations, lane by lane, with no FMA.
  */
 #include "lancer/bvh.h"
+#include "tri4.h"
 
 #include <float.h>
 #include <stddef.h>
@@ -51,11 +52,17 @@ typedef struct {
 #endif
     float o[3], inv[3];
     int near[3], far[3]; /* byte offsets in a node of the near and far planes, by axis */
-    PrimTriRay tri; /* set up at the first leaf: many rays reach none */
-    int tri_ready;
 } RayPre;
 
-static void ray_pre(const Ray *r, RayPre *p)
+/* What the leaves' triangle test needs, set up at the first leaf: many
+ * rays reach none. Kept apart from RayPre, whose address never escapes,
+ * so that the compiler keeps RayPre in registers. */
+typedef struct {
+    PrimTriRay tri;
+    int ready;
+} TriPre;
+
+static inline void ray_pre(const Ray *r, RayPre *p)
 {
     const float o[3] = {r->o.x, r->o.y, r->o.z}, d[3] = {r->d.x, r->d.y, r->d.z};
 #ifdef BVH_SSE
@@ -83,7 +90,6 @@ static void ray_pre(const Ray *r, RayPre *p)
         p->inv4[i] = _mm_set1_ps(inv[i]);
 #endif
     }
-    p->tri_ready = 0;
 }
 
 #ifdef BVH_SSE
@@ -187,13 +193,13 @@ typedef struct {
 
 #define BVH_ENTRIES ((BVH_WIDTH - 1) * BVH_MAX_DEPTH + BVH_WIDTH)
 
-static inline int tri4(const BvhLeaf *L, RayPre *p, const Ray *r, float tt[4])
+static inline int tri4(const BvhLeaf *L, TriPre *p, const Ray *r, PrimHit4 *h)
 {
-    if (!p->tri_ready) {
+    if (!p->ready) {
         prim_triray_init(&p->tri, r);
-        p->tri_ready = 1;
+        p->ready = 1;
     }
-    return prim_tri4_hit_watertight(&L->tri, L->tris, &p->tri, r, tt);
+    return tri4_hit_watertight(&L->tri, L->tris, &p->tri, r, h);
 }
 
 /* The lowest set bit of a non-zero mask. */
@@ -218,9 +224,10 @@ int CLOSEST(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *tests)
         return -1;
     RayPre p;
     ray_pre(r, &p);
+    TriPre tp;
+    tp.ready = 0;
     Ray q = *r; /* tmax: past the nearest hit so far, to see ties */
-    int best = -1, best_lane = -1; /* best_lane: of best_leaf's triangles, or -1 */
-    const BvhLeaf *best_leaf = NULL;
+    int best = -1;
     float best_t = 0.0f;
     unsigned long long nt = 0;
     Entry stack[BVH_ENTRIES];
@@ -275,23 +282,24 @@ int CLOSEST(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *tests)
             }
         } else {
             const BvhLeaf *L = &b->leaves[-1 - code];
-            float tt[4];
-            int hits = L->tris ? tri4(L, &p, &q, tt) : 0;
+            PrimHit4 h4;
+            int hits = L->tris ? tri4(L, &tp, &q, &h4) : 0;
             nt += L->count;
             for (int i = 0; i < L->count; i++) {
-                int k = L->first + i, tri = L->tris >> i & 1;
+                int k = L->first + i;
                 PrimHit cur;
-                if (tri ? !(hits >> i & 1) : !prim_intersect(&b->prims[b->order[k]], &q, b->variant, &cur))
+                if (L->tris >> i & 1) {
+                    if (!(hits >> i & 1))
+                        continue;
+                    cur = (PrimHit){h4.t[i], h4.terr[i], h4.u[i], h4.v[i], 0};
+                } else if (!prim_intersect(&b->prims[b->order[k]], &q, b->variant, &cur)) {
                     continue;
-                float t = tri ? tt[i] : cur.t;
-                if (best < 0 || t < best_t || (t == best_t && b->order[k] < b->order[best])) {
+                }
+                if (best < 0 || cur.t < best_t || (cur.t == best_t && b->order[k] < b->order[best])) {
                     best = k;
-                    best_t = t;
-                    best_leaf = L;
-                    best_lane = tri ? i : -1;
-                    if (!tri)
-                        *h = cur;
-                    q.tmax = prim_tmax_past(t, r->tmax);
+                    best_t = cur.t;
+                    *h = cur;
+                    q.tmax = prim_tmax_past(cur.t, r->tmax);
                 }
             }
         }
@@ -302,16 +310,7 @@ int CLOSEST(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *tests)
         code = stack[--sp].code;
     }
     *tests += nt;
-    if (best < 0)
-        return -1;
-    if (best_lane >= 0) {
-        /* The lane test gave t only. The scalar routine, on the whole ray,
-         * gives the same t (its verdict can only pass at a larger tmax)
-         * and the rest of the hit. */
-        prim_tri4_lane_hit(&best_leaf->tri, best_lane, &p.tri, r, h);
-        h->t = best_t;
-    }
-    return b->order[best];
+    return best < 0 ? -1 : b->order[best];
 }
 
 #ifdef BVH_DISPATCH
@@ -323,6 +322,8 @@ int OCCLUDED(const Bvh *b, const Ray *r, unsigned long long *tests)
         return 0;
     RayPre p;
     ray_pre(r, &p);
+    TriPre tp;
+    tp.ready = 0;
     Entry stack[BVH_ENTRIES];
     int sp = 0, hit = 0;
     unsigned long long nt = 0;
@@ -331,9 +332,9 @@ int OCCLUDED(const Bvh *b, const Ray *r, unsigned long long *tests)
         Entry e = stack[--sp];
         if (e.code < 0) {
             const BvhLeaf *L = &b->leaves[-1 - e.code];
-            float tt[4];
+            PrimHit4 h4;
             nt += L->count;
-            hit = L->tris && tri4(L, &p, r, tt);
+            hit = L->tris && tri4(L, &tp, r, &h4);
             for (int i = 0; i < L->count && !hit; i++) {
                 PrimHit cur;
                 hit = !(L->tris >> i & 1) && prim_intersect(&b->prims[b->order[L->first + i]], r, b->variant, &cur);

@@ -11,12 +11,9 @@
  * covers both.
  */
 #include "lancer/prim.h"
+#include "tri4.h"
 
 #include <float.h>
-#if defined(__SSE2__) && !defined(LANCER_NO_SIMD)
-#define PRIM_SSE 1
-#include <emmintrin.h>
-#endif
 
 #define UNIT_F (0.5 * (double)FLT_EPSILON)
 #define UNIT_D (0.5 * DBL_EPSILON)
@@ -449,7 +446,7 @@ static int watertight(const Vec3 v[3], const Ray *r, const PrimTriRay *p, PrimHi
     if (!(t > 0.0f) || !(t < r->tmax))
         return 0;
     h->t = t;
-    h->terr = float_up((double)terr + gamma_d(1) * t); /* and the rounding of t itself */
+    h->terr = prim_terr_up(terr, t); /* and the rounding of t itself */
     h->u = e1 * inv;
     h->v = e2 * inv;
     return 1;
@@ -482,83 +479,12 @@ int prim_tri4_lane_hit(const PrimTri4 *t, int lane, const PrimTriRay *p, const R
     return p->simd ? watertight(v, r, p, h) : prim_triangle_hit_watertight3(v, r, h);
 }
 
-#ifdef PRIM_SSE
-#define ABS(x) _mm_andnot_ps(_mm_set1_ps(-0.0f), x)
-
-/* edge_err() on four lanes, operation for operation. */
-static __m128 edge_err4(__m128 xi, __m128 yi, __m128 exi, __m128 eyi, __m128 xj, __m128 yj, __m128 exj, __m128 eyj)
+int prim_tri4_hit_watertight(const PrimTri4 *t, int lanes, const PrimTriRay *p, const Ray *r, PrimHit4 *h)
 {
-    __m128 m = _mm_add_ps(ABS(_mm_mul_ps(xi, yj)), ABS(_mm_mul_ps(yi, xj)));
-    __m128 d = _mm_add_ps(_mm_mul_ps(exi, ABS(yj)), _mm_mul_ps(eyj, ABS(xi)));
-    d = _mm_add_ps(d, _mm_mul_ps(eyi, ABS(xj)));
-    d = _mm_add_ps(d, _mm_mul_ps(exj, ABS(yi)));
-    d = _mm_add_ps(d, _mm_mul_ps(exi, eyj));
-    d = _mm_add_ps(d, _mm_mul_ps(eyi, exj));
-    return _mm_add_ps(_mm_mul_ps(_mm_set1_ps(gamma_f(3)), m), _mm_mul_ps(d, _mm_set1_ps(1.0f + gamma_f(3))));
+    return tri4_hit_watertight(t, lanes, p, r, h);
 }
-#endif
 
-int prim_tri4_hit_watertight(const PrimTri4 *t, int lanes, const PrimTriRay *p, const Ray *r, float tt[4])
-{
-    int hit = 0, slow = lanes;
-#ifdef PRIM_SSE
-    if (p->simd) {
-        /* watertight() on four lanes, in the same operations and order, so
-         * each lane gets the same bits; lanes with an uncertain edge take
-         * the scalar routine and its double path. */
-        const __m128 g5 = _mm_set1_ps(gamma_f(5)), zero = _mm_setzero_ps();
-        const __m128 ox = _mm_set1_ps(p->o[p->kx]), oy = _mm_set1_ps(p->o[p->ky]), oz = _mm_set1_ps(p->o[p->kz]);
-        const __m128 sx = _mm_set1_ps(p->sx), sy = _mm_set1_ps(p->sy);
-        /* (written out: a loop over arrays of vectors is not unrolled at -O2) */
-#define VERTEX(k, X, Y, Z, EX, EY)                                                                     \
-    __m128 X = _mm_sub_ps(_mm_loadu_ps(t->v[k][p->kx]), ox), Y = _mm_sub_ps(_mm_loadu_ps(t->v[k][p->ky]), oy); \
-    __m128 Z = _mm_sub_ps(_mm_loadu_ps(t->v[k][p->kz]), oz);                                            \
-    __m128 EX = _mm_mul_ps(g5, _mm_add_ps(ABS(X), ABS(Z))), EY = _mm_mul_ps(g5, _mm_add_ps(ABS(Y), ABS(Z))); \
-    X = _mm_add_ps(X, _mm_mul_ps(sx, Z));                                                               \
-    Y = _mm_add_ps(Y, _mm_mul_ps(sy, Z))
-        VERTEX(0, ax, ay, az, exa, eya);
-        VERTEX(1, bx, by, bz, exb, eyb);
-        VERTEX(2, cx, cy, cz, exc, eyc);
-#undef VERTEX
-        __m128 e[3];
-        e[0] = _mm_sub_ps(_mm_mul_ps(bx, cy), _mm_mul_ps(by, cx));
-        e[1] = _mm_sub_ps(_mm_mul_ps(cx, ay), _mm_mul_ps(cy, ax));
-        e[2] = _mm_sub_ps(_mm_mul_ps(ax, by), _mm_mul_ps(ay, bx));
-        __m128 unsure = _mm_cmple_ps(ABS(e[0]), edge_err4(bx, by, exb, eyb, cx, cy, exc, eyc));
-        unsure = _mm_or_ps(unsure, _mm_cmple_ps(ABS(e[1]), edge_err4(cx, cy, exc, eyc, ax, ay, exa, eya)));
-        unsure = _mm_or_ps(unsure, _mm_cmple_ps(ABS(e[2]), edge_err4(ax, ay, exa, eya, bx, by, exb, eyb)));
-        __m128 Z[3] = {az, bz, cz};
-        __m128 anyneg = _mm_or_ps(_mm_or_ps(_mm_cmplt_ps(e[0], zero), _mm_cmplt_ps(e[1], zero)), _mm_cmplt_ps(e[2], zero));
-        __m128 anypos = _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(e[0], zero), _mm_cmpgt_ps(e[1], zero)), _mm_cmpgt_ps(e[2], zero));
-        __m128 det = _mm_add_ps(_mm_add_ps(e[0], e[1]), e[2]);
-        __m128 sz = _mm_set1_ps(p->sz);
-        __m128 ts = _mm_add_ps(_mm_add_ps(_mm_mul_ps(e[0], _mm_mul_ps(Z[0], sz)), _mm_mul_ps(e[1], _mm_mul_ps(Z[1], sz))),
-                               _mm_mul_ps(e[2], _mm_mul_ps(Z[2], sz)));
-        __m128 tmax = _mm_set1_ps(r->tmax), tmd = _mm_mul_ps(tmax, det);
-        __m128 neg = _mm_cmplt_ps(det, zero);
-        __m128 out_neg = _mm_or_ps(_mm_cmpge_ps(ts, zero), _mm_cmplt_ps(ts, tmd));
-        __m128 out_pos = _mm_or_ps(_mm_cmple_ps(ts, zero), _mm_cmpgt_ps(ts, tmd));
-        __m128 out = _mm_or_ps(_mm_and_ps(anyneg, anypos), _mm_cmpeq_ps(det, zero));
-        out = _mm_or_ps(out, _mm_or_ps(_mm_and_ps(neg, out_neg), _mm_andnot_ps(neg, out_pos)));
-        __m128 tv = _mm_mul_ps(ts, _mm_div_ps(_mm_set1_ps(1.0f), det));
-        __m128 in = _mm_and_ps(_mm_cmpgt_ps(tv, zero), _mm_cmplt_ps(tv, tmax));
-        int u = _mm_movemask_ps(unsure);
-        slow = lanes & u;
-        hit = lanes & ~u & _mm_movemask_ps(_mm_andnot_ps(out, in));
-        _mm_storeu_ps(tt, tv);
-    }
-#else
-    (void)p;
-#endif
-    for (int i = 0; i < 4; i++) {
-        PrimHit h;
-        if (slow >> i & 1 && prim_tri4_lane_hit(t, i, p, r, &h)) {
-            tt[i] = h.t;
-            hit |= 1 << i;
-        }
-    }
-    return hit;
-}
+float prim_terr_up(float terr, float t) { return float_up((double)terr + gamma_d(1) * t); }
 
 int prim_box_hit_robust(const Box *b, const Ray *r, PrimHit *h)
 {

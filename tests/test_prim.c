@@ -461,8 +461,8 @@ static void test_tri4_matches_scalar(void **state)
      * edges, and rays aimed at its vertices, at points of its edges and
      * inside it, with directions from tiny to huge (those take the rescaled
      * scalar path) and finite or infinite tmax. Every lane must get the
-     * scalar routine's verdict and the same t, bit for bit, and
-     * prim_tri4_lane_hit the same whole hit. */
+     * scalar routine's verdict and the same t, terr, u and v, bit for
+     * bit, and so must prim_tri4_lane_hit. */
     int hits = 0, shared = 0;
     for (int n = 0; n < 200000; n++) {
         Vec3 c = test_rvec(&rng, -2, 2), rim[4], v[4][3];
@@ -492,15 +492,18 @@ static void test_tri4_matches_scalar(void **state)
         PrimTriRay p;
         prim_triray_init(&p, &r);
         int lanes = 1 + n / 96 % 15;
-        float tt[4];
-        int got = prim_tri4_hit_watertight(&t, lanes, &p, &r, tt), nhit = 0;
+        PrimHit4 h4;
+        int got = prim_tri4_hit_watertight(&t, lanes, &p, &r, &h4), nhit = 0;
         for (int l = 0; l < 4; l++) {
             PrimHit h;
             int want = (lanes >> l & 1) && prim_triangle_hit_watertight3(v[l], &r, &h);
             assert_int_equal(got >> l & 1, want);
             if (want) {
-                assert_memory_equal(&tt[l], &h.t, sizeof(float));
-                /* and the lane through the scalar routine: the whole hit */
+                assert_memory_equal(&h4.t[l], &h.t, sizeof(float));
+                assert_memory_equal(&h4.terr[l], &h.terr, sizeof(float));
+                assert_memory_equal(&h4.u[l], &h.u, sizeof(float));
+                assert_memory_equal(&h4.v[l], &h.v, sizeof(float));
+                /* and the lane through the scalar routine */
                 PrimHit g;
                 assert_true(prim_tri4_lane_hit(&t, l, &p, &r, &g));
                 assert_memory_equal(&g.t, &h.t, sizeof(float));
