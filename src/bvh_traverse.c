@@ -324,14 +324,14 @@ int OCCLUDED(const Bvh *b, const Ray *r, unsigned long long *tests)
     ray_pre(r, &p);
     TriPre tp;
     tp.ready = 0;
-    Entry stack[BVH_ENTRIES];
+    int32_t stack[BVH_ENTRIES]; /* any hit will do: no distances, no order */
     int sp = 0, hit = 0;
     unsigned long long nt = 0;
-    stack[sp++] = (Entry){0, 0.0f};
+    stack[sp++] = 0;
     while (sp > 0 && !hit) {
-        Entry e = stack[--sp];
-        if (e.code < 0) {
-            const BvhLeaf *L = &b->leaves[-1 - e.code];
+        int32_t code = stack[--sp];
+        if (code < 0) {
+            const BvhLeaf *L = &b->leaves[-1 - code];
             PrimHit4 h4;
             nt += L->count;
             hit = L->tris && tri4(L, &tp, r, &h4);
@@ -341,12 +341,12 @@ int OCCLUDED(const Bvh *b, const Ray *r, unsigned long long *tests)
             }
             continue;
         }
-        const BvhWideNode *n = &b->nodes[e.code];
+        const BvhWideNode *n = &b->nodes[code];
         float tn[BVH_WIDTH];
         int mask = slots_enter(n, &p, r->tmax, tn);
         for (int i = 0; i < BVH_WIDTH; i++)
             if (mask >> i & 1)
-                stack[sp++] = (Entry){n->child[i], tn[i]};
+                stack[sp++] = n->child[i];
     }
     *tests += nt;
     return hit;
