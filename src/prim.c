@@ -454,6 +454,8 @@ static int watertight(const Vec3 v[3], const Ray *r, const PrimTriRay *p, PrimHi
 
 void prim_triray_init(PrimTriRay *p, const Ray *r)
 {
+    /* The axes and shear of the watertight test, for watertight() and the
+     * four-lane test alike. */
     const float d[3] = {r->d.x, r->d.y, r->d.z};
     int kz = fabsf(d[0]) > fabsf(d[1]) ? (fabsf(d[0]) > fabsf(d[2]) ? 0 : 2) : (fabsf(d[1]) > fabsf(d[2]) ? 1 : 2);
     int kx = kz == 2 ? 0 : kz + 1, ky = kx == 2 ? 0 : kx + 1;

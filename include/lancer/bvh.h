@@ -10,8 +10,8 @@
  *
  * The tree is built binary (binned SAH) and collapsed into BVH_WIDTH-wide
  * nodes, which are what traversal reads: the child boxes side by side per
- * axis, tested at once (SSE where the compiler offers it, else lane by
- * lane).
+ * axis, tested at once (bvh_traverse.c: AVX2 when the processor has it,
+ * else SSE where the compiler offers it, else lane by lane).
  * A slot's child is an inner node (child >= 0) or a leaf (-1 - leaf index);
  * an unused slot has an empty box (lo = +inf, hi = -inf), which no ray
  * enters. Node 0 is the root.

@@ -168,9 +168,9 @@ int main(int argc, char **argv)
     printf("build (ms, median of %d, one thread): lancer %.1f, Embree %.1f, Embree robust %.1f; "
            "lancer / Embree = %.2f\n",
            passes, median(lb, passes), median(ed, passes), median(er, passes), median(lb, passes) / median(ed, passes));
-    printf("lancer BVH memory: %.1f bytes per triangle (4-wide nodes, leaves with their triangles' vertices, "
+    printf("lancer BVH memory: %.1f bytes per triangle (%d-wide nodes, leaves with their triangles' vertices, "
            "leaf order)\n",
-           (double)bytes / m.nt);
+           (double)bytes / m.nt, BVH_WIDTH);
     printf("| rays | kind | lancer Mrays/s | Embree | Embree robust | lancer / Embree | lancer / robust | hits "
            "(lancer, Embree, robust) |\n| --- | --- | --- | --- | --- | --- | --- | --- |\n");
     const char *files[3] = {"primary", "shadow", "diffuse"};
