@@ -37,7 +37,8 @@
 #define OCCLUDED bvh_occluded
 #endif
 
-#ifdef BVH_AVX
+#if defined(BVH_AVX) || defined(BVH_DISPATCH)
+/* The AVX2 object's functions: what it defines, what the baseline calls. */
 int bvh_closest_avx2(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *tests);
 int bvh_occluded_avx2(const Bvh *b, const Ray *r, unsigned long long *tests);
 #endif
@@ -355,9 +356,6 @@ int OCCLUDED(const Bvh *b, const Ray *r, unsigned long long *tests)
 #ifdef BVH_DISPATCH
 /* The AVX2 object (bvh_traverse.c again, with -mavx2) when the processor
  * runs it. */
-int bvh_closest_avx2(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *tests);
-int bvh_occluded_avx2(const Bvh *b, const Ray *r, unsigned long long *tests);
-
 int bvh_closest(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *tests)
 {
     return __builtin_cpu_supports("avx2") ? bvh_closest_avx2(b, r, h, tests) : closest_base(b, r, h, tests);

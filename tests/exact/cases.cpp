@@ -411,6 +411,17 @@ bool transversal(const Config3 &c, const std::vector<int> &tris, L3 d)
     return true;
 }
 
+// Takes d as the ray's direction when it is transversal to tris, with the
+// origin 1 to 3 steps of d before P.
+bool aim_through(Rng &g, Config3 &c, const std::vector<int> &tris, L3 d)
+{
+    if (zerol(d) || !transversal(c, tris, d))
+        return false;
+    c.d = d;
+    c.O = c.P - d * g.ibetween(1, 3);
+    return true;
+}
+
 bool gen_quad(Rng &g, Config3 &c)
 {
     int64_t M = (int64_t)1 << g.ibetween(1, 18);
@@ -426,14 +437,9 @@ bool gen_quad(Rng &g, Config3 &c)
     c.P = A + e * g.ibetween(1, m - 1);
     c.through = {0, 1};
     int64_t Md = (int64_t)1 << g.ibetween(0, 18);
-    for (int k = 0; k < 30; k++) {
-        L3 d = lrand(g, Md);
-        if (!zerol(d) && transversal(c, c.through, d)) {
-            c.d = d;
-            c.O = c.P - d * g.ibetween(1, 3);
+    for (int k = 0; k < 30; k++)
+        if (aim_through(g, c, c.through, lrand(g, Md)))
             return true;
-        }
-    }
     return false;
 }
 
@@ -488,11 +494,8 @@ bool gen_fan(Rng &g, Config3 &c)
         L3 d{{std::llround(dd.x), std::llround(dd.y), std::llround(dd.z)}};
         if (g.coin(0.5))
             d = d * -1;
-        if (!zerol(d) && transversal(c, all, d)) {
-            c.d = d;
-            c.O = c.P - d * g.ibetween(1, 3);
+        if (aim_through(g, c, all, d))
             return true;
-        }
     }
     return false;
 }
