@@ -47,24 +47,34 @@ static inline int tri4_hit_watertight(const PrimTri4 *t, int lanes, const PrimTr
         const __m128 g5 = _mm_set1_ps(TRI4_GAMMA(5)), zero = _mm_setzero_ps();
         const __m128 ox = _mm_set1_ps(p->o[p->kx]), oy = _mm_set1_ps(p->o[p->ky]), oz = _mm_set1_ps(p->o[p->kz]);
         const __m128 sx = _mm_set1_ps(p->sx), sy = _mm_set1_ps(p->sy);
+        /* One bound for the three edges, from the largest magnitudes:
+         * edge_err is monotone in each argument and rounding is monotone,
+         * so it is at least each edge's own bound, at a third of the cost.
+         * A lane it cannot decide takes the scalar routine, which applies
+         * the per-edge bounds: the verdict's bits are the same. */
+        __m128 mx0 = zero, my0 = zero, mz_len = zero;
         /* (written out: a loop over arrays of vectors is not unrolled at -O2) */
-#define VERTEX(k, X, Y, Z, EX, EY)                                                                     \
+#define VERTEX(k, X, Y, Z)                                                                              \
     __m128 X = _mm_sub_ps(_mm_loadu_ps(t->v[k][p->kx]), ox), Y = _mm_sub_ps(_mm_loadu_ps(t->v[k][p->ky]), oy); \
     __m128 Z = _mm_sub_ps(_mm_loadu_ps(t->v[k][p->kz]), oz);                                            \
-    __m128 EX = _mm_mul_ps(g5, _mm_add_ps(TRI4_ABS(X), TRI4_ABS(Z))), EY = _mm_mul_ps(g5, _mm_add_ps(TRI4_ABS(Y), TRI4_ABS(Z))); \
+    mx0 = _mm_max_ps(mx0, TRI4_ABS(X));                                                                 \
+    my0 = _mm_max_ps(my0, TRI4_ABS(Y));                                                                 \
+    mz_len = _mm_max_ps(mz_len, TRI4_ABS(Z));                                                           \
     X = _mm_add_ps(X, _mm_mul_ps(sx, Z));                                                               \
     Y = _mm_add_ps(Y, _mm_mul_ps(sy, Z))
-        VERTEX(0, ax, ay, az, exa, eya);
-        VERTEX(1, bx, by, bz, exb, eyb);
-        VERTEX(2, cx, cy, cz, exc, eyc);
+        VERTEX(0, ax, ay, az);
+        VERTEX(1, bx, by, bz);
+        VERTEX(2, cx, cy, cz);
 #undef VERTEX
+#define MAX3(a, b, c) _mm_max_ps(TRI4_ABS(a), _mm_max_ps(TRI4_ABS(b), TRI4_ABS(c)))
+        __m128 mx = MAX3(ax, bx, cx), my = MAX3(ay, by, cy);
+        __m128 ex = _mm_mul_ps(g5, _mm_add_ps(mx0, mz_len)), ey = _mm_mul_ps(g5, _mm_add_ps(my0, mz_len));
         __m128 e[3];
         e[0] = _mm_sub_ps(_mm_mul_ps(bx, cy), _mm_mul_ps(by, cx));
         e[1] = _mm_sub_ps(_mm_mul_ps(cx, ay), _mm_mul_ps(cy, ax));
         e[2] = _mm_sub_ps(_mm_mul_ps(ax, by), _mm_mul_ps(ay, bx));
-        __m128 unsure = _mm_cmple_ps(TRI4_ABS(e[0]), tri4_edge_err(bx, by, exb, eyb, cx, cy, exc, eyc));
-        unsure = _mm_or_ps(unsure, _mm_cmple_ps(TRI4_ABS(e[1]), tri4_edge_err(cx, cy, exc, eyc, ax, ay, exa, eya)));
-        unsure = _mm_or_ps(unsure, _mm_cmple_ps(TRI4_ABS(e[2]), tri4_edge_err(ax, ay, exa, eya, bx, by, exb, eyb)));
+        __m128 emin = _mm_min_ps(TRI4_ABS(e[0]), _mm_min_ps(TRI4_ABS(e[1]), TRI4_ABS(e[2])));
+        __m128 unsure = _mm_cmple_ps(emin, tri4_edge_err(mx, my, ex, ey, mx, my, ex, ey));
         __m128 anyneg = _mm_or_ps(_mm_or_ps(_mm_cmplt_ps(e[0], zero), _mm_cmplt_ps(e[1], zero)), _mm_cmplt_ps(e[2], zero));
         __m128 anypos = _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(e[0], zero), _mm_cmpgt_ps(e[1], zero)), _mm_cmpgt_ps(e[2], zero));
         __m128 det = _mm_add_ps(_mm_add_ps(e[0], e[1]), e[2]);
@@ -86,9 +96,7 @@ static inline int tri4_hit_watertight(const PrimTri4 *t, int lanes, const PrimTr
         if (hit) {
             /* the rest of watertight() for the lanes hit, in its order (a
              * lane hit has no NaN, so MAXPS is max3 there) */
-#define MAX3(a, b, c) _mm_max_ps(TRI4_ABS(a), _mm_max_ps(TRI4_ABS(b), TRI4_ABS(c)))
-            __m128 mz_len = MAX3(az, bz, cz), mz = MAX3(azs, bzs, czs);
-            __m128 mx = MAX3(ax, bx, cx), my = MAX3(ay, by, cy), me = MAX3(e[0], e[1], e[2]);
+            __m128 mz = MAX3(azs, bzs, czs), me = MAX3(e[0], e[1], e[2]);
 #undef MAX3
             __m128 dxe = _mm_mul_ps(g5, _mm_add_ps(mx, mz_len)), dye = _mm_mul_ps(g5, _mm_add_ps(my, mz_len));
             __m128 g3 = _mm_set1_ps(TRI4_GAMMA(3)), dze = _mm_mul_ps(g3, mz);
