@@ -75,8 +75,9 @@ static inline int tri4_hit_watertight(const PrimTri4 *t, int lanes, const PrimTr
         e[2] = _mm_sub_ps(_mm_mul_ps(ax, by), _mm_mul_ps(ay, bx));
         __m128 emin = _mm_min_ps(TRI4_ABS(e[0]), _mm_min_ps(TRI4_ABS(e[1]), TRI4_ABS(e[2])));
         __m128 unsure = _mm_cmple_ps(emin, tri4_edge_err(mx, my, ex, ey, mx, my, ex, ey));
-        __m128 anyneg = _mm_or_ps(_mm_or_ps(_mm_cmplt_ps(e[0], zero), _mm_cmplt_ps(e[1], zero)), _mm_cmplt_ps(e[2], zero));
-        __m128 anypos = _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(e[0], zero), _mm_cmpgt_ps(e[1], zero)), _mm_cmpgt_ps(e[2], zero));
+        /* edges of both signs: the ray passes outside (a NaN lane, from
+         * an overflow, is never hit: its t is NaN too) */
+        __m128 emn = _mm_min_ps(e[0], _mm_min_ps(e[1], e[2])), emx = _mm_max_ps(e[0], _mm_max_ps(e[1], e[2]));
         __m128 det = _mm_add_ps(_mm_add_ps(e[0], e[1]), e[2]);
         __m128 sz = _mm_set1_ps(p->sz);
         __m128 azs = _mm_mul_ps(az, sz), bzs = _mm_mul_ps(bz, sz), czs = _mm_mul_ps(cz, sz);
@@ -85,31 +86,33 @@ static inline int tri4_hit_watertight(const PrimTri4 *t, int lanes, const PrimTr
         __m128 neg = _mm_cmplt_ps(det, zero);
         __m128 out_neg = _mm_or_ps(_mm_cmpge_ps(ts, zero), _mm_cmplt_ps(ts, tmd));
         __m128 out_pos = _mm_or_ps(_mm_cmple_ps(ts, zero), _mm_cmpgt_ps(ts, tmd));
-        __m128 out = _mm_or_ps(_mm_and_ps(anyneg, anypos), _mm_cmpeq_ps(det, zero));
+        __m128 out = _mm_or_ps(_mm_and_ps(_mm_cmplt_ps(emn, zero), _mm_cmpgt_ps(emx, zero)), _mm_cmpeq_ps(det, zero));
         out = _mm_or_ps(out, _mm_or_ps(_mm_and_ps(neg, out_neg), _mm_andnot_ps(neg, out_pos)));
-        __m128 inv = _mm_div_ps(_mm_set1_ps(1.0f), det), tv = _mm_mul_ps(ts, inv);
-        __m128 in = _mm_and_ps(_mm_cmpgt_ps(tv, zero), _mm_cmplt_ps(tv, tmax));
         int u = _mm_movemask_ps(unsure);
         slow = lanes & u;
-        hit = lanes & ~u & _mm_movemask_ps(_mm_andnot_ps(out, in));
-        _mm_storeu_ps(h->t, tv);
-        if (hit) {
-            /* the rest of watertight() for the lanes hit, in its order (a
-             * lane hit has no NaN, so MAXPS is max3 there) */
-            __m128 mz = MAX3(azs, bzs, czs), me = MAX3(e[0], e[1], e[2]);
+        hit = lanes & ~u & ~_mm_movemask_ps(out);
+        if (hit) { /* most leaves a ray reaches are missed by here: no division */
+            __m128 inv = _mm_div_ps(_mm_set1_ps(1.0f), det), tv = _mm_mul_ps(ts, inv);
+            hit &= _mm_movemask_ps(_mm_and_ps(_mm_cmpgt_ps(tv, zero), _mm_cmplt_ps(tv, tmax)));
+            _mm_storeu_ps(h->t, tv);
+            if (hit) {
+                /* the rest of watertight() for the lanes hit, in its order (a
+                 * lane hit has no NaN, so MAXPS is max3 there) */
+                __m128 mz = MAX3(azs, bzs, czs), me = MAX3(e[0], e[1], e[2]);
 #undef MAX3
-            __m128 dxe = _mm_mul_ps(g5, _mm_add_ps(mx, mz_len)), dye = _mm_mul_ps(g5, _mm_add_ps(my, mz_len));
-            __m128 g3 = _mm_set1_ps(TRI4_GAMMA(3)), dze = _mm_mul_ps(g3, mz);
-            __m128 de = _mm_add_ps(_mm_mul_ps(_mm_mul_ps(_mm_set1_ps(TRI4_GAMMA(2)), mx), my), _mm_mul_ps(dye, mx));
-            de = _mm_mul_ps(_mm_set1_ps(2.0f), _mm_add_ps(de, _mm_mul_ps(dxe, my)));
-            __m128 te = _mm_add_ps(_mm_mul_ps(_mm_mul_ps(g3, me), mz), _mm_mul_ps(de, mz));
-            te = _mm_mul_ps(_mm_mul_ps(_mm_set1_ps(3.0f), _mm_add_ps(te, _mm_mul_ps(dze, me))), TRI4_ABS(inv));
-            _mm_storeu_ps(h->terr, te);
-            _mm_storeu_ps(h->u, _mm_mul_ps(e[1], inv));
-            _mm_storeu_ps(h->v, _mm_mul_ps(e[2], inv));
-            for (int i = 0; i < 4; i++)
-                if (hit >> i & 1)
-                    h->terr[i] = prim_terr_up(h->terr[i], h->t[i]);
+                __m128 dxe = _mm_mul_ps(g5, _mm_add_ps(mx, mz_len)), dye = _mm_mul_ps(g5, _mm_add_ps(my, mz_len));
+                __m128 g3 = _mm_set1_ps(TRI4_GAMMA(3)), dze = _mm_mul_ps(g3, mz);
+                __m128 de = _mm_add_ps(_mm_mul_ps(_mm_mul_ps(_mm_set1_ps(TRI4_GAMMA(2)), mx), my), _mm_mul_ps(dye, mx));
+                de = _mm_mul_ps(_mm_set1_ps(2.0f), _mm_add_ps(de, _mm_mul_ps(dxe, my)));
+                __m128 te = _mm_add_ps(_mm_mul_ps(_mm_mul_ps(g3, me), mz), _mm_mul_ps(de, mz));
+                te = _mm_mul_ps(_mm_mul_ps(_mm_set1_ps(3.0f), _mm_add_ps(te, _mm_mul_ps(dze, me))), TRI4_ABS(inv));
+                _mm_storeu_ps(h->terr, te);
+                _mm_storeu_ps(h->u, _mm_mul_ps(e[1], inv));
+                _mm_storeu_ps(h->v, _mm_mul_ps(e[2], inv));
+                for (int i = 0; i < 4; i++)
+                    if (hit >> i & 1)
+                        h->terr[i] = prim_terr_up(h->terr[i], h->t[i]);
+            }
         }
     }
 #else
