@@ -7,7 +7,7 @@
  * boundaries by the surface area heuristic becomes the split.
  *
  * The binary tree is then collapsed into BVH_WIDTH-wide nodes and leaves of up to
- * four primitives (bvh.h), and dropped.
+ * BVH_LEAF_MAX primitives (bvh.h), and dropped.
  *
  * Traversal is in bvh_traverse.c.
  */
@@ -27,14 +27,14 @@
  * from 8-32 bins; on bunny00, diffuse rays visit 13.0 nodes with 8 bins and
  * 12.8 with 32, and the build takes 20% less. */
 #define BVH_BINS 8
-/* Leaves of up to 4 primitives, the lanes of one SIMD triangle test. The
- * SAH counts primitives in blocks of 4, as Embree does: testing 4 costs
- * what testing 1 does. So a node of at most 4 is always a leaf (splitting
- * it would add a box test and save no triangle test), and a larger one is
- * always split, where sum(area(child) * blocks(child)) is least; the
- * traversal and intersection costs of the SAH then drop out. */
-#define BVH_MAX_LEAF 4
-#define BVH_BLOCKS(n) (((n) + BVH_MAX_LEAF - 1) / BVH_MAX_LEAF)
+/* Leaves of up to BVH_LEAF_MAX = 8 primitives, the lanes of one AVX2
+ * triangle test. The SAH counts primitives in blocks of 8, as Embree counts
+ * them in blocks of its SIMD width: testing 8 costs what testing 1 does. So
+ * a node of at most 8 is always a leaf (splitting it would add a box test
+ * and save no triangle test), and a larger one is always split, where
+ * sum(area(child) * blocks(child)) is least; the traversal and
+ * intersection costs of the SAH then drop out. */
+#define BVH_BLOCKS(n) (((n) + BVH_LEAF_MAX - 1) / BVH_LEAF_MAX)
 /* Below this many primitives a subtree is built on the calling thread:
  * starting a thread costs more than it saves. */
 #define BVH_PARALLEL_MIN 4096
@@ -257,7 +257,7 @@ static int split(Builder *B, BvhNode *node, int begin, int end, int depth, V4 cl
 {
     Ref *refs = B->refs;
     int count = end - begin;
-    if (count <= BVH_MAX_LEAF)
+    if (count <= BVH_LEAF_MAX)
         return -1;
     node->axis = 0;
     if (depth >= BVH_SAH_DEPTH)
@@ -475,7 +475,7 @@ static void slot_box(BvhWideNode *n, int i, const BvhNode *src)
 
 /* A leaf from binary leaf c: its primitives (fill_leaves copies the
  * triangles). */
-static int32_t make_leaf4(Bvh *b, const BvhNode *c)
+static int32_t add_leaf(Bvh *b, const BvhNode *c)
 {
     BvhLeaf *L = &b->leaves[b->nleaves];
     memset(L, 0, sizeof *L);
@@ -498,10 +498,11 @@ static void fill_leaves(Bvh *b)
                 continue;
             L->tris |= (uint8_t)(1 << i);
             const Vec3 v[3] = {p->g.tri.a, p->g.tri.b, p->g.tri.c};
+            PrimTri4 *t = &L->tri[i / 4];
             for (int k = 0; k < 3; k++) {
-                L->tri.v[k][0][i] = v[k].x;
-                L->tri.v[k][1][i] = v[k].y;
-                L->tri.v[k][2][i] = v[k].z;
+                t->v[k][0][i % 4] = v[k].x;
+                t->v[k][1][i % 4] = v[k].y;
+                t->v[k][2][i % 4] = v[k].z;
             }
         }
     }
@@ -537,7 +538,7 @@ static void collapse(Collapse *C, int ni, int at)
         const BvhNode *c = k < nk ? &bin[kids[k]] : NULL;
         slot_box(&b->nodes[at], k, c);
         if (c && c->count > 0) {
-            b->nodes[at].child[k] = make_leaf4(b, c);
+            b->nodes[at].child[k] = add_leaf(b, c);
         } else if (c) {
             int sub = b->nnodes++;
             b->nodes[at].child[k] = sub;
@@ -573,7 +574,7 @@ static int build4(Bvh *b, const BvhNode *bin, int nbin)
         memset(&b->nodes[0], 0, sizeof(BvhWideNode));
         for (int k = 0; k < BVH_WIDTH; k++)
             slot_box(&b->nodes[0], k, k == 0 ? &bin[0] : NULL);
-        b->nodes[0].child[0] = make_leaf4(b, &bin[0]);
+        b->nodes[0].child[0] = add_leaf(b, &bin[0]);
     } else {
         Collapse C = {b, bin};
         collapse(&C, 0, 0);
@@ -668,7 +669,7 @@ static int validate_leaf(const Bvh *b, int li, const float lo[3], const float hi
     if (li < 0 || li >= b->nleaves)
         return snprintf(err, errlen, "leaf %d does not exist", li), -1;
     const BvhLeaf *L = &b->leaves[li];
-    if (L->count < 1 || L->count > BVH_MAX_LEAF || L->first < 0 || L->first + L->count > b->nprims)
+    if (L->count < 1 || L->count > BVH_LEAF_MAX || L->first < 0 || L->first + L->count > b->nprims)
         return snprintf(err, errlen, "leaf %d refers past the primitives", li), -1;
     for (int i = 0; i < L->count; i++) {
         int k = L->first + i, idx = b->order[k];
@@ -682,8 +683,9 @@ static int validate_leaf(const Bvh *b, int li, const float lo[3], const float hi
         if (tri != (L->tris >> i & 1))
             return snprintf(err, errlen, "leaf %d marks primitive %d wrongly as triangle or not", li, idx), -1;
         const Vec3 v[3] = {p->g.tri.a, p->g.tri.b, p->g.tri.c};
+        const PrimTri4 *t = &L->tri[i / 4];
         for (int c = 0; tri && c < 3; c++)
-            if (L->tri.v[c][0][i] != v[c].x || L->tri.v[c][1][i] != v[c].y || L->tri.v[c][2][i] != v[c].z)
+            if (t->v[c][0][i % 4] != v[c].x || t->v[c][1][i % 4] != v[c].y || t->v[c][2][i % 4] != v[c].z)
                 return snprintf(err, errlen, "leaf %d holds other vertices than primitive %d", li, idx), -1;
     }
     return 0;

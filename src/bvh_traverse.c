@@ -5,7 +5,7 @@
  * A stack; closest-hit rays visit the nearest entered child next, the
  * others wait farthest deepest. A node's boxes are tested at once with the
  * slab test made conservative after Ize 2013 (bvh.h), a leaf's triangles
- * at once by prim_tri4_hit_watertight.
+ * at once by the SIMD watertight test (tri4.h).
  *
  * This file is compiled up to three ways: with SSE (the baseline on
  * x86-64, or -DLANCER_NO_SIMD for a scalar loop), and on x86-64 once more
@@ -194,25 +194,29 @@ typedef struct {
 
 #define BVH_ENTRIES ((BVH_WIDTH - 1) * BVH_MAX_DEPTH + BVH_WIDTH)
 
-static inline int tri4(const BvhLeaf *L, TriPre *p, const Ray *r, PrimHit4 *h)
+/* A leaf's lanes hit: t[i] for lane i, and so on. */
+typedef struct {
+    float t[BVH_LEAF_MAX], terr[BVH_LEAF_MAX], u[BVH_LEAF_MAX], v[BVH_LEAF_MAX];
+} LeafHits;
+
+/* The leaf's triangles: one eight-lane test with AVX2, two of four with
+ * SSE (the second only when it has lanes), or lane by lane. */
+static inline int leaf_tris(const BvhLeaf *L, TriPre *p, const Ray *r, LeafHits *h)
 {
     if (!p->ready) {
         prim_triray_init(&p->tri, r);
         p->ready = 1;
     }
-    return tri4_hit_watertight(&L->tri, L->tris, &p->tri, r, h);
-}
-
-/* The lowest set bit of a non-zero mask. */
-static inline int low_bit(unsigned m)
-{
-#ifdef __GNUC__
-    return __builtin_ctz(m);
+#ifdef TRI4_AVX
+    int hit = 0, slow = L->tris;
+    if (p->tri.simd)
+        hit = tri8_lanes(L->tri, L->tris, &p->tri, r, h->t, h->terr, h->u, h->v, &slow);
+    return hit | tri_scalar_lanes(L->tri, slow, &p->tri, r, h->t, h->terr, h->u, h->v);
 #else
-    int i = 0;
-    while (!(m >> i & 1))
-        i++;
-    return i;
+    int hit = tri4_hit_watertight(&L->tri[0], L->tris & 15, &p->tri, r, h->t, h->terr, h->u, h->v);
+    if (L->tris >> 4)
+        hit |= tri4_hit_watertight(&L->tri[1], L->tris >> 4, &p->tri, r, h->t + 4, h->terr + 4, h->u + 4, h->v + 4) << 4;
+    return hit;
 #endif
 }
 
@@ -243,13 +247,13 @@ int CLOSEST(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *tests)
             float tn[BVH_WIDTH];
             unsigned mask = (unsigned)slots_enter(n, &p, q.tmax, tn);
             if (mask) {
-                int i0 = low_bit(mask);
+                int i0 = tri_low_bit(mask);
                 mask &= mask - 1;
                 if (!mask) {
                     code = n->child[i0];
                     continue;
                 }
-                int i1 = low_bit(mask);
+                int i1 = tri_low_bit(mask);
                 mask &= mask - 1;
                 if (!mask) {
                     int near = tn[i1] < tn[i0] ? i1 : i0, far = near == i0 ? i1 : i0;
@@ -262,8 +266,8 @@ int CLOSEST(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *tests)
                 float t[BVH_WIDTH] = {tn[i0], tn[i1]};
                 int k = 2;
                 for (; mask; mask &= mask - 1, k++) {
-                    c[k] = n->child[low_bit(mask)];
-                    t[k] = tn[low_bit(mask)];
+                    c[k] = n->child[tri_low_bit(mask)];
+                    t[k] = tn[tri_low_bit(mask)];
                 }
                 for (int i = 1; i < k; i++) /* insertion sort */
                     for (int j = i; j > 0 && t[j] < t[j - 1]; j--) {
@@ -283,19 +287,19 @@ int CLOSEST(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *tests)
             }
         } else {
             const BvhLeaf *L = &b->leaves[-1 - code];
-            PrimHit4 h4;
-            int hits = L->tris ? tri4(L, &tp, &q, &h4) : 0;
+            LeafHits lh;
+            /* the lanes hit, then the primitives that are not triangles;
+             * most leaves have neither */
+            unsigned hits = L->tris ? (unsigned)leaf_tris(L, &tp, &q, &lh) : 0;
+            unsigned others = ((1u << L->count) - 1) & ~(unsigned)L->tris;
             nt += L->count;
-            for (int i = 0; i < L->count; i++) {
-                int k = L->first + i;
+            for (unsigned m = hits | others; m; m &= m - 1) {
+                int i = tri_low_bit(m), k = L->first + i;
                 PrimHit cur;
-                if (L->tris >> i & 1) {
-                    if (!(hits >> i & 1))
-                        continue;
-                    cur = (PrimHit){h4.t[i], h4.terr[i], h4.u[i], h4.v[i], 0};
-                } else if (!prim_intersect(&b->prims[b->order[k]], &q, b->variant, &cur)) {
+                if (hits >> i & 1)
+                    cur = (PrimHit){lh.t[i], lh.terr[i], lh.u[i], lh.v[i], 0};
+                else if (!prim_intersect(&b->prims[b->order[k]], &q, b->variant, &cur))
                     continue;
-                }
                 if (best < 0 || cur.t < best_t || (cur.t == best_t && b->order[k] < b->order[best])) {
                     best = k;
                     best_t = cur.t;
@@ -333,9 +337,9 @@ int OCCLUDED(const Bvh *b, const Ray *r, unsigned long long *tests)
         int32_t code = stack[--sp];
         if (code < 0) {
             const BvhLeaf *L = &b->leaves[-1 - code];
-            PrimHit4 h4;
+            LeafHits lh;
             nt += L->count;
-            hit = L->tris && tri4(L, &tp, r, &h4);
+            hit = L->tris && leaf_tris(L, &tp, r, &lh);
             for (int i = 0; i < L->count && !hit; i++) {
                 PrimHit cur;
                 hit = !(L->tris >> i & 1) && prim_intersect(&b->prims[b->order[L->first + i]], r, b->variant, &cur);

@@ -483,7 +483,7 @@ int prim_tri4_lane_hit(const PrimTri4 *t, int lane, const PrimTriRay *p, const R
 
 int prim_tri4_hit_watertight(const PrimTri4 *t, int lanes, const PrimTriRay *p, const Ray *r, PrimHit4 *h)
 {
-    return tri4_hit_watertight(t, lanes, p, r, h);
+    return tri4_hit_watertight(t, lanes, p, r, h->t, h->terr, h->u, h->v);
 }
 
 float prim_terr_up(float terr, float t) { return float_up((double)terr + gamma_d(1) * t); }

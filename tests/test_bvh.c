@@ -133,11 +133,12 @@ static void test_validate_catches_damage(void **state)
     int lane = 0;
     while (!(b.leaves[l].tris >> lane & 1))
         lane++;
-    saved = b.leaves[l].tri.v[1][2][lane];
-    b.leaves[l].tri.v[1][2][lane] = saved + 1;
+    float *copied = &b.leaves[l].tri[lane / 4].v[1][2][lane % 4];
+    saved = *copied;
+    *copied = saved + 1;
     assert_int_equal(bvh_validate(&b, err, sizeof err), -1);
     assert_non_null(strstr(err, "other vertices"));
-    b.leaves[l].tri.v[1][2][lane] = saved;
+    *copied = saved;
     /* a primitive referenced twice (and so another not at all) */
     b.leaves[0].first = b.leaves[0].first == 0 ? 1 : 0;
     assert_int_equal(bvh_validate(&b, err, sizeof err), -1);
@@ -147,21 +148,32 @@ static void test_validate_catches_damage(void **state)
 
 /* The closest hit by brute force: each primitive tested with the ray
  * itself, the smallest t kept, ties to the lowest index. */
-static int brute_closest(const Prim *p, int n, const Ray *r, float *t)
+static int brute_closest(const Prim *p, int n, const Ray *r, PrimHit *h)
 {
     int want = -1;
     PrimHit c;
     for (int i = 0; i < n; i++)
-        if (prim_intersect(&p[i], r, PRIM_ROBUST, &c) && (want < 0 || c.t < *t)) {
+        if (prim_intersect(&p[i], r, PRIM_ROBUST, &c) && (want < 0 || c.t < h->t)) {
             want = i;
-            *t = c.t;
+            *h = c;
         }
     return want;
 }
 
+/* Whether two hits on primitive p are the same, bit for bit, in what p's
+ * routine sets. */
+static int same_hit(const Prim *p, const PrimHit *a, const PrimHit *b)
+{
+    int tri = p->kind == PRIM_TRIANGLE || p->kind == PRIM_SMOOTH_TRIANGLE;
+    int box = p->kind == PRIM_BOX || p->kind == PRIM_OBOX;
+    return a->t == b->t && a->terr == b->terr && (!tri || (a->u == b->u && a->v == b->v)) && (!box || a->face == b->face);
+}
+
 /* Traces `rays` random rays aimed into the primitives through the BVH and by
  * brute force and counts the rays on which they disagree: on the closest
- * primitive, its t, or whether anything is hit. Sets *hits to the rays that
+ * primitive, its hit (t, terr, u and v, bit for bit: the SIMD leaf tests
+ * must give what each primitive's own routine gives), or whether anything
+ * is hit. Sets *hits to the rays that
  * hit something. */
 static int disagreements(const Bvh *b, const Prim *p, int n, int rays, int *hits)
 {
@@ -171,11 +183,10 @@ static int disagreements(const Bvh *b, const Prim *p, int n, int rays, int *hits
     for (int k = 0; k < rays; k++) {
         Vec3 o = test_rvec(&rng, -14, 14);
         Ray r = ray_make(o, vec_normalize(vec_sub(test_rvec(&rng, -10, 10), o)), k % 3 ? INFINITY : test_uniform(&rng, 1, 20));
-        PrimHit h;
-        float t = 0;
-        int got = bvh_closest(b, &r, &h, &tests), want = brute_closest(p, n, &r, &t);
+        PrimHit h, w = {0, 0, 0, 0, 0};
+        int got = bvh_closest(b, &r, &h, &tests), want = brute_closest(p, n, &r, &w);
         *hits += want >= 0;
-        bad += got != want || (want >= 0 && h.t != t) || bvh_occluded(b, &r, &tests) != (want >= 0);
+        bad += got != want || (want >= 0 && !same_hit(&p[want], &h, &w)) || bvh_occluded(b, &r, &tests) != (want >= 0);
     }
     return bad;
 }
@@ -275,11 +286,10 @@ static void test_closed_mesh_has_no_leaks(void **state)
                                                       : vec_add(tr->b, vec_scale(vec_sub(tr->c, tr->b), s));
         Vec3 o = test_rvec(&rng, -0.9f, 0.9f);
         Ray r = ray_make(o, vec_sub(target, o), INFINITY);
-        PrimHit h;
-        float t = 0;
-        int got = bvh_closest(&b, &r, &h, &tests), want = brute_closest(p, n, &r, &t);
+        PrimHit h, w = {0, 0, 0, 0, 0};
+        int got = bvh_closest(&b, &r, &h, &tests), want = brute_closest(p, n, &r, &w);
         leaks += got < 0 || !bvh_occluded(&b, &r, &tests);
-        bad += got != want || (want >= 0 && h.t != t);
+        bad += got != want || (want >= 0 && !same_hit(&p[want], &h, &w));
     }
     assert_int_equal(leaks, 0);
     assert_int_equal(bad, 0);

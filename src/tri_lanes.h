@@ -1,0 +1,93 @@
+/*
+ * tri_lanes.h - the SIMD body of the watertight triangle test, written once
+ * for every width: tri4.h includes it with TRI_LANES (the function's name)
+ * and the V_* operations defined, once for SSE (four lanes, one PrimTri4)
+ * and once for AVX2 (eight lanes, two PrimTri4 side by side).
+ *
+ * prim.c's watertight() lane by lane, in the same operations and order, so
+ * each lane decided here gets the same bits as the scalar routine. Lanes
+ * with an edge function too close to 0 are left to the caller in *slow.
+ */
+static inline int TRI_LANES(const PrimTri4 *blk, int lanes, const PrimTriRay *p, const Ray *r, float *ht, float *hterr,
+                            float *hu, float *hv, int *slow)
+{
+    const V g5 = V_SET1(TRI4_GAMMA(5)), zero = V_SET1(0.0f);
+    const V ox = V_SET1(p->o[p->kx]), oy = V_SET1(p->o[p->ky]), oz = V_SET1(p->o[p->kz]);
+    const V sx = V_SET1(p->sx), sy = V_SET1(p->sy);
+    /* One bound for the three edges, from the largest magnitudes:
+     * edge_err is monotone in each argument and rounding is monotone, so
+     * it is at least each edge's own bound, at a third of the cost. A lane
+     * it cannot decide takes the scalar routine, which applies the
+     * per-edge bounds: the verdict's bits are the same. */
+    V mx0 = zero, my0 = zero, mz_len = zero;
+    /* (written out: a loop over arrays of vectors is not unrolled at -O2) */
+#define VERTEX(k, X, Y, Z)                                                                      \
+    V X = V_SUB(V_LOAD(blk, k, p->kx), ox), Y = V_SUB(V_LOAD(blk, k, p->ky), oy);               \
+    V Z = V_SUB(V_LOAD(blk, k, p->kz), oz);                                                     \
+    mx0 = V_MAX(mx0, V_ABS(X));                                                                 \
+    my0 = V_MAX(my0, V_ABS(Y));                                                                 \
+    mz_len = V_MAX(mz_len, V_ABS(Z));                                                           \
+    X = V_ADD(X, V_MUL(sx, Z));                                                                 \
+    Y = V_ADD(Y, V_MUL(sy, Z))
+    VERTEX(0, ax, ay, az);
+    VERTEX(1, bx, by, bz);
+    VERTEX(2, cx, cy, cz);
+#undef VERTEX
+#define MAX3(a, b, c) V_MAX(V_ABS(a), V_MAX(V_ABS(b), V_ABS(c)))
+    V mx = MAX3(ax, bx, cx), my = MAX3(ay, by, cy);
+    V ex = V_MUL(g5, V_ADD(mx0, mz_len)), ey = V_MUL(g5, V_ADD(my0, mz_len));
+    V e0 = V_SUB(V_MUL(bx, cy), V_MUL(by, cx));
+    V e1 = V_SUB(V_MUL(cx, ay), V_MUL(cy, ax));
+    V e2 = V_SUB(V_MUL(ax, by), V_MUL(ay, bx));
+    /* edge_err(mx, my, ex, ey, mx, my, ex, ey) in edge_err's order (mx and
+     * my are magnitudes already) */
+    V m = V_ADD(V_MUL(mx, my), V_MUL(my, mx));
+    V d = V_ADD(V_MUL(ex, my), V_MUL(ey, mx));
+    d = V_ADD(d, V_MUL(ey, mx));
+    d = V_ADD(d, V_MUL(ex, my));
+    d = V_ADD(d, V_MUL(ex, ey));
+    d = V_ADD(d, V_MUL(ey, ex));
+    V bound = V_ADD(V_MUL(V_SET1(TRI4_GAMMA(3)), m), V_MUL(d, V_SET1(1.0f + TRI4_GAMMA(3))));
+    V emin = V_MIN(V_ABS(e0), V_MIN(V_ABS(e1), V_ABS(e2)));
+    int unsure = V_MASK(V_LE(emin, bound));
+    /* edges of both signs: the ray passes outside (a NaN lane, from an
+     * overflow, is never hit: its t is NaN too) */
+    V emn = V_MIN(e0, V_MIN(e1, e2)), emx = V_MAX(e0, V_MAX(e1, e2));
+    V det = V_ADD(V_ADD(e0, e1), e2);
+    V sz = V_SET1(p->sz);
+    V azs = V_MUL(az, sz), bzs = V_MUL(bz, sz), czs = V_MUL(cz, sz);
+    V ts = V_ADD(V_ADD(V_MUL(e0, azs), V_MUL(e1, bzs)), V_MUL(e2, czs));
+    V tmax = V_SET1(r->tmax), tmd = V_MUL(tmax, det);
+    V neg = V_LT(det, zero);
+    V out_neg = V_OR(V_GE(ts, zero), V_LT(ts, tmd));
+    V out_pos = V_OR(V_LE(ts, zero), V_GT(ts, tmd));
+    V out = V_OR(V_AND(V_LT(emn, zero), V_GT(emx, zero)), V_EQ(det, zero));
+    out = V_OR(out, V_OR(V_AND(neg, out_neg), V_ANDNOT(neg, out_pos)));
+    *slow = lanes & unsure;
+    int hit = lanes & ~unsure & ~V_MASK(out);
+    if (hit) { /* most leaves a ray reaches are missed by here: no division */
+        V inv = V_DIV(V_SET1(1.0f), det), tv = V_MUL(ts, inv);
+        hit &= V_MASK(V_AND(V_GT(tv, zero), V_LT(tv, tmax)));
+        V_STORE(ht, tv);
+        if (hit) {
+            /* the rest of watertight() for the lanes hit, in its order (a
+             * lane hit has no NaN, so MAXPS is max3 there) */
+            V mz = MAX3(azs, bzs, czs), me = MAX3(e0, e1, e2);
+            V dxe = V_MUL(g5, V_ADD(mx, mz_len)), dye = V_MUL(g5, V_ADD(my, mz_len));
+            V g3 = V_SET1(TRI4_GAMMA(3)), dze = V_MUL(g3, mz);
+            V de = V_ADD(V_MUL(V_MUL(V_SET1(TRI4_GAMMA(2)), mx), my), V_MUL(dye, mx));
+            de = V_MUL(V_SET1(2.0f), V_ADD(de, V_MUL(dxe, my)));
+            V te = V_ADD(V_MUL(V_MUL(g3, me), mz), V_MUL(de, mz));
+            te = V_MUL(V_MUL(V_SET1(3.0f), V_ADD(te, V_MUL(dze, me))), V_ABS(inv));
+            V_STORE(hterr, te);
+            V_STORE(hu, V_MUL(e1, inv));
+            V_STORE(hv, V_MUL(e2, inv));
+            for (unsigned bits = (unsigned)hit; bits; bits &= bits - 1) {
+                int i = tri_low_bit(bits);
+                hterr[i] = prim_terr_up(hterr[i], ht[i]);
+            }
+        }
+    }
+#undef MAX3
+    return hit;
+}
