@@ -14,6 +14,8 @@
 #include "tri4.h"
 
 #include <float.h>
+#include <stdint.h>
+#include <string.h>
 
 #define UNIT_F (0.5 * (double)FLT_EPSILON)
 #define UNIT_D (0.5 * DBL_EPSILON)
@@ -30,6 +32,21 @@ static float float_up(double x)
     if ((double)f >= x)
         return f;
     return f >= FLT_MIN ? f * (1.0f + FLT_EPSILON) : nextafterf(f, INFINITY);
+}
+
+/* nextafterf(x, up ? INFINITY : -INFINITY), without the call: a finite
+ * non-zero float's neighbours are one step away in its bits. */
+static float float_next(float x, int up)
+{
+    if (!isfinite(x))
+        return nextafterf(x, up ? INFINITY : -INFINITY);
+    if (x == 0.0f)
+        return up ? 0x1p-149f : -0x1p-149f;
+    uint32_t b;
+    memcpy(&b, &x, sizeof b);
+    b = (x > 0.0f) == (up != 0) ? b + 1 : b - 1;
+    memcpy(&x, &b, sizeof x);
+    return x;
 }
 
 /* t as a float, and a float bound covering both err (a bound on |t - exact|)
@@ -229,6 +246,15 @@ int prim_plane_hit_robust(const Plane *pl, const Ray *r, PrimHit *h)
     double no = ox + oy + oz;
     double e_no = gamma_d(2) * (fabs(ox) + fabs(oy) + fabs(oz));
     double num = (double)pl->d - no;
+    /* Two verdicts without the divisions below, the same as theirs: t = num
+     * / den is <= 0, or at least tmax (so is its rounding: tmax is a float;
+     * the product's rounding is covered by 2^-50). Shadow rays off the
+     * plane and rays stopped short of it by a nearer hit end here. */
+    if (num == 0.0 || (num < 0.0) != (den < 0.0))
+        return 0;
+    double reach = (double)r->tmax * fabs(den);
+    if (reach > 0x1p-1000 && fabs(num) >= reach * (1.0 + 0x1p-50))
+        return 0;
     double e_num = e_no + gamma_d(1) * fabs(num);
     double t = num / den;
     float tf = round_t(t, quotient_err(num, den, e_num, e_den), &h->terr);
@@ -648,10 +674,10 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
 {
     int robust = v == PRIM_ROBUST;
     Vec3 ng = vec3(0.0f, 0.0f, 0.0f), ns, nface = ng;
-    if (robust)
-        s->p = ray_point(r, h->t, h->terr, &s->perr);
-    else
+    if (!robust)
         s->p = ray_at(r, h->t); /* perr: a heuristic, below */
+    else if (p->kind != PRIM_SPHERE && p->kind != PRIM_TRIANGLE && p->kind != PRIM_SMOOTH_TRIANGLE)
+        s->p = ray_point(r, h->t, h->terr, &s->perr); /* spheres and triangles have better, below */
     switch (p->kind) {
     case PRIM_SPHERE: {
         /* The point is projected back onto the sphere (as pbrt does): the
@@ -776,10 +802,8 @@ Vec3 prim_spawn_origin(const Surface *s, Vec3 dir)
      * box face, where p is exact). */
     float c[3] = {po.x, po.y, po.z}, nn[3] = {n.x, n.y, n.z};
     for (int i = 0; i < 3; i++)
-        if (nn[i] > 0.0f)
-            c[i] = nextafterf(c[i], INFINITY);
-        else if (nn[i] < 0.0f)
-            c[i] = nextafterf(c[i], -INFINITY);
+        if (nn[i] != 0.0f)
+            c[i] = float_next(c[i], nn[i] > 0.0f);
     return vec3(c[0], c[1], c[2]);
 }
 

@@ -150,6 +150,17 @@ static void test_plane(void **state)
     assert_false(plane_hit(&pl, &r, &t));
     r = ray(0, 2, 0, 1, 0, 0); /* parallel, in the plane */
     assert_false(plane_hit(&pl, &r, &t));
+    r = ray(0, 0, 0, 0, 1, 0); /* tmax: a hit at t = tmax is none, one float further it is */
+    r.tmax = 2.0f;
+    assert_false(plane_hit(&pl, &r, &t));
+    r.tmax = nextafterf(2.0f, 0.0f);
+    assert_false(plane_hit(&pl, &r, &t));
+    r.tmax = nextafterf(2.0f, INFINITY);
+    assert_true(plane_hit(&pl, &r, &t));
+    r = ray(0, 3, 0, 0, 1, 0); /* above, moving away */
+    assert_false(plane_hit(&pl, &r, &t));
+    r = ray(0, 2, 0, 0, 1, 0); /* from the plane itself: t = 0 */
+    assert_false(plane_hit(&pl, &r, &t));
     r = ray(3, 6, 0, -3, -4, 0); /* oblique from above: distance 5 */
     assert_true(plane_hit(&pl, &r, &t));
     assert_float_equal(t, 5, 1e-6);
@@ -276,6 +287,23 @@ static void test_spawn_origin(void **state)
     Vec3 in = prim_spawn_origin(&sf, vec3(0, 0, 1));
     assert_true(out.z < -1.0f);
     assert_true(in.z > -1.0f);
+    /* A face at 0: one float out is the smallest subnormal, on either side;
+     * a negative coordinate steps towards and away from 0 by one float. */
+    Prim b0 = {PRIM_BOX, 0, {.box = {{-1, -1, -2}, {1, 1, 0}}}};
+    r = ray(-0.75f, 0.5f, 5, 0, 0, -1);
+    assert_true(prim_intersect(&b0, &r, V, &h));
+    prim_surface(&b0, &r, &h, V, &sf);
+    if (V == PRIM_ROBUST) {
+        assert_true(prim_spawn_origin(&sf, vec3(0, 0, 1)).z == 0x1p-149f);
+        assert_true(prim_spawn_origin(&sf, vec3(0, 0, -1)).z == -0x1p-149f);
+    }
+    r = ray(-0.75f, 0.5f, -5, 0, 0, 1);
+    assert_true(prim_intersect(&b0, &r, V, &h));
+    prim_surface(&b0, &r, &h, V, &sf);
+    if (V == PRIM_ROBUST) {
+        assert_true(prim_spawn_origin(&sf, vec3(0, 0, -1)).z == nextafterf(-2.0f, -INFINITY));
+        assert_true(prim_spawn_origin(&sf, vec3(0, 0, 1)).z == nextafterf(-2.0f, 0.0f));
+    }
     /* Small scenes get small offsets: at 1e-4 the offset stays below 1e-8. */
     Prim s = {PRIM_SPHERE, 0, {.sphere = {{0, 0, 0}, 1e-4f}}};
     r = ray(0, 0, -1e-3f, 0, 0, 1);
