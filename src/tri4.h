@@ -74,27 +74,6 @@ static inline int tri_scalar_lanes(const PrimTri4 *blk, int lanes, const PrimTri
 #define V_MASK _mm_movemask_ps
 #define TRI_LANES tri4_lanes
 #include "tri_lanes.h"
-#undef TRI_LANES
-#undef V
-#undef V_LOAD
-#undef V_STORE
-#undef V_SET1
-#undef V_ADD
-#undef V_SUB
-#undef V_MUL
-#undef V_DIV
-#undef V_MIN
-#undef V_MAX
-#undef V_AND
-#undef V_OR
-#undef V_ANDNOT
-#undef V_ABS
-#undef V_LT
-#undef V_LE
-#undef V_GT
-#undef V_GE
-#undef V_EQ
-#undef V_MASK
 #endif
 
 #if defined(__AVX2__) && !defined(LANCER_NO_SIMD)
@@ -124,27 +103,6 @@ static inline int tri_scalar_lanes(const PrimTri4 *blk, int lanes, const PrimTri
 #define V_MASK _mm256_movemask_ps
 #define TRI_LANES tri8_lanes
 #include "tri_lanes.h"
-#undef TRI_LANES
-#undef V
-#undef V_LOAD
-#undef V_STORE
-#undef V_SET1
-#undef V_ADD
-#undef V_SUB
-#undef V_MUL
-#undef V_DIV
-#undef V_MIN
-#undef V_MAX
-#undef V_AND
-#undef V_OR
-#undef V_ANDNOT
-#undef V_ABS
-#undef V_LT
-#undef V_LE
-#undef V_GT
-#undef V_GE
-#undef V_EQ
-#undef V_MASK
 #endif
 
 /* The lanes of one block (bit i of lanes for lane i), each judged exactly

@@ -2,7 +2,8 @@
  * tri_lanes.h - the SIMD body of the watertight triangle test, written once
  * for every width: tri4.h includes it with TRI_LANES (the function's name)
  * and the V_* operations defined, once for SSE (four lanes, one PrimTri4)
- * and once for AVX2 (eight lanes, two PrimTri4 side by side).
+ * and once for AVX2 (eight lanes, two PrimTri4 side by side). It undefines
+ * them at its end, ready for the next width.
  *
  * prim.c's watertight() lane by lane, in the same operations and order, so
  * each lane decided here gets the same bits as the scalar routine. Lanes
@@ -91,3 +92,25 @@ static inline int TRI_LANES(const PrimTri4 *blk, int lanes, const PrimTriRay *p,
 #undef MAX3
     return hit;
 }
+
+#undef TRI_LANES
+#undef V
+#undef V_LOAD
+#undef V_STORE
+#undef V_SET1
+#undef V_ADD
+#undef V_SUB
+#undef V_MUL
+#undef V_DIV
+#undef V_MIN
+#undef V_MAX
+#undef V_AND
+#undef V_OR
+#undef V_ANDNOT
+#undef V_ABS
+#undef V_LT
+#undef V_LE
+#undef V_GT
+#undef V_GE
+#undef V_EQ
+#undef V_MASK
