@@ -225,11 +225,10 @@ int prim_obox_hit(const OBox *b, const Ray *r, PrimHit *h)
 
 /* ---- robust ---- */
 
-/* t = num / den from double values known to within e_num and e_den: the
- * bound on |t - exact| (valid while e_den < |den|). */
-static double quotient_err(double num, double den, double e_num, double e_den)
+/* t = num / den, computed from double values known to within e_num and
+ * e_den: the bound on |t - exact| (valid while e_den < |den|). */
+static double quotient_err(double t, double den, double e_num, double e_den)
 {
-    double t = num / den;
     return (e_num + fabs(t) * e_den) / (fabs(den) - e_den) + gamma_d(1) * fabs(t);
 }
 
@@ -257,7 +256,7 @@ int prim_plane_hit_robust(const Plane *pl, const Ray *r, PrimHit *h)
         return 0;
     double e_num = e_no + gamma_d(1) * fabs(num);
     double t = num / den;
-    float tf = round_t(t, quotient_err(num, den, e_num, e_den), &h->terr);
+    float tf = round_t(t, quotient_err(t, den, e_num, e_den), &h->terr);
     if (!(tf > 0.0f && tf < r->tmax))
         return 0;
     h->t = tf;
@@ -597,7 +596,7 @@ int prim_obox_hit_robust(const OBox *b, const Ray *r, PrimHit *h)
         }
         double e_num = e_det + e_so + gamma_d(1) * (half + fabs(so));
         double t0 = (-half - so) / sd, t1 = (half - so) / sd;
-        double e0 = quotient_err(-half - so, sd, e_num, e_sd), e1 = quotient_err(half - so, sd, e_num, e_sd);
+        double e0 = quotient_err(t0, sd, e_num, e_sd), e1 = quotient_err(t1, sd, e_num, e_sd);
         if (t0 > t1) {
             double tmp = t0;
             t0 = t1;
