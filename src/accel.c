@@ -9,7 +9,6 @@
 int accel_build(Accel *a, const Scene *s, int threads)
 {
     a->prims = s->prims;
-    a->nprims = s->nprims;
     a->variant = s->classic ? PRIM_CLASSIC : PRIM_ROBUST;
     a->nunbounded = 0;
     a->unbounded = malloc(sizeof(int) * (size_t)(s->nprims > 0 ? s->nprims : 1));
@@ -33,7 +32,7 @@ void accel_free(Accel *a)
     free(a->unbounded);
     a->unbounded = NULL;
     a->prims = NULL;
-    a->nprims = a->nunbounded = 0;
+    a->nunbounded = 0;
 }
 
 int accel_closest(const Accel *a, const Ray *r, PrimHit *h, RayStats *st)

@@ -56,8 +56,7 @@ typedef struct {
 typedef struct {
     float lo[3], hi[3];
     uint32_t first;
-    uint16_t count;
-    uint16_t axis;
+    uint32_t count;
 } BvhNode;
 
 typedef struct {
@@ -219,8 +218,7 @@ static int new_pair(Builder *B)
 static void make_leaf(BvhNode *n, int begin, int end)
 {
     n->first = (uint32_t)begin;
-    n->count = (uint16_t)(end - begin);
-    n->axis = 0;
+    n->count = (uint32_t)(end - begin);
 }
 
 /* The box of refs[begin, end) into node, and the box of their lo + hi. */
@@ -254,13 +252,12 @@ static inline V4 bin_of(const Ref *r, V4 clo, V4 scale)
 /* Chooses a split of refs[begin, end) (centroid box clo, chi, doubled) and
  * partitions them; returns the index where the right half starts, or -1
  * to make a leaf. All three axes are binned in one pass. */
-static int split(Builder *B, BvhNode *node, int begin, int end, int depth, V4 clo, V4 chi)
+static int split(Builder *B, int begin, int end, int depth, V4 clo, V4 chi)
 {
     Ref *refs = B->refs;
     int count = end - begin;
     if (count <= BVH_LEAF_MAX)
         return -1;
-    node->axis = 0;
     if (depth >= BVH_SAH_DEPTH)
         return begin + count / 2;
     float ext[4], sc[4];
@@ -354,13 +351,11 @@ static int split(Builder *B, BvhNode *node, int begin, int end, int depth, V4 cl
             ids[i] = id;
             i += (int)f <= best_bin;
         }
-        node->axis = (uint16_t)best_axis;
         if (i > begin && i < end)
             return i;
     }
     /* All centroids coincide (or binning failed): halve by index, which
      * keeps the depth logarithmic whatever the input. */
-    node->axis = 0;
     return begin + count / 2;
 }
 
@@ -368,7 +363,7 @@ static int build_node(Builder *B, int ni, int begin, int end, int depth)
 {
     V4 clo, chi;
     bounds(B, &B->nodes[ni], begin, end, &clo, &chi);
-    int mid = split(B, &B->nodes[ni], begin, end, depth, clo, chi);
+    int mid = split(B, begin, end, depth, clo, chi);
     if (mid < 0) {
         make_leaf(&B->nodes[ni], begin, end);
         return 0;
@@ -405,13 +400,11 @@ static int build_tree(Builder *B, int n, int threads)
     if (!B->nodes)
         return -1;
     B->nnodes = 1;
+    if (threads <= 1 || n < BVH_PARALLEL_MIN)
+        return build_node(B, 0, 0, n, 0);
     V4 clo, chi;
     bounds(B, &B->nodes[0], 0, n, &clo, &chi);
-    int mid = threads > 1 && n >= BVH_PARALLEL_MIN ? split(B, &B->nodes[0], 0, n, 0, clo, chi) : -1;
-    if (mid < 0) {
-        B->nnodes = 1;
-        return build_node(B, 0, 0, n, 0);
-    }
+    int mid = split(B, 0, n, 0, clo, chi); /* n > BVH_LEAF_MAX: always a split */
     int c = new_pair(B);
     if (c < 0)
         return -1;
@@ -509,14 +502,15 @@ static void fill_leaves(Bvh *b)
     }
 }
 
-/* Fills nodes[at] from binary inner node ni: its children are opened,
- * largest surface area first, until the slots are taken, and every inner
- * one among them becomes a wide node in turn. */
+/* Fills nodes[at] from binary node ni: it and then its descendants are
+ * opened, largest surface area first, until the slots are taken, and every
+ * inner one left among them becomes a wide node in turn. (A leaf root
+ * stays alone in slot 0.) */
 static void collapse(Collapse *C, int ni, int at)
 {
     const BvhNode *bin = C->bin;
     Bvh *b = C->b;
-    int kids[BVH_WIDTH] = {(int)bin[ni].first, (int)bin[ni].first + 1}, nk = 2;
+    int kids[BVH_WIDTH] = {ni}, nk = 1;
     while (nk < BVH_WIDTH) {
         int best = -1;
         float area_best = -1.0f;
@@ -571,15 +565,8 @@ static int build4(Bvh *b, const BvhNode *bin, int nbin)
     if (!b->nodes || !b->leaves)
         return -1;
     b->nnodes = 1;
-    if (bin[0].count > 0) { /* a single leaf */
-        memset(&b->nodes[0], 0, sizeof(BvhWideNode));
-        for (int k = 0; k < BVH_WIDTH; k++)
-            slot_box(&b->nodes[0], k, k == 0 ? &bin[0] : NULL);
-        b->nodes[0].child[0] = add_leaf(b, &bin[0]);
-    } else {
-        Collapse C = {b, bin};
-        collapse(&C, 0, 0);
-    }
+    Collapse C = {b, bin};
+    collapse(&C, 0, 0);
     for (int a = 0; a < 3; a++) {
         b->lo[a] = bin[0].lo[a];
         b->hi[a] = bin[0].hi[a];
@@ -633,14 +620,12 @@ int bvh_build(Bvh *b, const Prim *prims, int n, PrimVariant v, int threads)
     int rc = 0;
     if (m > 0) {
         rc = build_tree(&B, m, threads);
-        b->order = malloc(sizeof(int) * (size_t)m);
-        if (rc == 0 && b->order) {
-            for (int i = 0; i < m; i++)
-                b->order[i] = B.ids[i];
+        if (rc == 0) { /* the ids, in leaf order now, are the order */
+            int *order = realloc(B.ids, sizeof(int) * (size_t)m);
+            b->order = order ? order : B.ids;
+            B.ids = NULL;
             b->nprims = m;
             rc = build4(b, B.nodes, B.nnodes);
-        } else {
-            rc = -1;
         }
     }
     free(B.refs);

@@ -20,7 +20,6 @@
 
 typedef struct {
     const Prim *prims; /* the scene's, indexed by the answers */
-    int nprims;
     PrimVariant variant; /* which intersection routines answer */
     Bvh bvh;
     int *unbounded; /* scene indices of the planes */
