@@ -169,8 +169,10 @@ static Vec3 trace(const Ctx *c, const Ray *r, int level, int continued, const In
 /* The ray refracted into or out of primitive `prim` (POV-Ray's trace.cpp
  * ComputeRefraction: the ratio of indices comes from the ray's list of
  * interiors, so nested and overlapping solids refract as POV-Ray's do).
- * Adds its contribution to *col; returns 1 on total internal reflection. */
-static int refract(const Ctx *c, int prim, const Material *m, const Surface *sf, const Ray *r, int level,
+ * Adds its contribution, filtered by f (pass_factor), to *col; returns 1 on
+ * total internal reflection, adding nothing: the caller's mirror ray then
+ * carries it all. */
+static int refract(const Ctx *c, int prim, const Material *m, Vec3 f, const Surface *sf, const Ray *r, int level,
                    const Interiors *in, Vec3 *col)
 {
     Interiors out = *in;
@@ -194,7 +196,6 @@ static int refract(const Ctx *c, int prim, const Material *m, const Surface *sf,
         if (out.n < SHADE_MAX_INTERIORS)
             out.prim[out.n++] = prim;
     }
-    Vec3 f = pass_factor(m);
     if (fabsf(eta - 1.0f) < 1e-10f) { /* straight through, at the same level */
         Ray t = ray_make(prim_spawn_origin(sf, r->d), r->d, INFINITY);
         c->st->refraction++;
@@ -203,13 +204,8 @@ static int refract(const Ctx *c, int prim, const Material *m, const Surface *sf,
     }
     float cosi = -vec_dot(r->d, sf->ns);
     float disc = 1.0f + eta * eta * (cosi * cosi - 1.0f);
-    if (disc < 0.0f) { /* total internal reflection: the mirror ray, unfiltered */
-        Vec3 d = vec_reflect(r->d, sf->ns);
-        Ray t = ray_make(prim_spawn_origin(sf, d), d, INFINITY);
-        c->st->reflection++;
-        *col = vec_add(*col, trace(c, &t, level, 0, in));
+    if (disc < 0.0f)
         return 1;
-    }
     /* Heckbert's refraction formula, with N facing the incoming ray. */
     Vec3 d = vec_normalize(vec_madd(vec_scale(r->d, eta), sf->ns, eta * cosi - sqrtf(disc)));
     Ray t = ray_make(prim_spawn_origin(sf, d), d, INFINITY);
@@ -240,12 +236,13 @@ static Vec3 trace(const Ctx *c, const Ray *r, int level, int continued, const In
     int tir = 0;
     Vec3 f = pass_factor(m);
     if (0.297f * f.x + 0.589f * f.y + 0.114f * f.z > 0.0f) /* POV-Ray's test, by luminance */
-        tir = refract(c, i, m, &sf, r, level, in, &col);
-    if (m->reflection > 0.0f && !tir) {
+        tir = refract(c, i, m, f, &sf, r, level, in, &col);
+    float w = tir ? 1.0f : m->reflection; /* total internal reflection: the mirror ray, unfiltered */
+    if (w > 0.0f) {
         Vec3 d = vec_reflect(r->d, sf.ns);
         Ray rr = ray_make(prim_spawn_origin(&sf, d), d, INFINITY);
         c->st->reflection++;
-        col = vec_madd(col, trace(c, &rr, level, 0, in), m->reflection);
+        col = vec_madd(col, trace(c, &rr, level, 0, in), w);
     }
     return col;
 }
