@@ -1050,8 +1050,6 @@ static int ply_header(Ply *P)
     }
     if (nnrm != 0 && nnrm != 3)
         return fail(R, V->line, "'vertex' element has some of nx, ny, nz but not all three");
-    if (nnrm == 0)
-        P->nrm[0] = -1;
     if (P->face >= 0) {
         PlyElem *F = &P->el[P->face];
         P->idx = ply_find(F, "vertex_indices");
@@ -1123,7 +1121,7 @@ static float *ply_slot(Ply *P, int j, long long i)
     for (int k = 0; k < 3; k++) {
         if (P->pos[k] == j)
             return k == 0 ? &m->v[i].x : k == 1 ? &m->v[i].y : &m->v[i].z;
-        if (P->nrm[0] >= 0 && P->nrm[k] == j)
+        if (P->nrm[k] == j) /* -1 when the file has no normals */
             return k == 0 ? &m->n[i].x : k == 1 ? &m->n[i].y : &m->n[i].z;
     }
     return NULL;

@@ -456,6 +456,13 @@ static int nonzero_vec(Parser *P, const char *what, const char *key, const Value
 
 /* ---- statements ---- */
 
+/* A whole number in [lo, hi]. */
+static int whole(const Value *v, int k, float lo, float hi)
+{
+    float x = v->v[k];
+    return x == floorf(x) && x >= lo && x <= hi;
+}
+
 static int parse_image(Parser *P, Loc at)
 {
     enum { WIDTH, HEIGHT, BACKGROUND, MAX_DEPTH, SPP, INTERSECT, N };
@@ -468,15 +475,12 @@ static int parse_image(Parser *P, Loc at)
     if (parse_block(P, "image", f, N, v))
         return -1;
     for (int i = WIDTH; i <= HEIGHT; i++) {
-        float x = v[i].v[0];
-        if (v[i].set && !(x == floorf(x) && x >= 1 && x <= IMAGE_MAX_SIDE))
+        if (v[i].set && !whole(&v[i], 0, 1, IMAGE_MAX_SIDE))
             return fail(P, v[i].value, "image: '%s' must be a whole number from 1 to %d", f[i].key, IMAGE_MAX_SIDE);
     }
-    float d = v[MAX_DEPTH].v[0];
-    if (v[MAX_DEPTH].set && !(d == floorf(d) && d >= 1 && d <= 256))
+    if (v[MAX_DEPTH].set && !whole(&v[MAX_DEPTH], 0, 1, 256))
         return fail(P, v[MAX_DEPTH].value, "image: 'max_depth' must be a whole number from 1 to 256");
-    float k = v[SPP].v[0];
-    if (v[SPP].set && !(k == floorf(k) && k >= 1 && k <= SCENE_MAX_SPP))
+    if (v[SPP].set && !whole(&v[SPP], 0, 1, SCENE_MAX_SPP))
         return fail(P, v[SPP].value, "image: 'spp' must be a whole number from 1 to %d", SCENE_MAX_SPP);
     P->s->spp = (int)num_or(&v[SPP], (float)P->s->spp);
     if (v[INTERSECT].set) {
@@ -526,13 +530,6 @@ static int parse_camera(Parser *P, Loc at)
     if (!(c->fovy > 0.0f && c->fovy < 180.0f))
         return fail(P, v[FOV].value, "camera: 'fov' must be between 0 and 180 degrees");
     return 0;
-}
-
-/* A whole number in [lo, hi]. */
-static int whole(const Value *v, int k, float lo, float hi)
-{
-    float x = v->v[k];
-    return x == floorf(x) && x >= lo && x <= hi;
 }
 
 static int parse_light(Parser *P, Loc at)
