@@ -201,7 +201,7 @@ typedef struct {
 
 /* The leaf's triangles: one eight-lane test with AVX2, two of four with
  * SSE (the second only when it has lanes), or lane by lane. */
-static inline int leaf_tris(const BvhLeaf *L, TriPre *p, const Ray *r, LeafHits *h)
+TRI_INLINE int leaf_tris(const BvhLeaf *L, TriPre *p, const Ray *r, LeafHits *h)
 {
     if (!p->ready) {
         prim_triray_init(&p->tri, r);

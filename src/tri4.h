@@ -13,6 +13,14 @@
 
 #include "lancer/prim.h"
 
+/* Inline even where GCC would call: in the traversal's loops a call
+ * costs the registers it saves, and the leaf test is the innermost work. */
+#ifdef __GNUC__
+#define TRI_INLINE static inline __attribute__((always_inline))
+#else
+#define TRI_INLINE static inline
+#endif
+
 /* prim.c's gamma_f(n), as a constant */
 #define TRI4_GAMMA(n) ((float)((n) * (0.5 * (double)FLT_EPSILON) / (1.0 - (n) * (0.5 * (double)FLT_EPSILON))))
 

@@ -9,8 +9,8 @@
  * each lane decided here gets the same bits as the scalar routine. Lanes
  * with an edge function too close to 0 are left to the caller in *slow.
  */
-static inline int TRI_LANES(const PrimTri4 *blk, int lanes, const PrimTriRay *p, const Ray *r, float *ht, float *hterr,
-                            float *hu, float *hv, int *slow)
+TRI_INLINE int TRI_LANES(const PrimTri4 *blk, int lanes, const PrimTriRay *p, const Ray *r, float *ht, float *hterr,
+                         float *hu, float *hv, int *slow)
 {
     const V g5 = V_SET1(TRI4_GAMMA(5)), zero = V_SET1(0.0f);
     const V ox = V_SET1(p->o[p->kx]), oy = V_SET1(p->o[p->ky]), oz = V_SET1(p->o[p->kz]);
