@@ -340,15 +340,22 @@ int OCCLUDED(const Bvh *b, const Ray *r, unsigned long long *tests)
             LeafHits lh;
             nt += L->count;
             hit = L->tris && leaf_tris(L, &tp, r, &lh);
-            for (int i = 0; i < L->count && !hit; i++) {
+            /* the primitives that are not triangles: most leaves have none */
+            unsigned others = ((1u << L->count) - 1) & ~(unsigned)L->tris;
+            for (; others && !hit; others &= others - 1) {
                 PrimHit cur;
-                hit = !(L->tris >> i & 1) && prim_intersect(&b->prims[b->order[L->first + i]], r, b->variant, &cur);
+                hit = prim_intersect(&b->prims[b->order[L->first + tri_low_bit(others)]], r, b->variant, &cur);
             }
             continue;
         }
         const BvhWideNode *n = &b->nodes[code];
         float tn[BVH_WIDTH];
         int mask = slots_enter(n, &p, r->tmax, tn);
+        /* A branch per slot, not a loop over the mask's set bits nor a
+         * branch-free push: the branches are predicted, so the next node's
+         * address is known before the box test ends and its load can start
+         * (by set bit, or without branches, shadow rays were 24% and 32%
+         * slower on bunny00). */
         for (int i = 0; i < BVH_WIDTH; i++)
             if (mask >> i & 1)
                 stack[sp++] = n->child[i];
