@@ -19,7 +19,9 @@ ifeq ($(SAN),1)
 OPTFLAGS := -O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize-recover=all
 SANLINK  := -fsanitize=address,undefined
 else
-OPTFLAGS := -O2 -g
+# -O3, not -O2: the BVH traversal then runs 10-20% faster (make bench,
+# bunny00, alternating), with the same float bits (no -ffast-math).
+OPTFLAGS := -O3 -g
 SANLINK  :=
 endif
 ifeq ($(WERROR),1)
