@@ -76,6 +76,19 @@ static void *mesh_array(void *p, size_t n, size_t size)
     return MESH_REALLOC(p, n * size);
 }
 
+/* Room for item n of the array p, of *cap items so far: p, doubled from
+ * `first` items when full, or NULL when out of memory (p untouched). */
+static void *mesh_grow(void *p, int *cap, int n, int first, size_t size)
+{
+    if (n < *cap)
+        return p;
+    int c = *cap ? *cap * 2 : first;
+    void *q = mesh_array(p, (size_t)c, size);
+    if (q)
+        *cap = c;
+    return q;
+}
+
 /* ---- reading lines and tokens, reporting errors ---- */
 
 typedef struct {
@@ -203,7 +216,9 @@ static int next_text_line(Reader *R, const char **ls, const char **le, int comme
     return 0;
 }
 
-static int tok_is(Tok t, const char *word) { return t.len == strlen(word) && memcmp(t.s, word, t.len) == 0; }
+static int tok_same(Tok a, Tok b) { return a.len == b.len && memcmp(a.s, b.s, a.len) == 0; }
+
+static int tok_is(Tok t, const char *word) { return tok_same(t, (Tok){word, strlen(word)}); }
 
 /* t for a message: at most 40 bytes, bytes other than printable ASCII as '?'. */
 static const char *quote(Tok t, char buf[QUOTE_LEN])
@@ -913,16 +928,12 @@ static int ply_declare(Ply *P, const Tok *tk, int n)
         if (parse_int(tk[2], &count) != 0 || count < 0)
             return fail(R, R->line, "malformed element count '%s'", quote(tk[2], q));
         for (int i = 0; i < P->nel; i++)
-            if (P->el[i].name.len == tk[1].len && memcmp(P->el[i].name.s, tk[1].s, tk[1].len) == 0)
+            if (tok_same(P->el[i].name, tk[1]))
                 return fail(R, R->line, "second '%s' element", quote(tk[1], q));
-        if (P->nel == P->cap) {
-            int cap = P->cap ? P->cap * 2 : 4;
-            void *p = mesh_array(P->el, (size_t)cap, sizeof *P->el);
-            if (!p)
-                return fail(R, R->line, "out of memory");
-            P->el = p;
-            P->cap = cap;
-        }
+        void *p = mesh_grow(P->el, &P->cap, P->nel, 4, sizeof *P->el);
+        if (!p)
+            return fail(R, R->line, "out of memory");
+        P->el = p;
         PlyElem *E = &P->el[P->nel++];
         memset(E, 0, sizeof *E);
         E->name = tk[1];
@@ -958,16 +969,12 @@ static int ply_declare(Ply *P, const Tok *tk, int n)
             return fail(R, R->line, "unknown property type '%s'", quote(tk[1], q));
     }
     for (int i = 0; i < E->nprops; i++)
-        if (E->props[i].name.len == pr.name.len && memcmp(E->props[i].name.s, pr.name.s, pr.name.len) == 0)
+        if (tok_same(E->props[i].name, pr.name))
             return fail(R, R->line, "second property '%s' in element '%s'", quote(pr.name, q), quote(E->name, q2));
-    if (E->nprops == E->cap) {
-        int cap = E->cap ? E->cap * 2 : 8;
-        void *p = mesh_array(E->props, (size_t)cap, sizeof *E->props);
-        if (!p)
-            return fail(R, R->line, "out of memory");
-        E->props = p;
-        E->cap = cap;
-    }
+    void *p = mesh_grow(E->props, &E->cap, E->nprops, 8, sizeof *E->props);
+    if (!p)
+        return fail(R, R->line, "out of memory");
+    E->props = p;
     E->props[E->nprops++] = pr;
     return 0;
 }
