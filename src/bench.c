@@ -8,7 +8,7 @@
 
 #include "lancer/camera.h"
 
-static double now(void)
+double bench_now(void)
 {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
@@ -92,29 +92,36 @@ int bench_gen_rays(const Accel *a, int w, int h, unsigned long long seed, RaySet
     return 0;
 }
 
+double bench_pass(const Accel *a, const Ray *rays, size_t n, int any, size_t *hits, double *sumt)
+{
+    RayStats st = {0, 0, 0, 0, 0};
+    size_t k = 0;
+    double sum = 0.0, t0 = bench_now();
+    for (size_t i = 0; i < n; i++) {
+        if (any) {
+            k += (size_t)accel_occluded(a, &rays[i], &st);
+        } else {
+            PrimHit h;
+            if (accel_closest(a, &rays[i], &h, &st) >= 0) {
+                k++;
+                sum += h.t;
+            }
+        }
+    }
+    double dt = bench_now() - t0;
+    *hits = k;
+    *sumt = sum;
+    return dt;
+}
+
 void bench_trace(const Accel *a, const Ray *rays, size_t n, int any, int passes, BenchResult *res)
 {
     double best = 0.0;
-    for (int p = -1; p < passes; p++) { /* pass -1 warms the caches */
-        RayStats st = {0, 0, 0, 0, 0};
-        size_t hits = 0;
-        double sumt = 0.0, t0 = now();
-        for (size_t i = 0; i < n; i++) {
-            if (any) {
-                hits += (size_t)accel_occluded(a, &rays[i], &st);
-            } else {
-                PrimHit h;
-                if (accel_closest(a, &rays[i], &h, &st) >= 0) {
-                    hits++;
-                    sumt += h.t;
-                }
-            }
-        }
-        double dt = now() - t0;
-        if (p >= 0 && dt > 0.0 && (double)n / dt / 1e6 > best)
+    bench_pass(a, rays, n, any, &res->hits, &res->sumt); /* warms the caches */
+    for (int p = 0; p < passes; p++) {
+        double dt = bench_pass(a, rays, n, any, &res->hits, &res->sumt);
+        if (dt > 0.0 && (double)n / dt / 1e6 > best)
             best = (double)n / dt / 1e6;
-        res->hits = hits;
-        res->sumt = sumt;
     }
     res->mrays = best;
 }

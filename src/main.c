@@ -11,7 +11,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
-#include <time.h>
 #include <unistd.h>
 
 #include "lancer/afile.h"
@@ -120,13 +119,6 @@ static const char *usage_bench =
     "      --classic    the classic intersection routines, not the robust ones\n"
     "      --threads N  threads for the BVH build (default 1)\n"
     "  -h, --help       show this help\n";
-
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 static int usage_error(const char *cmd, const char *fmt, ...)
 {
@@ -275,7 +267,7 @@ static void on_progress(void *ctx, int done, int total)
     int percent = (int)(100LL * done / total);
     if (percent == p->last_percent)
         return;
-    if (!p->shown && now() - p->start < PROGRESS_DELAY)
+    if (!p->shown && bench_now() - p->start < PROGRESS_DELAY)
         return;
     p->shown = 1;
     p->last_percent = percent;
@@ -284,7 +276,7 @@ static void on_progress(void *ctx, int done, int total)
     for (int i = 0; i < 40; i++)
         bar[i] = i < filled ? '#' : '.';
     bar[40] = '\0';
-    double el = now() - p->start;
+    double el = bench_now() - p->start;
     double eta = done > 0 ? el * (total - done) / done : 0.0;
     fprintf(stderr, "\rrendering [%s] %3d%%  %.1fs elapsed, %.1fs left ", bar, percent, el, eta);
     if (done == total)
@@ -373,11 +365,11 @@ static int cmd_render(int argc, char **argv)
         return usage_error("render", "missing SCENE");
 
     char exr_default[AFILE_PATH_MAX], err[1024];
-    double phase[4] = {0, 0, 0, 0}, t0 = now();
+    double phase[4] = {0, 0, 0, 0}, t0 = bench_now();
     Scene s;
     if (load_scene(a.scene, a.width, a.height, &s) != 0)
         return 1;
-    phase[0] = now() - t0;
+    phase[0] = bench_now() - t0;
     if (a.spp)
         s.spp = a.spp;
     if (a.classic)
@@ -426,26 +418,26 @@ static int cmd_render(int argc, char **argv)
         scene_free(&s);
         return 1;
     }
-    t0 = now();
+    t0 = bench_now();
     if (accel_build(&acc, &s, a.threads) != 0) {
         fprintf(stderr, "lancer: out of memory building the acceleration structure\n");
         image_free(&img);
         scene_free(&s);
         return 1;
     }
-    phase[1] = now() - t0;
+    phase[1] = bench_now() - t0;
 
-    Progress prog = {-1, 0, now()};
+    Progress prog = {-1, 0, bench_now()};
     RenderOptions opt = {a.threads, NULL, &prog};
     if (!a.quiet && isatty(STDERR_FILENO))
         opt.progress = on_progress;
-    t0 = now();
+    t0 = bench_now();
     rc = render_image(&s, &acc, &opt, &img, &st);
-    phase[2] = now() - t0;
+    phase[2] = bench_now() - t0;
     if (rc != 0)
         fprintf(stderr, "lancer: could not set up the render threads\n");
 
-    t0 = now();
+    t0 = bench_now();
     if (rc == 0 && image_write_exr(&img, a.exr, a.use_float ? IMAGE_FLOAT : IMAGE_HALF, err, sizeof err) != 0) {
         fprintf(stderr, "lancer: %s\n", err);
         rc = 1;
@@ -454,7 +446,7 @@ static int cmd_render(int argc, char **argv)
         fprintf(stderr, "lancer: %s\n", err);
         rc = 1;
     }
-    phase[3] = now() - t0;
+    phase[3] = bench_now() - t0;
     if (rc == 0 && a.stats && write_stats(a.stats, &a, &s, phase, &st) != 0)
         rc = 1;
     if (rc == 0 && !a.quiet)
@@ -581,16 +573,10 @@ static int mesh_scene(const char *path, int classic, Scene *s)
         fprintf(stderr, "%s\n", err);
         return -1;
     }
-    int dropped = 0;
-    s->materials = calloc(1, sizeof(Material));
-    s->nmaterials = 1;
-    s->classic = classic;
-    int rc = s->materials ? scene_add_mesh(s, &m, 0, 0, NULL, &dropped) : -1;
+    int rc = scene_from_mesh(s, &m, classic);
     mesh_free(&m);
-    if (rc != 0) {
+    if (rc != 0)
         fprintf(stderr, "lancer: %s: out of memory\n", path);
-        scene_free(s);
-    }
     return rc;
 }
 
@@ -616,12 +602,12 @@ static int build_series(Scene *s, long max_tris)
         size_t bytes = 0;
         for (int t = 0; t < 2; t++) {
             Accel acc;
-            double t0 = now();
+            double t0 = bench_now();
             if (accel_build(&acc, s, t + 1) != 0) {
                 fprintf(stderr, "lancer: out of memory building the BVH\n");
                 return 1;
             }
-            ms[t] = 1e3 * (now() - t0);
+            ms[t] = 1e3 * (bench_now() - t0);
             bytes = bvh_bytes(&acc.bvh);
             accel_free(&acc);
         }
@@ -706,13 +692,13 @@ static int cmd_bench(int argc, char **argv)
     if (mesh_scene(gen ? gen : mesh, classic, &s) != 0)
         return 1;
     Accel acc;
-    double t0 = now();
+    double t0 = bench_now();
     if (accel_build(&acc, &s, threads) != 0) {
         fprintf(stderr, "lancer: out of memory building the BVH\n");
         scene_free(&s);
         return 1;
     }
-    double build_ms = 1e3 * (now() - t0);
+    double build_ms = 1e3 * (bench_now() - t0);
     rc = 0;
     if (gen) {
         RaySet p, sh, d;

@@ -991,6 +991,20 @@ int scene_transform(Scene *s, float scale, Vec3 offset)
     return 0;
 }
 
+int scene_from_mesh(Scene *s, const Mesh *m, int classic)
+{
+    memset(s, 0, sizeof *s);
+    s->classic = classic;
+    s->materials = calloc(1, sizeof(Material));
+    s->nmaterials = s->materials ? 1 : 0;
+    int dropped;
+    if (!s->materials || scene_add_mesh(s, m, 0, 0, NULL, &dropped) != 0) {
+        scene_free(s);
+        return -1;
+    }
+    return 0;
+}
+
 void scene_free(Scene *s)
 {
     free(s->materials);

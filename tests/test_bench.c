@@ -35,6 +35,12 @@ static void test_rays_and_passes(void **state)
     assert_int_equal(sh.n, r.hits);
     assert_int_equal(d.n, r.hits);
     assert_true(r.sumt > 0 && r.mrays > 0);
+    /* one pass counts the hits and sums their t as bench_trace does */
+    size_t hits;
+    double sumt;
+    assert_true(bench_pass(&a, p.rays, p.n, 0, &hits, &sumt) >= 0.0);
+    assert_int_equal(hits, r.hits);
+    assert_true(sumt == r.sumt);
     for (size_t i = 0; i < d.n; i++) {
         /* secondary rays start strictly outside the sphere, and diffuse ones
          * leave it (the hemisphere of the outward normal) */

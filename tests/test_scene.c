@@ -1023,6 +1023,25 @@ static void test_load_default_scene(void **state)
     scene_free(&s);
 }
 
+static void test_scene_from_mesh(void **state)
+{
+    (void)state;
+    Vec3 v[4] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    int tri[2][3] = {{0, 1, 2}, {0, 1, 3}};
+    Mesh m = {v, 4, NULL, 0, tri, 2, NULL, 0};
+    Scene s;
+    assert_int_equal(scene_from_mesh(&s, &m, 1), 0);
+    assert_int_equal(s.nmaterials, 1);
+    assert_true(s.classic);
+    assert_int_equal(s.nprims, 2);
+    for (int i = 0; i < 2; i++) {
+        assert_int_equal(s.prims[i].kind, PRIM_TRIANGLE);
+        assert_int_equal(s.prims[i].material, 0);
+    }
+    assert_vec(s.prims[1].g.tri.c, 0, 0, 1, 0);
+    scene_free(&s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1043,6 +1062,7 @@ int main(void)
         cmocka_unit_test(test_load_directory),
         cmocka_unit_test(test_load_bad_file),
         cmocka_unit_test(test_load_default_scene),
+        cmocka_unit_test(test_scene_from_mesh),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -48,6 +48,13 @@ int bench_gen_rays(const Accel *a, int w, int h, unsigned long long seed, RaySet
  * timed ones; closest hit, or any hit when `any`. */
 void bench_trace(const Accel *a, const Ray *rays, size_t n, int any, int passes, BenchResult *res);
 
+/* One pass of bench_trace: the seconds it took; the hits, and for closest
+ * hit the sum of their t, into *hits and *sumt. */
+double bench_pass(const Accel *a, const Ray *rays, size_t n, int any, size_t *hits, double *sumt);
+
+/* Seconds on a monotonic clock, for timing. */
+double bench_now(void);
+
 void bench_free(RaySet *s);
 
 #endif

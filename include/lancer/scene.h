@@ -93,6 +93,11 @@ int scene_parse(const char *name, const char *text, size_t len, Scene *s, char *
  * dropped and counted in *dropped. Returns 0, or -1 when memory runs out. */
 int scene_add_mesh(Scene *s, const Mesh *m, int material, int smooth, const float *xf, int *dropped);
 
+/* A new scene of the mesh's flat triangles and one default material (the
+ * benchmarks' scene); `classic` picks the intersection routines. Returns 0,
+ * or -1 when memory runs out (the scene is then empty). */
+int scene_from_mesh(Scene *s, const Mesh *m, int classic);
+
 /* Moves the whole scene, camera and lights included, by p -> p*scale +
  * offset (scale > 0). Shading does not change: fade distances scale too,
  * and every angle stays. Used to check that pictures do not depend on where

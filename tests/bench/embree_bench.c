@@ -13,22 +13,14 @@
  */
 #include <stdio.h>
 #include <stdlib.h>
-#include <string.h>
-#include <time.h>
 
 #include <embree3/rtcore.h>
 
 #include "lancer/accel.h"
+#include "lancer/bench.h"
 #include "lancer/rayfile.h"
 
 #define ROUNDS_MAX 64
-
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 static int cmp(const void *a, const void *b)
 {
@@ -44,7 +36,7 @@ static double median(double *v, int n)
 
 static RTCScene embree_scene(RTCDevice dev, const Mesh *m, int robust, double *ms)
 {
-    double t0 = now();
+    double t0 = bench_now();
     RTCScene sc = rtcNewScene(dev);
     if (robust)
         rtcSetSceneFlags(sc, RTC_SCENE_FLAG_ROBUST);
@@ -65,7 +57,7 @@ static RTCScene embree_scene(RTCDevice dev, const Mesh *m, int robust, double *m
     rtcAttachGeometry(sc, g);
     rtcReleaseGeometry(g);
     rtcCommitScene(sc);
-    *ms = 1e3 * (now() - t0);
+    *ms = 1e3 * (bench_now() - t0);
     return sc;
 }
 
@@ -75,7 +67,7 @@ static double embree_pass(RTCScene sc, const Ray *rays, size_t n, int any, size_
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     size_t k = 0;
-    double t0 = now();
+    double t0 = bench_now();
     for (size_t i = 0; i < n; i++) {
         struct RTCRayHit rh;
         rh.ray.org_x = rays[i].o.x;
@@ -101,24 +93,7 @@ static double embree_pass(RTCScene sc, const Ray *rays, size_t n, int any, size_
         }
     }
     *hits = k;
-    return now() - t0;
-}
-
-static double lancer_pass(const Accel *a, const Ray *rays, size_t n, int any, size_t *hits)
-{
-    RayStats st = {0, 0, 0, 0, 0};
-    size_t k = 0;
-    double t0 = now();
-    for (size_t i = 0; i < n; i++) {
-        if (any) {
-            k += (size_t)accel_occluded(a, &rays[i], &st);
-        } else {
-            PrimHit h;
-            k += accel_closest(a, &rays[i], &h, &st) >= 0;
-        }
-    }
-    *hits = k;
-    return now() - t0;
+    return bench_now() - t0;
 }
 
 int main(int argc, char **argv)
@@ -137,11 +112,7 @@ int main(int argc, char **argv)
         return 1;
     }
     Scene s;
-    memset(&s, 0, sizeof s);
-    s.materials = calloc(1, sizeof(Material));
-    s.nmaterials = 1;
-    int dropped;
-    if (!s.materials || scene_add_mesh(&s, &m, 0, 0, NULL, &dropped) != 0) {
+    if (scene_from_mesh(&s, &m, 0) != 0) {
         fprintf(stderr, "out of memory\n");
         return 1;
     }
@@ -150,12 +121,12 @@ int main(int argc, char **argv)
     Accel acc;
     RTCScene sd = NULL, sr = NULL;
     for (int k = 0; k < passes; k++) { /* builds, alternating too */
-        double t0 = now();
+        double t0 = bench_now();
         if (k > 0)
             accel_free(&acc);
         if (accel_build(&acc, &s, 1) != 0)
             return 1;
-        lb[k] = 1e3 * (now() - t0);
+        lb[k] = 1e3 * (bench_now() - t0);
         if (sd) {
             rtcReleaseScene(sd);
             rtcReleaseScene(sr);
@@ -184,12 +155,13 @@ int main(int argc, char **argv)
             return 1;
         }
         int any = f == 1;
-        lancer_pass(&acc, rays, n, any, &hl); /* warm-up */
+        double sumt;
+        bench_pass(&acc, rays, n, any, &hl, &sumt); /* warm-up */
         embree_pass(sd, rays, n, any, &hd);
         embree_pass(sr, rays, n, any, &hr);
         double tl[ROUNDS_MAX], td[ROUNDS_MAX], trr[ROUNDS_MAX];
         for (int k = 0; k < passes; k++) {
-            tl[k] = n / lancer_pass(&acc, rays, n, any, &hl) / 1e6;
+            tl[k] = n / bench_pass(&acc, rays, n, any, &hl, &sumt) / 1e6;
             td[k] = n / embree_pass(sd, rays, n, any, &hd) / 1e6;
             trr[k] = n / embree_pass(sr, rays, n, any, &hr) / 1e6;
         }

@@ -11,8 +11,8 @@
  */
 #include <stdio.h>
 #include <stdlib.h>
-#include <time.h>
 
+#include "lancer/bench.h"
 #include "lancer/prim.h"
 
 typedef int (*HitFn)(const void *prim, const Ray *r, PrimHit *h);
@@ -27,13 +27,6 @@ static int box_c(const void *p, const Ray *r, PrimHit *h) { return prim_box_hit(
 static int box_r(const void *p, const Ray *r, PrimHit *h) { return prim_box_hit_robust(p, r, h); }
 static int obox_c(const void *p, const Ray *r, PrimHit *h) { return prim_obox_hit(p, r, h); }
 static int obox_r(const void *p, const Ray *r, PrimHit *h) { return prim_obox_hit_robust(p, r, h); }
-
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 static unsigned long long rng = 88172645463325252ULL;
 
@@ -50,10 +43,10 @@ static double pass(HitFn fn, const void *prim, const Ray *rays, int n, int *hits
 {
     PrimHit h;
     int k = 0;
-    double t0 = now();
+    double t0 = bench_now();
     for (int i = 0; i < n; i++)
         k += fn(prim, &rays[i], &h);
-    double t = now() - t0;
+    double t = bench_now() - t0;
     *hits = k;
     return t;
 }
