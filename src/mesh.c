@@ -511,7 +511,6 @@ static int finish(const Reader *R, Build *B, int vertex_normals)
             m->tri = t;
         if (m->ntri && (t = mesh_array(m->ntri, (size_t)k, sizeof *m->ntri)) != NULL)
             m->ntri = t;
-        B->cap_t = (size_t)k;
     }
     if (vertex_normals && m->n) {
         m->ntri = mesh_array(NULL, (size_t)k, sizeof *m->ntri);
@@ -846,7 +845,7 @@ static int parse_obj(Reader *R, Build *B)
             return fail(R, R->line, "unknown statement '%s'", quote(t, qb));
         } /* any other statement: ignored */
     }
-    if (faces_without_normals > 0 || m->nt == 0)
+    if (faces_without_normals > 0) /* (no triangles at all: finish drops them) */
         drop_normals(m);
     return finish(R, B, 0);
 }

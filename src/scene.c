@@ -665,6 +665,9 @@ static int parse_plane(Parser *P, Loc at)
     return 0;
 }
 
+/* Not collinear (and no NaN): the triangle has a normal. */
+static int tri_has_area(Vec3 a, Vec3 b, Vec3 c) { return vec_length(vec_cross(vec_sub(b, a), vec_sub(c, a))) > 0.0f; }
+
 static int parse_triangle(Parser *P, Loc at, int smooth)
 {
     enum { A, B, C, NA, NB, NC, MATERIAL, N };
@@ -701,7 +704,7 @@ static int parse_triangle(Parser *P, Loc at, int smooth)
     t.a = vec_of(&v[A]);
     t.b = vec_of(&v[B]);
     t.c = vec_of(&v[C]);
-    if (!(vec_length(vec_cross(vec_sub(t.b, t.a), vec_sub(t.c, t.a))) > 0.0f))
+    if (!tri_has_area(t.a, t.b, t.c))
         return fail(P, at, "%s: the three vertices are collinear (zero area)", what);
     t.na = vec_normalize(vec_of(&v[NA])); /* zero for a flat triangle */
     t.nb = vec_normalize(vec_of(&v[NB]));
@@ -845,7 +848,7 @@ static int parse_mesh(Parser *P, Loc at)
         return fail(P, v[FILE_].value, "mesh: %s has no triangles", path);
     }
     int rc = scene_add_mesh(P->s, &m, mat, smooth, xf, &dropped);
-    P->cap_prims = P->s->nprims; /* scene_add_mesh sized the array exactly */
+    P->cap_prims = P->s->nprims; /* scene_add_mesh's array holds at least this many */
     P->s->degenerate += m.degenerate + dropped;
     mesh_free(&m);
     if (rc != 0)
@@ -929,8 +932,7 @@ int scene_add_mesh(Scene *s, const Mesh *m, int material, int smooth, const floa
         t->a = xf_point(xf, m->v[m->tri[i][0]]);
         t->b = xf_point(xf, m->v[m->tri[i][1]]);
         t->c = xf_point(xf, m->v[m->tri[i][2]]);
-        Vec3 g = vec_cross(vec_sub(t->b, t->a), vec_sub(t->c, t->a));
-        if (!(vec_length(g) > 0.0f) || !vec_is_finite(t->a) || !vec_is_finite(t->b) || !vec_is_finite(t->c)) {
+        if (!tri_has_area(t->a, t->b, t->c) || !vec_is_finite(t->a) || !vec_is_finite(t->b) || !vec_is_finite(t->c)) {
             (*dropped)++;
             continue;
         }
