@@ -119,16 +119,21 @@ int afile_read(const char *path, unsigned long long max_bytes, const char *what,
         }
         cap = (size_t)st.st_size + 1; /* + 1: reaching EOF needs no second allocation */
     }
-    char *buf = NULL;
+    char *buf = malloc(cap);
+    if (!buf) {
+        snprintf(err, errlen, "%s: out of memory reading %zu bytes", path, cap);
+        fclose(f);
+        return -1;
+    }
     int rc = 0;
     for (;;) {
-        if (len == cap || !buf) {
-            if (buf && cap > limit) {
+        if (len == cap) {
+            if (cap > limit) {
                 snprintf(err, errlen, "%s: file larger than the %llu MiB limit for %s", path, limit >> 20, what);
                 rc = -1;
                 break;
             }
-            size_t ncap = !buf ? cap : cap > limit / 2 ? (size_t)limit + 1 : cap * 2;
+            size_t ncap = cap > limit / 2 ? (size_t)limit + 1 : cap * 2;
             char *nb = realloc(buf, ncap);
             if (!nb) {
                 snprintf(err, errlen, "%s: out of memory reading %zu bytes", path, ncap);

@@ -325,8 +325,9 @@ static int parse_block(Parser *P, const char *what, const Field *f, int nf, Valu
         if (next(P))
             return -1;
         v->value = P->tok.loc;
-        int count = f[i].kind == F_VEC ? 3 : f[i].kind == F_PAIR ? 2 : f[i].kind == F_MAT ? 12 : 0;
-        if (f[i].kind == F_NUM || f[i].kind == F_SCALE)
+        FieldKind kind = f[i].kind;
+        int count = kind == F_VEC ? 3 : kind == F_PAIR ? 2 : kind == F_MAT ? 12 : 0;
+        if (kind == F_NUM || kind == F_SCALE)
             count = 1;
         if (f[i].kind == F_STRING) {
             if (P->tok.kind == TOK_RBRACE || P->tok.kind == TOK_EOF)
