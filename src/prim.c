@@ -672,7 +672,8 @@ static Vec3 ray_point(const Ray *r, float t, float terr, Vec3 *err)
 void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, Surface *s)
 {
     int robust = v == PRIM_ROBUST;
-    Vec3 ng = vec3(0.0f, 0.0f, 0.0f), ns, nface = ng;
+    Vec3 ng = vec3(0.0f, 0.0f, 0.0f), ns, noff = ng;
+    int edge = 0; /* on a box's edge or corner: noff is the sum of its faces' normals */
     if (!robust)
         s->p = ray_at(r, h->t); /* perr: a heuristic, below */
     else if (p->kind != PRIM_SPHERE && p->kind != PRIM_TRIANGLE && p->kind != PRIM_SMOOTH_TRIANGLE)
@@ -733,7 +734,6 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
         ng = f == 0 ? vec3(1, 0, 0) : f == 1 ? vec3(0, 1, 0) : vec3(0, 0, 1);
         if (h->face < 3)
             ng = vec_neg(ng); /* outward, for the edge normal below */
-        nface = ng;
         if (robust) { /* on a face, one coordinate is exactly the bound */
             const Box *b = &p->g.box;
             float bound = h->face >= 3 ? comp(b->hi, f) : comp(b->lo, f);
@@ -742,7 +742,6 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
             c[f] = bound;
             e[f] = 0.0f;
             out[f] = h->face >= 3 ? 1.0f : -1.0f;
-            int edge = 0;
             for (int j = 0; j < 3; j++) {
                 if (j == f)
                     continue;
@@ -755,9 +754,8 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
             s->perr = vec3(e[0], e[1], e[2]);
             /* On an edge or corner, rays spawn along the sum of the faces'
              * normals, so that they leave every face plane p lies on (the
-             * shading normal stays the face's). */
-            if (edge)
-                ng = vec3(out[0], out[1], out[2]);
+             * normals stay the face's). */
+            noff = vec3(out[0], out[1], out[2]);
         }
         break;
     }
@@ -770,6 +768,7 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
         s->perr = vec3(e, e, e);
     }
     ng = vec_normalize(ng);
+    noff = edge ? vec_normalize(noff) : ng;
     ns = ng;
     if (p->kind == PRIM_SMOOTH_TRIANGLE) {
         const Triangle *tr = &p->g.tri;
@@ -780,15 +779,10 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
     /* Two-sided surfaces: each normal faces the incoming ray. A box's edge
      * normal turns with its face's normal, not by its own sign against the
      * ray: it must keep pointing out of (or into) every face it touches. */
-    if (p->kind == PRIM_BOX) {
-        float flip = vec_dot(nface, r->d) > 0.0f ? -1.0f : 1.0f;
-        s->ng = s->ns = vec_scale(nface, flip);
-        s->noff = vec_scale(ng, flip);
-        return;
-    }
-    s->ng = vec_dot(ng, r->d) > 0.0f ? vec_neg(ng) : ng;
+    int back = vec_dot(ng, r->d) > 0.0f;
+    s->ng = back ? vec_neg(ng) : ng;
+    s->noff = back ? vec_neg(noff) : noff;
     s->ns = vec_dot(ns, r->d) > 0.0f ? vec_neg(ns) : ns;
-    s->noff = s->ng;
 }
 
 Vec3 prim_spawn_origin(const Surface *s, Vec3 dir)
