@@ -294,14 +294,14 @@ int CLOSEST(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *tests)
             unsigned others = ((1u << L->count) - 1) & ~(unsigned)L->tris;
             nt += L->count;
             for (unsigned m = hits | others; m; m &= m - 1) {
-                int i = tri_low_bit(m), k = L->first + i;
+                int i = tri_low_bit(m), id = b->order[L->first + i];
                 PrimHit cur;
                 if (hits >> i & 1)
                     cur = (PrimHit){lh.t[i], lh.terr[i], lh.u[i], lh.v[i], 0};
-                else if (!prim_intersect(&b->prims[b->order[k]], &q, b->variant, &cur))
+                else if (!prim_intersect(&b->prims[id], &q, b->variant, &cur))
                     continue;
-                if (best < 0 || cur.t < best_t || (cur.t == best_t && b->order[k] < b->order[best])) {
-                    best = k;
+                if (best < 0 || cur.t < best_t || (cur.t == best_t && id < best)) {
+                    best = id;
                     best_t = cur.t;
                     *h = cur;
                     q.tmax = prim_tmax_past(cur.t, r->tmax);
@@ -315,7 +315,7 @@ int CLOSEST(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *tests)
         code = stack[--sp].code;
     }
     *tests += nt;
-    return best < 0 ? -1 : b->order[best];
+    return best;
 }
 
 #ifdef BVH_DISPATCH
