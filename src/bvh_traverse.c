@@ -112,7 +112,7 @@ static inline void prefetch_child(const Bvh *b, int32_t c)
 #endif
 
 /* Ize 2013: each slab distance is within gamma(3) of exact. */
-#define BVH_PAD (1.0f + 2.0f * (float)(3.0 * 0.5 * FLT_EPSILON / (1.0 - 3.0 * 0.5 * FLT_EPSILON)))
+#define BVH_PAD (1.0f + 2.0f * TRI4_GAMMA(3))
 
 static inline const float *plane(const BvhWideNode *n, int offset) { return (const float *)((const char *)n + offset); }
 

@@ -367,6 +367,11 @@ int prim_triangle_hit_watertight(const Triangle *tr, const Ray *r, PrimHit *h)
     return prim_triangle_hit_watertight3(v, r, h);
 }
 
+/* A direction whose largest component m is this short or long is scaled
+ * by a power of two before the shear (1/dz could overflow); the SIMD lanes
+ * leave such rays to the scalar routine. */
+static int dir_needs_rescale(float m) { return m < 0x1p-60f || m > 0x1p60f; }
+
 int prim_triangle_hit_watertight3(const Vec3 v[3], const Ray *r, PrimHit *h)
 {
     /* The float shear divides by the largest direction component: scale a
@@ -374,7 +379,7 @@ int prim_triangle_hit_watertight3(const Vec3 v[3], const Ray *r, PrimHit *h)
      * so that 1/dz cannot overflow, and scale t back. */
     float m = max3(fabsf(r->d.x), fabsf(r->d.y), fabsf(r->d.z));
     PrimTriRay p;
-    if (!(m < 0x1p-60f || m > 0x1p60f)) {
+    if (!dir_needs_rescale(m)) {
         prim_triray_init(&p, r);
         return watertight(v, r, &p, h);
     }
@@ -492,7 +497,7 @@ void prim_triray_init(PrimTriRay *p, const Ray *r)
     p->o[1] = r->o.y;
     p->o[2] = r->o.z;
     /* Directions that prim_triangle_hit_watertight3 rescales go through it. */
-    p->simd = m >= 0x1p-60f && m <= 0x1p60f && isfinite(d[0]) && isfinite(d[1]) && isfinite(d[2]);
+    p->simd = !dir_needs_rescale(m) && isfinite(d[0]) && isfinite(d[1]) && isfinite(d[2]);
     p->sx = -d[kx] / d[kz];
     p->sy = -d[ky] / d[kz];
     p->sz = 1.0f / d[kz];
