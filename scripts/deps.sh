@@ -8,10 +8,11 @@
 set -eu
 
 pkgs="gcc make pkg-config libc6-dev libopenexr-dev libpng-dev"
+test_pkgs="libcmocka-dev povray g++ libcgal-dev libcgal-demo libgmp-dev libmpfr-dev"
 case "${1:-run}" in
     run) ;;
-    test) pkgs="$pkgs libcmocka-dev povray g++ libcgal-dev libcgal-demo libgmp-dev libmpfr-dev" ;;
-    bench) pkgs="$pkgs libcmocka-dev povray g++ libcgal-dev libcgal-demo libgmp-dev libmpfr-dev libembree-dev" ;;
+    test) pkgs="$pkgs $test_pkgs" ;;
+    bench) pkgs="$pkgs $test_pkgs libembree-dev" ;;
     *) echo "usage: scripts/deps.sh run|test|bench" >&2; exit 2 ;;
 esac
 

@@ -9,20 +9,22 @@ dir=${1:-build/san}
 judge=${2:-}
 passed=0
 failed=0
+# run LABEL COMMAND...: runs one program and counts it
+run() {
+    label=$1
+    shift
+    echo "== $label"
+    if "$@"; then passed=$((passed + 1)); else failed=$((failed + 1)); echo "FAILED: $label"; fi
+}
 for t in "$dir"/test_*; do
     [ -x "$t" ] || continue
-    echo "== $t"
-    if "$t"; then passed=$((passed + 1)); else failed=$((failed + 1)); echo "FAILED: $t"; fi
+    run "$t" "$t"
 done
-echo "== tests/cli.sh"
-if sh tests/cli.sh "$dir/lancer"; then passed=$((passed + 1)); else failed=$((failed + 1)); echo "FAILED: tests/cli.sh"; fi
-echo "== scripts/parity.sh"
-if sh scripts/parity.sh "$dir/lancer"; then passed=$((passed + 1)); else failed=$((failed + 1)); echo "FAILED: scripts/parity.sh"; fi
-echo "== scripts/stability.sh"
-if sh scripts/stability.sh "$dir/lancer"; then passed=$((passed + 1)); else failed=$((failed + 1)); echo "FAILED: scripts/stability.sh"; fi
+run tests/cli.sh sh tests/cli.sh "$dir/lancer"
+run scripts/parity.sh sh scripts/parity.sh "$dir/lancer"
+run scripts/stability.sh sh scripts/stability.sh "$dir/lancer"
 if [ -n "$judge" ]; then
-    echo "== $judge ${EXACT_RAYS:-1000000}"
-    if "$judge" "${EXACT_RAYS:-1000000}"; then passed=$((passed + 1)); else failed=$((failed + 1)); echo "FAILED: $judge"; fi
+    run "$judge ${EXACT_RAYS:-1000000}" "$judge" "${EXACT_RAYS:-1000000}"
 fi
 echo "programs: $passed passed, $failed failed"
 [ "$failed" -eq 0 ]
