@@ -3,7 +3,6 @@
  */
 #include "lancer/rayfile.h"
 
-#include <errno.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -68,58 +67,47 @@ int rayfile_read(const char *path, Ray **rays, size_t *n, char *err, size_t errl
 {
     *rays = NULL;
     *n = 0;
-    FILE *f = fopen(path, "rb");
-    if (!f) {
-        snprintf(err, errlen, "%s: cannot open: %s", path, strerror(errno));
+    char *buf;
+    size_t size;
+    if (afile_read(path, SIZE_MAX, "ray files", &buf, &size, err, errlen) != 0)
         return -1;
-    }
-    unsigned char head[16];
-    long size = -1;
-    if (fseek(f, 0, SEEK_END) == 0)
-        size = ftell(f);
-    rewind(f);
-    if (fread(head, 1, sizeof head, f) != sizeof head || memcmp(head, RAYFILE_MAGIC, 8) != 0) {
+    const unsigned char *b = (const unsigned char *)buf;
+    if (size < 16 || memcmp(b, RAYFILE_MAGIC, 8) != 0) {
         snprintf(err, errlen, "%s: not a ray file (it must start with %s and a count)", path, RAYFILE_MAGIC);
-        fclose(f);
+        free(buf);
         return -1;
     }
-    uint64_t count = (uint64_t)get_u32(head + 8) | (uint64_t)get_u32(head + 12) << 32;
+    uint64_t count = (uint64_t)get_u32(b + 8) | (uint64_t)get_u32(b + 12) << 32;
     /* The count must account for the whole file: this also bounds the
      * allocation by what is really there. */
-    if (size < 16 || count != (uint64_t)(size - 16) / RAYFILE_RECORD || (uint64_t)(size - 16) % RAYFILE_RECORD) {
-        snprintf(err, errlen, "%s: the count (%llu rays) disagrees with the file size (%ld bytes)", path,
+    if (count != (size - 16) / RAYFILE_RECORD || (size - 16) % RAYFILE_RECORD) {
+        snprintf(err, errlen, "%s: the count (%llu rays) disagrees with the file size (%zu bytes)", path,
                  (unsigned long long)count, size);
-        fclose(f);
+        free(buf);
         return -1;
     }
     Ray *r = malloc(sizeof(Ray) * (size_t)(count ? count : 1));
     if (!r) {
         snprintf(err, errlen, "%s: %llu rays do not fit in memory", path, (unsigned long long)count);
-        fclose(f);
+        free(buf);
         return -1;
     }
     for (uint64_t i = 0; i < count; i++) {
-        unsigned char rec[RAYFILE_RECORD];
+        const unsigned char *rec = b + 16 + RAYFILE_RECORD * i;
         float v[8];
-        if (fread(rec, 1, sizeof rec, f) != sizeof rec) {
-            snprintf(err, errlen, "%s: truncated at ray %llu", path, (unsigned long long)i);
-            free(r);
-            fclose(f);
-            return -1;
-        }
         for (int k = 0; k < 8; k++) {
             v[k] = get_f32(rec + 4 * k);
             if (!isfinite(v[k]) && !(k == 7 && v[k] == INFINITY)) {
                 snprintf(err, errlen, "%s: ray %llu has a non-finite value", path, (unsigned long long)i);
                 free(r);
-                fclose(f);
+                free(buf);
                 return -1;
             }
         }
         Vec3 o = vec3(v[0], v[1], v[2]), d = vec3(v[3], v[4], v[5]);
         r[i] = ray_make(vec_madd(o, d, v[6]), d, v[7] - v[6]);
     }
-    fclose(f);
+    free(buf);
     *rays = r;
     *n = (size_t)count;
     return 0;
