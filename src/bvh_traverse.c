@@ -41,6 +41,7 @@
 /* The AVX2 object's functions: what it defines, what the baseline calls. */
 int bvh_closest_avx2(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *tests);
 int bvh_occluded_avx2(const Bvh *b, const Ray *r, unsigned long long *tests);
+void bvh_closest_packet_avx2(const Bvh *b, const Ray *r, int n, PrimHit *h, int *best, unsigned long long *tests);
 #endif
 
 /* ---- traversal ---- */
@@ -220,6 +221,31 @@ TRI_INLINE int leaf_tris(const BvhLeaf *L, TriPre *p, const Ray *r, LeafHits *h)
 #endif
 }
 
+/* Leaf L for closest-hit: its triangles' lanes hit, then the primitives
+ * that are not triangles (most leaves have neither). A hit nearer than
+ * *best's h->t, or as near with a lower index, becomes *best, and q's tmax
+ * moves just past it (r: the ray as given). Returns the tests made. */
+TRI_INLINE int leaf_closest(const Bvh *b, const BvhLeaf *L, TriPre *tp, const Ray *r, Ray *q, int *best, PrimHit *h)
+{
+    LeafHits lh;
+    unsigned hits = L->tris ? (unsigned)leaf_tris(L, tp, q, &lh) : 0;
+    unsigned others = ((1u << L->count) - 1) & ~(unsigned)L->tris;
+    for (unsigned m = hits | others; m; m &= m - 1) {
+        int i = tri_low_bit(m), id = b->order[L->first + i];
+        PrimHit cur;
+        if (hits >> i & 1)
+            cur = (PrimHit){lh.t[i], lh.terr[i], lh.u[i], lh.v[i], 0};
+        else if (!prim_intersect(&b->prims[id], q, b->variant, &cur))
+            continue;
+        if (*best < 0 || cur.t < h->t || (cur.t == h->t && id < *best)) {
+            *best = id;
+            *h = cur;
+            q->tmax = prim_tmax_past(cur.t, r->tmax);
+        }
+    }
+    return L->count;
+}
+
 #ifdef BVH_DISPATCH
 static
 #endif
@@ -233,7 +259,6 @@ int CLOSEST(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *tests)
     tp.ready = 0;
     Ray q = *r; /* tmax: past the nearest hit so far, to see ties */
     int best = -1;
-    float best_t = 0.0f;
     unsigned long long nt = 0;
     Entry stack[BVH_ENTRIES];
     int sp = 0;
@@ -286,27 +311,7 @@ int CLOSEST(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *tests)
                 continue;
             }
         } else {
-            const BvhLeaf *L = &b->leaves[-1 - code];
-            LeafHits lh;
-            /* the lanes hit, then the primitives that are not triangles;
-             * most leaves have neither */
-            unsigned hits = L->tris ? (unsigned)leaf_tris(L, &tp, &q, &lh) : 0;
-            unsigned others = ((1u << L->count) - 1) & ~(unsigned)L->tris;
-            nt += L->count;
-            for (unsigned m = hits | others; m; m &= m - 1) {
-                int i = tri_low_bit(m), id = b->order[L->first + i];
-                PrimHit cur;
-                if (hits >> i & 1)
-                    cur = (PrimHit){lh.t[i], lh.terr[i], lh.u[i], lh.v[i], 0};
-                else if (!prim_intersect(&b->prims[id], &q, b->variant, &cur))
-                    continue;
-                if (best < 0 || cur.t < best_t || (cur.t == best_t && id < best)) {
-                    best = id;
-                    best_t = cur.t;
-                    *h = cur;
-                    q.tmax = prim_tmax_past(cur.t, r->tmax);
-                }
-            }
+            nt += leaf_closest(b, &b->leaves[-1 - code], &tp, r, &q, &best, h);
         }
         while (sp > 0 && stack[sp - 1].t > q.tmax) /* entered past the nearest hit */
             sp--;
@@ -364,6 +369,171 @@ int OCCLUDED(const Bvh *b, const Ray *r, unsigned long long *tests)
     return hit;
 }
 
+/* ---- packets: rays from one origin ---- */
+
+#ifdef BVH_AVX
+/* A packet's rays as intervals (Wald, Boulos and Shirley, "Ray Tracing
+ * Deformable Scenes Using Dynamic Bounding Volume Hierarchies", ACM TOG
+ * 2007: interval arithmetic over the packet). With one origin, a slab
+ * distance (plane - o) * inv rounds monotonically in inv, so over inverse
+ * directions in [imin, imax] the least is at an end: the packet's entry
+ * distance is at most each ray's own, its exit at least each ray's, and the
+ * packet enters every box that any of its rays would (with the same
+ * padding). Leaves are then tested ray by ray with the single-ray slab test,
+ * lanes for rays. */
+typedef struct {
+    __m256 o8[3];          /* the common origin */
+    __m256 imin8[3], imax8[3]; /* the ends of the packet's inverse directions, by axis */
+    __m256 inv8[3];        /* lane k: ray k's inverse direction */
+    int near[3], far[3];   /* as in RayPre: all rays share each axis's sign */
+} PacketPre;
+
+/* 0 when the rays do not share an origin, or a direction's sign on some
+ * axis, or one is parallel to an axis plane: those go one by one. */
+static int packet_pre(const Ray *r, int n, PacketPre *p)
+{
+    float inv[3][BVH_PACKET];
+    for (int k = 0; k < BVH_PACKET; k++) {
+        const Ray *rk = &r[k < n ? k : 0];
+        if (rk->o.x != r->o.x || rk->o.y != r->o.y || rk->o.z != r->o.z)
+            return 0;
+        /* as ray_pre divides */
+        float v[4];
+        _mm_storeu_ps(v, _mm_div_ps(_mm_set1_ps(1.0f), _mm_setr_ps(rk->d.x, rk->d.y, rk->d.z, 1.0f)));
+        for (int a = 0; a < 3; a++)
+            inv[a][k] = v[a];
+    }
+    const float o[3] = {r->o.x, r->o.y, r->o.z};
+    for (int a = 0; a < 3; a++) {
+        float lo = inv[a][0], hi = inv[a][0];
+        for (int k = 1; k < BVH_PACKET; k++) {
+            lo = inv[a][k] < lo ? inv[a][k] : lo;
+            hi = inv[a][k] > hi ? inv[a][k] : hi;
+        }
+        if (!(lo > 0.0f || hi < 0.0f) || !(hi - lo < INFINITY))
+            return 0; /* mixed signs, or infinite (or NaN) */
+        int neg = hi < 0.0f;
+        int l = (int)(offsetof(BvhWideNode, lo) + sizeof(float[BVH_WIDTH]) * (size_t)a);
+        int h = (int)(offsetof(BvhWideNode, hi) + sizeof(float[BVH_WIDTH]) * (size_t)a);
+        p->near[a] = neg ? h : l;
+        p->far[a] = neg ? l : h;
+        p->o8[a] = _mm256_set1_ps(o[a]);
+        p->imin8[a] = _mm256_set1_ps(lo);
+        p->imax8[a] = _mm256_set1_ps(hi);
+        p->inv8[a] = _mm256_loadu_ps(inv[a]);
+    }
+    return 1;
+}
+
+/* slots_enter for the packet: the slots some ray may enter before tmax
+ * (the farthest any ray still looks), and the packet's entry distances. */
+static inline unsigned packet_enter(const BvhWideNode *n, const PacketPre *p, float tmax, float tn[BVH_WIDTH])
+{
+    const __m256 pad = _mm256_set1_ps(BVH_PAD);
+    __m256 lo = _mm256_setzero_ps(), hi = _mm256_set1_ps(tmax);
+    for (int a = 0; a < 3; a++) {
+        __m256 pn = _mm256_sub_ps(_mm256_load_ps(plane(n, p->near[a])), p->o8[a]);
+        __m256 pf = _mm256_sub_ps(_mm256_load_ps(plane(n, p->far[a])), p->o8[a]);
+        __m256 t0 = _mm256_min_ps(_mm256_mul_ps(pn, p->imin8[a]), _mm256_mul_ps(pn, p->imax8[a]));
+        __m256 t1 = _mm256_max_ps(_mm256_mul_ps(_mm256_mul_ps(pf, p->imin8[a]), pad),
+                                  _mm256_mul_ps(_mm256_mul_ps(pf, p->imax8[a]), pad));
+        lo = _mm256_max_ps(t0, lo);
+        hi = _mm256_min_ps(t1, hi);
+    }
+    _mm256_storeu_ps(tn, lo);
+    return (unsigned)_mm256_movemask_ps(_mm256_cmp_ps(lo, hi, _CMP_LE_OQ));
+}
+
+/* The rays (lanes) that enter slot i of n before their own tmax: each
+ * lane is slots_enter's test of that slot for that ray, bit for bit. */
+static inline unsigned packet_rays_enter(const BvhWideNode *n, int i, const PacketPre *p, __m256 tmax)
+{
+    const __m256 pad = _mm256_set1_ps(BVH_PAD);
+    __m256 lo = _mm256_setzero_ps(), hi = tmax;
+    for (int a = 0; a < 3; a++) {
+        __m256 pn = _mm256_sub_ps(_mm256_set1_ps(plane(n, p->near[a])[i]), p->o8[a]);
+        __m256 pf = _mm256_sub_ps(_mm256_set1_ps(plane(n, p->far[a])[i]), p->o8[a]);
+        lo = _mm256_max_ps(_mm256_mul_ps(pn, p->inv8[a]), lo);
+        hi = _mm256_min_ps(_mm256_mul_ps(_mm256_mul_ps(pf, p->inv8[a]), pad), hi);
+    }
+    return (unsigned)_mm256_movemask_ps(_mm256_cmp_ps(lo, hi, _CMP_LE_OQ));
+}
+
+/* A packet's stack entry: a node or leaf as in Entry, and for a leaf the
+ * rays that enter it. */
+typedef struct {
+    int32_t code;
+    float t;
+    unsigned rays;
+} PacketEntry;
+
+void bvh_closest_packet_avx2(const Bvh *b, const Ray *r, int n, PrimHit *h, int *best, unsigned long long *tests)
+{
+    PacketPre p;
+    if (b->nnodes == 0 || !packet_pre(r, n, &p)) {
+        for (int k = 0; k < n; k++)
+            best[k] = bvh_closest_avx2(b, &r[k], &h[k], tests);
+        return;
+    }
+    const unsigned all = (1u << n) - 1;
+    Ray q[BVH_PACKET];
+    TriPre tp[BVH_PACKET];
+    float qt[BVH_PACKET]; /* lane k: ray k's q.tmax (rays past n: -1, never entering) */
+    for (int k = 0; k < BVH_PACKET; k++) {
+        qt[k] = -1.0f;
+        tp[k].ready = 0;
+    }
+    float far = 0.0f; /* the largest q.tmax */
+    for (int k = 0; k < n; k++) {
+        q[k] = r[k];
+        qt[k] = r[k].tmax;
+        far = qt[k] > far ? qt[k] : far;
+        best[k] = -1;
+    }
+    unsigned long long nt = 0;
+    PacketEntry stack[BVH_ENTRIES];
+    int sp = 0;
+    stack[sp++] = (PacketEntry){0, 0.0f, all};
+    while (sp > 0) {
+        PacketEntry e = stack[--sp];
+        if (e.t > far) /* entered past every ray's nearest hit */
+            continue;
+        if (e.code < 0) {
+            const BvhLeaf *L = &b->leaves[-1 - e.code];
+            for (unsigned m = e.rays; m; m &= m - 1) {
+                int k = tri_low_bit(m);
+                nt += (unsigned long long)leaf_closest(b, L, &tp[k], &r[k], &q[k], &best[k], &h[k]);
+                qt[k] = q[k].tmax;
+            }
+            far = 0.0f;
+            for (int k = 0; k < n; k++)
+                far = qt[k] > far ? qt[k] : far;
+            continue;
+        }
+        const BvhWideNode *nd = &b->nodes[e.code];
+        float tn[BVH_WIDTH];
+        unsigned mask = packet_enter(nd, &p, far, tn);
+        PacketEntry c[BVH_WIDTH];
+        int kc = 0;
+        __m256 qt8 = _mm256_loadu_ps(qt);
+        for (; mask; mask &= mask - 1) {
+            int i = tri_low_bit(mask);
+            unsigned rays = all;
+            if (nd->child[i] < 0 && !(rays = packet_rays_enter(nd, i, &p, qt8)))
+                continue;
+            /* insertion by entry distance, farthest first */
+            int j = kc++;
+            for (; j > 0 && c[j - 1].t < tn[i]; j--)
+                c[j] = c[j - 1];
+            c[j] = (PacketEntry){nd->child[i], tn[i], rays};
+        }
+        for (int j = 0; j < kc; j++)
+            stack[sp++] = c[j];
+    }
+    *tests += nt;
+}
+#endif
+
 #ifdef BVH_DISPATCH
 /* The AVX2 object (bvh_traverse.c again, with -mavx2) when the processor
  * runs it. */
@@ -375,5 +545,21 @@ int bvh_closest(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *test
 int bvh_occluded(const Bvh *b, const Ray *r, unsigned long long *tests)
 {
     return __builtin_cpu_supports("avx2") ? bvh_occluded_avx2(b, r, tests) : occluded_base(b, r, tests);
+}
+
+void bvh_closest_packet(const Bvh *b, const Ray *r, int n, PrimHit *h, int *best, unsigned long long *tests)
+{
+    if (__builtin_cpu_supports("avx2")) {
+        bvh_closest_packet_avx2(b, r, n, h, best, tests);
+        return;
+    }
+    for (int k = 0; k < n; k++)
+        best[k] = closest_base(b, &r[k], &h[k], tests);
+}
+#elif !defined(BVH_AVX)
+void bvh_closest_packet(const Bvh *b, const Ray *r, int n, PrimHit *h, int *best, unsigned long long *tests)
+{
+    for (int k = 0; k < n; k++)
+        best[k] = bvh_closest(b, &r[k], &h[k], tests);
 }
 #endif

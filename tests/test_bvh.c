@@ -1,6 +1,7 @@
 /* Tests for bvh.c: the invariants after every build (bvh_validate), that
- * bvh_validate catches broken trees, and that the BVH and brute force agree
- * on the closest primitive for 10^6 random rays. */
+ * bvh_validate catches broken trees, that the BVH and brute force agree
+ * on the closest primitive for 10^6 random rays, and that packets of rays
+ * get what each ray gets alone. */
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -297,6 +298,63 @@ static void test_closed_mesh_has_no_leaks(void **state)
     free(p);
 }
 
+/* Counts the rays of `packets` packets from shared origins on which
+ * bvh_closest_packet and bvh_closest disagree (primitive or hit, bit for
+ * bit). Packets are narrow and wide cones (traced together) and, one in
+ * eight, rays from different origins or of mixed signs (one by one). Aims
+ * at targets(k) when given, else into the cube [-10, 10]^3. */
+static int packet_disagreements(const Bvh *b, const Prim *p, int packets, Vec3 (*target)(const Prim *, int))
+{
+    unsigned long long tests = 0;
+    int bad = 0;
+    for (int k = 0; k < packets; k++) {
+        int n = 1 + k % BVH_PACKET;
+        float spread = k % 3 == 0 ? 0.01f : k % 3 == 1 ? 0.3f : 3.0f;
+        Vec3 o = target ? test_rvec(&rng, -0.9f, 0.9f) : test_rvec(&rng, -14, 14);
+        Vec3 aim = target ? target(p, k) : test_rvec(&rng, -10, 10);
+        Ray r[BVH_PACKET];
+        for (int j = 0; j < n; j++) {
+            Vec3 at = target ? target(p, k + j) : vec_add(aim, test_rvec(&rng, -spread, spread));
+            Vec3 from = k % 8 == 7 && j == n - 1 ? vec_add(o, vec3(0, 0, 1e-3f)) : o;
+            r[j] = ray_make(from, vec_normalize(vec_sub(at, from)), j % 3 ? INFINITY : test_uniform(&rng, 1, 20));
+        }
+        PrimHit h[BVH_PACKET], w;
+        int got[BVH_PACKET];
+        bvh_closest_packet(b, r, n, h, got, &tests);
+        for (int j = 0; j < n; j++) {
+            int want = bvh_closest(b, &r[j], &w, &tests);
+            bad += got[j] != want || (want >= 0 && !same_hit(&p[want], &h[j], &w));
+        }
+    }
+    return bad;
+}
+
+/* A vertex, or a point on an edge, of triangle k % count of grid_cube's. */
+static Vec3 cube_edge_point(const Prim *p, int k)
+{
+    const Triangle *tr = &p[k % (12 * 8 * 8)].g.tri;
+    return k % 2 ? tr->a : vec_add(tr->b, vec_scale(vec_sub(tr->c, tr->b), 0.5f));
+}
+
+static void test_packets_agree_with_single_rays(void **state)
+{
+    (void)state;
+    const int n = 60;
+    Prim *p = random_prims(n);
+    Bvh b;
+    build_ok(&b, p, n, 1);
+    assert_int_equal(packet_disagreements(&b, p, 100000, NULL), 0);
+    bvh_free(&b);
+    free(p);
+    /* ties: rays from inside a closed mesh through its shared edges */
+    p = calloc(12 * 8 * 8, sizeof(Prim));
+    assert_non_null(p);
+    build_ok(&b, p, grid_cube(p, 8), 1);
+    assert_int_equal(packet_disagreements(&b, p, 20000, cube_edge_point), 0);
+    bvh_free(&b);
+    free(p);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -306,6 +364,7 @@ int main(void)
         cmocka_unit_test(test_agrees_with_brute_force),
         cmocka_unit_test(test_mesh_leaves_agree_with_brute_force),
         cmocka_unit_test(test_closed_mesh_has_no_leaks),
+        cmocka_unit_test(test_packets_agree_with_single_rays),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

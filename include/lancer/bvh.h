@@ -91,6 +91,15 @@ int bvh_validate(const Bvh *b, char *err, size_t errlen);
  * the lowest index wins, so the answer does not depend on the tree. */
 int bvh_closest(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *tests);
 
+/* Rays traced together by bvh_closest_packet, at most. */
+#define BVH_PACKET 8
+
+/* bvh_closest for each of r[0 .. n-1] (n <= BVH_PACKET): best[k] and h[k],
+ * the same answers. Rays from one origin (camera rays), with directions
+ * of the same signs, are traced as a packet, one box test for all (with
+ * AVX2); any others one by one. */
+void bvh_closest_packet(const Bvh *b, const Ray *r, int n, PrimHit *h, int *best, unsigned long long *tests);
+
 /* 1 when any primitive is hit in (0, r->tmax): stops at the first found. */
 int bvh_occluded(const Bvh *b, const Ray *r, unsigned long long *tests);
 
