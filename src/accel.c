@@ -35,10 +35,11 @@ void accel_free(Accel *a)
     a->nunbounded = 0;
 }
 
-int accel_closest(const Accel *a, const Ray *r, PrimHit *h, RayStats *st)
+/* The planes after the BVH's answer best (h): a plane hit nearer, or as
+ * near with a lower index, replaces it. */
+static int closest_unbounded(const Accel *a, const Ray *r, int best, PrimHit *h, RayStats *st)
 {
     Ray q = *r; /* tmax: past the nearest hit so far, to see ties */
-    int best = bvh_closest(&a->bvh, r, h, &st->isect_tests);
     if (best >= 0)
         q.tmax = prim_tmax_past(h->t, r->tmax);
     PrimHit cur;
@@ -54,6 +55,18 @@ int accel_closest(const Accel *a, const Ray *r, PrimHit *h, RayStats *st)
     }
     st->isect_tests += (unsigned long long)a->nunbounded;
     return best;
+}
+
+int accel_closest(const Accel *a, const Ray *r, PrimHit *h, RayStats *st)
+{
+    return closest_unbounded(a, r, bvh_closest(&a->bvh, r, h, &st->isect_tests), h, st);
+}
+
+void accel_closest_packet(const Accel *a, const Ray *r, int n, PrimHit *h, int *best, RayStats *st)
+{
+    bvh_closest_packet(&a->bvh, r, n, h, best, &st->isect_tests);
+    for (int k = 0; k < n; k++)
+        best[k] = closest_unbounded(a, &r[k], best[k], &h[k], st);
 }
 
 int accel_occluded(const Accel *a, const Ray *r, RayStats *st)

@@ -39,6 +39,44 @@ Vec3 render_pixel(const Scene *s, const Accel *a, const Camera *cam, const Inter
     return k == 1 ? sum : vec_scale(sum, 1.0f / (float)(k * k));
 }
 
+/* Row y into row (3 floats a pixel): render_pixel for each pixel, bit for
+ * bit, with the camera rays traced BVH_PACKET at a time (neighbours share
+ * the eye and most of their path through the BVH). */
+static void render_row(const Job *job, int y, float *row, RayStats *st)
+{
+    const Scene *s = job->s;
+    int k = s->spp, w = job->img->width;
+    Ray r[BVH_PACKET];
+    int px[BVH_PACKET], best[BVH_PACKET], n = 0;
+    PrimHit h[BVH_PACKET];
+    for (int x = 0; x < w; x++) {
+        row[3 * x] = row[3 * x + 1] = row[3 * x + 2] = 0.0f;
+        for (int j = 0; j < k; j++)
+            for (int i = 0; i < k; i++) {
+                /* as render_pixel */
+                float sx = (float)x + ((float)i + 0.5f) / (float)k;
+                float sy = (float)y + ((float)j + 0.5f) / (float)k;
+                r[n] = camera_ray(&job->cam, sx, sy);
+                px[n++] = x;
+                if (n < BVH_PACKET && !(x == w - 1 && j == k - 1 && i == k - 1))
+                    continue;
+                accel_closest_packet(job->a, r, n, h, best, st);
+                for (int m = 0; m < n; m++) {
+                    Vec3 c = shade_traced(s, job->a, &r[m], best[m], &h[m], &job->in, st);
+                    float *p = row + 3 * px[m];
+                    p[0] += c.x;
+                    p[1] += c.y;
+                    p[2] += c.z;
+                }
+                n = 0;
+            }
+        st->camera += (unsigned long long)(k * k);
+    }
+    if (k > 1) /* as render_pixel: vec_scale by the reciprocal */
+        for (int x = 0; x < 3 * w; x++)
+            row[x] *= 1.0f / (float)(k * k);
+}
+
 static void *worker(void *arg)
 {
     Job *job = arg;
@@ -50,13 +88,7 @@ static void *worker(void *arg)
         pthread_mutex_unlock(&job->lock);
         if (y < 0)
             break;
-        float *row = job->img->rgb + (size_t)y * (size_t)w * 3;
-        for (int x = 0; x < w; x++) {
-            Vec3 c = render_pixel(job->s, job->a, &job->cam, &job->in, x, y, &st);
-            row[3 * x] = c.x;
-            row[3 * x + 1] = c.y;
-            row[3 * x + 2] = c.z;
-        }
+        render_row(job, y, job->img->rgb + (size_t)y * (size_t)w * 3, &st);
         pthread_mutex_lock(&job->lock);
         job->rows_done++;
         if (job->opt->progress)

@@ -165,6 +165,7 @@ static Vec3 direct(const Ctx *c, const Material *m, const Surface *sf, const Ray
 }
 
 static Vec3 trace(const Ctx *c, const Ray *r, int level, int continued, const Interiors *in);
+static Vec3 shade(const Ctx *c, const Ray *r, int i, const PrimHit *h, int level, const Interiors *in);
 
 /* The ray refracted into or out of primitive `prim` (POV-Ray's trace.cpp
  * ComputeRefraction: the ratio of indices comes from the ray's list of
@@ -224,11 +225,18 @@ static Vec3 trace(const Ctx *c, const Ray *r, int level, int continued, const In
         level++;
     PrimHit h;
     int i = accel_closest(c->a, r, &h, c->st);
+    return shade(c, r, i, &h, level, in);
+}
+
+/* The colour of a ray at `level` whose closest hit is primitive i (h), or
+ * the background when i < 0. */
+static Vec3 shade(const Ctx *c, const Ray *r, int i, const PrimHit *h, int level, const Interiors *in)
+{
     if (i < 0)
         return c->s->background;
     const Material *m = material_of(c, i);
     Surface sf;
-    prim_surface(&c->a->prims[i], r, &h, c->a->variant, &sf);
+    prim_surface(&c->a->prims[i], r, h, c->a->variant, &sf);
     Vec3 col = direct(c, m, &sf, r);
     /* Any child ray of a hit at the last level returns black: skip them. */
     if (level >= c->s->max_depth)
@@ -252,4 +260,14 @@ Vec3 shade_trace(const Scene *s, const Accel *a, const Ray *r, const Interiors *
     Ctx c = {s, a, st};
     Interiors none = {0, {0}};
     return trace(&c, r, 0, 0, in ? in : &none);
+}
+
+Vec3 shade_traced(const Scene *s, const Accel *a, const Ray *r, int i, const PrimHit *h, const Interiors *in,
+                  RayStats *st)
+{
+    if (s->max_depth < 1) /* as trace() at level 0 */
+        return vec3(0, 0, 0);
+    Ctx c = {s, a, st};
+    Interiors none = {0, {0}};
+    return shade(&c, r, i, h, 1, in ? in : &none);
 }

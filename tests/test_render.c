@@ -1,5 +1,6 @@
 /* Tests for render.c: the image does not depend on the thread count, every
- * pixel gets one camera ray, and progress reaches every row in order. */
+ * pixel gets one camera ray, progress reaches every row in order, and the
+ * packets of camera rays change no pixel. */
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -84,11 +85,49 @@ static void test_counts_and_progress(void **state)
     image_free(&img);
 }
 
+/* render_image traces camera rays in packets; each pixel must still be
+ * render_pixel's, bit for bit, with one sample or several, on a width
+ * that leaves a partial packet at each row's end. */
+static void test_pixels_are_render_pixel(void **state)
+{
+    (void)state;
+    for (int spp = 1; spp <= 2; spp++) {
+        Scene s;
+        Accel a;
+        Image img;
+        RayStats st = {0, 0, 0, 0, 0}, st1 = st;
+        char err[512];
+        assert_int_equal(scene_load("scenes/default.scn", &s, err, sizeof err), 0);
+        s.width = 29;
+        s.height = 23;
+        s.spp = spp;
+        assert_int_equal(accel_build(&a, &s, 1), 0);
+        assert_int_equal(image_init(&img, s.width, s.height), 0);
+        RenderOptions opt = {1, NULL, NULL};
+        assert_int_equal(render_image(&s, &a, &opt, &img, &st), 0);
+        Camera cam;
+        Interiors in;
+        camera_init(&cam, &s.camera, s.width, s.height);
+        shade_interiors_at(&s, s.camera.eye, &in);
+        for (int y = 0; y < s.height; y++)
+            for (int x = 0; x < s.width; x++) {
+                Vec3 c = render_pixel(&s, &a, &cam, &in, x, y, &st1);
+                float want[3] = {c.x, c.y, c.z};
+                assert_memory_equal(&img.rgb[3 * (y * s.width + x)], want, sizeof want);
+            }
+        assert_true(st.camera == st1.camera && st.shadow == st1.shadow && st.isect_tests == st1.isect_tests);
+        image_free(&img);
+        accel_free(&a);
+        scene_free(&s);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_thread_count_does_not_change_pixels),
         cmocka_unit_test(test_counts_and_progress),
+        cmocka_unit_test(test_pixels_are_render_pixel),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -45,6 +45,11 @@ void shade_interiors_at(const Scene *s, Vec3 p, Interiors *in);
 /* The colour seen along camera ray r, which starts inside `in`. */
 Vec3 shade_trace(const Scene *s, const Accel *a, const Ray *r, const Interiors *in, RayStats *st);
 
+/* shade_trace when the camera ray's closest hit is already known: i and h
+ * from accel_closest (or accel_closest_packet). The same colour. */
+Vec3 shade_traced(const Scene *s, const Accel *a, const Ray *r, int i, const PrimHit *h, const Interiors *in,
+                  RayStats *st);
+
 /* POV-Ray's area-light weights along one axis of n samples (n <= 64): the
  * leaves of its recursive halving of the grid, which is a plain mean only
  * when n is a power of two. Writes n weights summing to 1. */
