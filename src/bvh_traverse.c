@@ -389,9 +389,12 @@ typedef struct {
 } PacketPre;
 
 /* 0 when the rays do not share an origin, or a direction's sign on some
- * axis, or one is parallel to an axis plane: those go one by one. */
+ * axis, or one is parallel to an axis plane (or there are none): those go
+ * one by one. */
 static int packet_pre(const Ray *r, int n, PacketPre *p)
 {
+    if (n < 1)
+        return 0;
     float inv[3][BVH_PACKET];
     for (int k = 0; k < BVH_PACKET; k++) {
         const Ray *rk = &r[k < n ? k : 0];
