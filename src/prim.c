@@ -23,17 +23,6 @@
 static double gamma_d(int n) { return n * UNIT_D / (1.0 - n * UNIT_D); }
 static float gamma_f(int n) { return (float)(n * UNIT_F / (1.0 - n * UNIT_F)); }
 
-/* A float >= x, for x >= 0: x rounded, and one ulp more when that rounded
- * down (f * (1 + 2^-23) is at least the next float for a normal f, and
- * avoids a call to nextafterf on this hot path). */
-static float float_up(double x)
-{
-    float f = (float)x;
-    if ((double)f >= x)
-        return f;
-    return f >= FLT_MIN ? f * (1.0f + FLT_EPSILON) : nextafterf(f, INFINITY);
-}
-
 /* nextafterf(x, up ? INFINITY : -INFINITY), without the call: a finite
  * non-zero float's neighbours are one step away in its bits. */
 static float float_next(float x, int up)
@@ -47,6 +36,24 @@ static float float_next(float x, int up)
     b = (x > 0.0f) == (up != 0) ? b + 1 : b - 1;
     memcpy(&x, &b, sizeof x);
     return x;
+}
+
+/* A float >= x, for x >= 0: x rounded, and one ulp more when that rounded
+ * down (f * (1 + 2^-23) is at least the next float for a normal f, and
+ * avoids float_next's branches on this hot path). Both are computed and
+ * one is picked: whether x rounded down is a coin toss, and a branch on it
+ * is mispredicted half the time. */
+static float float_up(double x)
+{
+    float f = (float)x;
+    float g = f >= FLT_MIN ? f * (1.0f + FLT_EPSILON) : float_next(f, 1);
+    /* (double)f >= x ? f : g, by a mask: compilers branch on the ?: */
+    uint32_t bf, bg, keep = -(uint32_t)((double)f >= x);
+    memcpy(&bf, &f, sizeof bf);
+    memcpy(&bg, &g, sizeof bg);
+    bf = (bf & keep) | (bg & ~keep);
+    memcpy(&f, &bf, sizeof f);
+    return f;
 }
 
 /* t as a float, and a float bound covering both err (a bound on |t - exact|)
