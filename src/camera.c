@@ -17,11 +17,3 @@ void camera_init(Camera *cam, const CameraSpec *spec, int width, int height)
     cam->inv_w = 1.0f / (float)width;
     cam->inv_h = 1.0f / (float)height;
 }
-
-Ray camera_ray(const Camera *cam, float x, float y)
-{
-    float sx = 2.0f * x * cam->inv_w - 1.0f;
-    float sy = 1.0f - 2.0f * y * cam->inv_h;
-    Vec3 d = vec_add(cam->f, vec_add(vec_scale(cam->r, sx), vec_scale(cam->u, sy)));
-    return ray_make(cam->eye, vec_normalize(d), INFINITY);
-}

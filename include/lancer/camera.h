@@ -25,7 +25,15 @@ typedef struct {
 /* The spec must be valid (scene_parse guarantees it). */
 void camera_init(Camera *cam, const CameraSpec *spec, int width, int height);
 
-/* The ray through image-plane position (x, y) in pixels. */
-Ray camera_ray(const Camera *cam, float x, float y);
+/* The ray through image-plane position (x, y) in pixels. Inline: the
+ * render loop calls it for every sample, and a Ray returned from a call
+ * goes through memory. */
+static inline Ray camera_ray(const Camera *cam, float x, float y)
+{
+    float sx = 2.0f * x * cam->inv_w - 1.0f;
+    float sy = 1.0f - 2.0f * y * cam->inv_h;
+    Vec3 d = vec_add(cam->f, vec_add(vec_scale(cam->r, sx), vec_scale(cam->u, sy)));
+    return ray_make(cam->eye, vec_normalize(d), INFINITY);
+}
 
 #endif
