@@ -6,6 +6,7 @@
 #include <pthread.h>
 #include <stdlib.h>
 
+#include "lancer/camera.h"
 #include "lancer/shade.h"
 
 typedef struct {
@@ -19,25 +20,6 @@ typedef struct {
     int next_row, rows_done;
     RayStats stats;
 } Job;
-
-Vec3 render_pixel(const Scene *s, const Accel *a, const Camera *cam, const Interiors *in, int x, int y,
-                  RayStats *st)
-{
-    /* k x k sub-pixel centres, the same points as the pixel centres of a
-     * render at k times the size: that render, averaged in k x k blocks, is
-     * the box-filtered reference. */
-    int k = s->spp;
-    Vec3 sum = vec3(0, 0, 0);
-    for (int j = 0; j < k; j++)
-        for (int i = 0; i < k; i++) {
-            float px = (float)x + ((float)i + 0.5f) / (float)k;
-            float py = (float)y + ((float)j + 0.5f) / (float)k;
-            Ray r = camera_ray(cam, px, py);
-            sum = vec_add(sum, shade_trace(s, a, &r, in, st));
-        }
-    st->camera += (unsigned long long)(k * k);
-    return k == 1 ? sum : vec_scale(sum, 1.0f / (float)(k * k));
-}
 
 /* Starts loading the primitives hit, which shading reads first (their
  * material, then their shape): the loads then overlap instead of stalling
@@ -58,9 +40,12 @@ static void prefetch_prims(const Accel *a, const int *best, int n)
 #endif
 }
 
-/* Row y into row (3 floats a pixel): render_pixel for each pixel, bit for
- * bit, with the camera rays traced BVH_PACKET at a time (neighbours share
- * the eye and most of their path through the BVH). */
+/* Row y into row (3 floats a pixel): each pixel the mean of s->spp x
+ * s->spp camera rays through a regular grid of sub-pixel centres, the same
+ * points as the pixel centres of a render at spp times the size (that
+ * render, averaged in blocks, is the box-filtered reference). The camera
+ * rays are traced BVH_PACKET at a time: neighbours share the eye and most
+ * of their path through the BVH. */
 static void render_row(const Job *job, int y, float *row, RayStats *st)
 {
     const Scene *s = job->s;
@@ -72,7 +57,6 @@ static void render_row(const Job *job, int y, float *row, RayStats *st)
         row[3 * x] = row[3 * x + 1] = row[3 * x + 2] = 0.0f;
         for (int j = 0; j < k; j++)
             for (int i = 0; i < k; i++) {
-                /* as render_pixel */
                 float sx = (float)x + ((float)i + 0.5f) / (float)k;
                 float sy = (float)y + ((float)j + 0.5f) / (float)k;
                 r[n] = camera_ray(&job->cam, sx, sy);
@@ -92,7 +76,7 @@ static void render_row(const Job *job, int y, float *row, RayStats *st)
             }
         st->camera += (unsigned long long)(k * k);
     }
-    if (k > 1) /* as render_pixel: vec_scale by the reciprocal */
+    if (k > 1)
         for (int x = 0; x < 3 * w; x++)
             row[x] *= 1.0f / (float)(k * k);
 }

@@ -8,7 +8,7 @@
  * Rows are handed out to threads one at a time; every pixel is computed on
  * its own from the same inputs, so the image is bit-identical for any thread
  * count. A row's camera rays are traced eight at a time
- * (accel_closest_packet), which changes no pixel: each is render_pixel's.
+ * (accel_closest_packet), which changes no pixel: each is shade_trace's.
  * The progress callback, when set, is called after each finished row with
  * the number of rows done, from whichever thread finished it, one call at a
  * time (it must not call back into the renderer).
@@ -17,9 +17,7 @@
 #define LANCER_RENDER_H
 
 #include "lancer/accel.h"
-#include "lancer/camera.h"
 #include "lancer/image.h"
-#include "lancer/shade.h"
 
 typedef void (*RenderProgress)(void *ctx, int rows_done, int rows_total);
 
@@ -33,10 +31,5 @@ typedef struct {
  * counts to *stats. Returns 0, or -1 when its lock cannot be set up (the
  * calling thread renders even when no other thread can be started). */
 int render_image(const Scene *s, const Accel *a, const RenderOptions *opt, Image *img, RayStats *stats);
-
-/* The colour of pixel (x, y): the mean of s->spp x s->spp camera rays through
- * a regular grid of sub-pixel centres (one ray through the centre for 1). */
-Vec3 render_pixel(const Scene *s, const Accel *a, const Camera *cam, const Interiors *in, int x, int y,
-                  RayStats *st);
 
 #endif
