@@ -144,6 +144,18 @@ typedef struct {
 
 #define HELP_SHOWN 3 /* parse_opts showed --help: exit 0 */
 
+/* The whole number s, if it is one from lo to hi: 0, else -1 (*out kept). */
+static int parse_int(const char *s, int lo, int hi, int *out)
+{
+    char *end;
+    errno = 0;
+    long v = strtol(s, &end, 10);
+    if (errno || end == s || *end || v < lo || v > hi)
+        return -1;
+    *out = (int)v;
+    return 0;
+}
+
 /* Parses argv against opts; other arguments are positional, at most maxpos
  * of them. Returns 0, HELP_SHOWN, or 2 after a usage message. */
 static int parse_opts(const char *cmd, const char *usage, int argc, char **argv, const Opt *opts, int nopts,
@@ -188,11 +200,9 @@ static int parse_opts(const char *cmd, const char *usage, int argc, char **argv,
         if (o->kind == OPT_STRING) {
             *(const char **)o->dst = val;
         } else if (o->kind == OPT_INT) {
-            long v = strtol(val, &end, 10);
-            if (errno || end == val || *end || v < o->lo || v > o->hi)
+            if (parse_int(val, o->lo, o->hi, (int *)o->dst) != 0)
                 return usage_error(cmd, "%s needs a whole number from %d to %d, not '%s'", o->name, o->lo, o->hi,
                                    val);
-            *(int *)o->dst = (int)v;
         } else {
             double v = strtod(val, &end);
             if (errno || end == val || *end || !(v > 0) || !isfinite(v))
@@ -678,14 +688,9 @@ static int cmd_bench(int argc, char **argv)
     int w = 1024, h = 1024;
     if (gen && (npos != 1 && npos != 3))
         return usage_error("bench", "--gen-rays needs MESH OUTDIR [W H]");
-    if (gen && npos == 3) {
-        char *e1, *e2;
-        long pw = strtol(pos[1], &e1, 10), ph = strtol(pos[2], &e2, 10);
-        if (*e1 || *e2 || pw < 1 || ph < 1 || pw > IMAGE_MAX_SIDE || ph > IMAGE_MAX_SIDE)
-            return usage_error("bench", "W and H must be whole numbers from 1 to %d", IMAGE_MAX_SIDE);
-        w = (int)pw;
-        h = (int)ph;
-    }
+    if (gen && npos == 3 &&
+        (parse_int(pos[1], 1, IMAGE_MAX_SIDE, &w) != 0 || parse_int(pos[2], 1, IMAGE_MAX_SIDE, &h) != 0))
+        return usage_error("bench", "W and H must be whole numbers from 1 to %d", IMAGE_MAX_SIDE);
     if (mesh && (!rays || !kind || (strcmp(kind, "closest") != 0 && strcmp(kind, "any") != 0) || npos != 0))
         return usage_error("bench", "--mesh needs --rays FILE and --kind closest or any");
     Scene s;

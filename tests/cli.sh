@@ -161,6 +161,11 @@ expect 0 "$LANCER" bench --build-series "$T/tet.off" --max-mtris 1
 has "$T/out" "| 4 | "
 expect 2 "$LANCER" bench --mesh "$T/tet.off" --rays "$T/rays/primary.rays" --kind nearest
 expect 2 "$LANCER" bench --gen-rays "$T/tet.off"
+expect 2 "$LANCER" bench --gen-rays "$T/tet.off" "$T/rays" 16 x
+has "$T/err" "W and H must be whole numbers from 1 to"
+expect 2 "$LANCER" bench --gen-rays "$T/tet.off" "$T/rays" 0 16
+expect 2 "$LANCER" bench --gen-rays "$T/tet.off" "$T/rays" 16 99999
+expect 2 "$LANCER" bench --gen-rays "$T/tet.off" "$T/rays" 16 ""
 expect 1 "$LANCER" bench --mesh "$T/tet.off" --rays "$T/tet.off" --kind any
 has "$T/err" "not a ray file"
 expect 1 "$LANCER" bench --gen-rays "$T/none.off" "$T/rays"
