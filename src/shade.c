@@ -72,14 +72,12 @@ static Vec3 pass_factor(const Material *m)
     return vec_add(vec_scale(m->color, m->filter), vec3(m->transmit, m->transmit, m->transmit));
 }
 
-/* The light arriving at p from point q: 1 when nothing is in between, 0
- * behind an opaque object, and the product of pass_factor over every
- * transparent surface crossed (refraction is ignored, as in POV-Ray). */
-static Vec3 transmittance(const Ctx *c, const Surface *from, Vec3 q)
+/* The light arriving at p from point q, at distance dist in unit
+ * direction d: 1 when nothing is in between, 0 behind an opaque object,
+ * and the product of pass_factor over every transparent surface crossed
+ * (refraction is ignored, as in POV-Ray). */
+static Vec3 transmittance(const Ctx *c, const Surface *from, Vec3 q, Vec3 d, float dist)
 {
-    Vec3 d = vec_sub(q, from->p);
-    float dist = vec_length(d);
-    d = vec_scale(d, 1.0f / dist);
     Ray r = ray_make(prim_spawn_origin(from, d), d, dist);
     c->st->shadow++;
     if (!c->s->transparent) /* any hit will do */
@@ -103,11 +101,12 @@ static Vec3 transmittance(const Ctx *c, const Surface *from, Vec3 q)
     return vec3(0, 0, 0);
 }
 
-/* The visible fraction of light l from p, per channel. */
-static Vec3 light_visibility(const Ctx *c, const Light *l, const Surface *sf)
+/* The visible fraction of light l from p, per channel; L and dist: the
+ * unit direction and distance from p to l->pos, which direct() has. */
+static Vec3 light_visibility(const Ctx *c, const Light *l, const Surface *sf, Vec3 L, float dist)
 {
     if (l->area_n1 * l->area_n2 == 1)
-        return transmittance(c, sf, l->pos);
+        return transmittance(c, sf, l->pos, L, dist);
     float w1[SCENE_MAX_AREA_SAMPLES], w2[SCENE_MAX_AREA_SAMPLES];
     shade_area_weights(l->area_n1, w1);
     shade_area_weights(l->area_n2, w2);
@@ -117,7 +116,9 @@ static Vec3 light_visibility(const Ctx *c, const Light *l, const Surface *sf)
         for (int i = 0; i < l->area_n1; i++) {
             float su = l->area_n1 > 1 ? (float)i / (float)(l->area_n1 - 1) - 0.5f : 0.0f;
             Vec3 q = vec_madd(vec_madd(l->pos, l->area_u, su), l->area_v, sv);
-            vis = vec_madd(vis, transmittance(c, sf, q), w1[i] * w2[j]);
+            Vec3 d = vec_sub(q, sf->p);
+            float qd = vec_length(d);
+            vis = vec_madd(vis, transmittance(c, sf, q, vec_scale(d, 1.0f / qd), qd), w1[i] * w2[j]);
         }
     }
     return vis;
@@ -158,7 +159,7 @@ static Vec3 direct(const Ctx *c, const Material *m, const Surface *sf, const Ray
             continue; /* nothing to add: skip the shadow rays */
         Vec3 lc = vec_scale(l->color, fade(l, dist));
         if (!l->shadowless)
-            lc = vec_mul(lc, light_visibility(c, l, sf));
+            lc = vec_mul(lc, light_visibility(c, l, sf, L, dist));
         col = vec_add(col, vec_mul(lc, term));
     }
     return col;
