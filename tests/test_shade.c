@@ -1,6 +1,7 @@
 /* Shaded values checked against REFERENCE.md section 1 evaluated by hand:
  * a lit point, fade, a point in shadow, shadowless lights, the phong and
- * specular peaks, one reflection bounce, and the depth limit. */
+ * specular peaks, one reflection bounce, and the depth limit; and that
+ * shading a known first hit (shade_traced) is shade_trace. */
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -344,6 +345,50 @@ static void test_no_self_shadowing_on_spheres(void **state)
     }
 }
 
+/* shade_traced, given accel_closest_packet's hits, is shade_trace, bit for
+ * bit: on a mirror floor (a plane, outside the BVH) reflecting spheres and
+ * the background, at every depth limit, 0 included. */
+static void test_traced_is_trace(void **state)
+{
+    (void)state;
+    Scene s;
+    load(&s, "material mirror { color 0.2 0.2 0.2 ambient 0.1 diffuse 0.3 reflection 0.5 }\n"
+             "material q { color 1 0.5 0.25 ambient 0.9 diffuse 0.4 }\n"
+             "light { position 2 9 -3 }\n"
+             "plane { normal 0 1 0 material mirror }\n"
+             "sphere { center 6 8 0 radius 1 material q }\n"
+             "sphere { center 0.5 0.5 0.5 radius 0.4 material q }\n");
+    /* the mirror in place of the scene's own floor */
+    memmove(&s.prims[0], &s.prims[1], sizeof(Prim) * (size_t)(s.nprims - 1));
+    s.nprims--;
+    Accel a;
+    assert_int_equal(accel_build(&a, &s, 1), 0);
+    /* one sign per axis, so that they go through the BVH as one packet */
+    const Vec3 dirs[] = {vec3(3, -4, 0.05f), vec3(3, -4, 3), vec3(3.4f, -3.6f, 0.4f), vec3(3, -3.9f, 0.1f),
+                         vec3(2, -0.5f, 0.2f)};
+    const int n = (int)(sizeof dirs / sizeof dirs[0]);
+    for (int depth = 0; depth <= 3; depth++) {
+        s.max_depth = depth;
+        Ray r[BVH_PACKET];
+        PrimHit h[BVH_PACKET];
+        int best[BVH_PACKET];
+        RayStats st = {0, 0, 0, 0, 0}, st1 = st;
+        for (int k = 0; k < n; k++)
+            r[k] = ray_make(EYE, vec_normalize(dirs[k]), INFINITY);
+        accel_closest_packet(&a, r, n, h, best, &st);
+        for (int k = 0; k < n; k++) {
+            PrimHit w;
+            assert_int_equal(best[k], accel_closest(&a, &r[k], &w, &st1));
+            Vec3 got = shade_traced(&s, &a, &r[k], best[k], &h[k], NULL, &st);
+            Vec3 want = shade_trace(&s, &a, &r[k], NULL, &st1);
+            assert_memory_equal(&got, &want, sizeof got);
+        }
+        assert_true(st.shadow == st1.shadow && st.reflection == st1.reflection);
+    }
+    accel_free(&a);
+    scene_free(&s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -355,6 +400,7 @@ int main(void)
         cmocka_unit_test(test_area_light_penumbra), cmocka_unit_test(test_transparent_surface),
         cmocka_unit_test(test_shadow_through_glass), cmocka_unit_test(test_refraction_through_slab),
         cmocka_unit_test(test_total_internal_reflection), cmocka_unit_test(test_no_self_shadowing_on_spheres),
+        cmocka_unit_test(test_traced_is_trace),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
