@@ -245,23 +245,22 @@ int prim_plane_hit_robust(const Plane *pl, const Ray *r, PrimHit *h)
     double nx = pl->n.x, ny = pl->n.y, nz = pl->n.z;
     double dx = nx * r->d.x, dy = ny * r->d.y, dz = nz * r->d.z;
     double den = dx + dy + dz;
-    double e_den = gamma_d(2) * (fabs(dx) + fabs(dy) + fabs(dz));
-    if (!(fabs(den) > e_den))
-        return 0; /* parallel to working precision: a miss, by definition */
     double ox = nx * r->o.x, oy = ny * r->o.y, oz = nz * r->o.z;
-    double no = ox + oy + oz;
-    double e_no = gamma_d(2) * (fabs(ox) + fabs(oy) + fabs(oz));
-    double num = (double)pl->d - no;
+    double num = (double)pl->d - (ox + oy + oz);
     /* Two verdicts without the divisions below, the same as theirs: t = num
      * / den is <= 0, or at least tmax (so is its rounding: tmax is a float;
      * the product's rounding is covered by 2^-50). Shadow rays off the
-     * plane and rays stopped short of it by a nearer hit end here. */
+     * plane and rays stopped short of it by a nearer hit end here. The
+     * first comes before the error bounds: either way it is a miss. */
     if (num == 0.0 || (num < 0.0) != (den < 0.0))
         return 0;
+    double e_den = gamma_d(2) * (fabs(dx) + fabs(dy) + fabs(dz));
+    if (!(fabs(den) > e_den))
+        return 0; /* parallel to working precision: a miss, by definition */
     double reach = (double)r->tmax * fabs(den);
     if (reach > 0x1p-1000 && fabs(num) >= reach * (1.0 + 0x1p-50))
         return 0;
-    double e_num = e_no + gamma_d(1) * fabs(num);
+    double e_num = gamma_d(2) * (fabs(ox) + fabs(oy) + fabs(oz)) + gamma_d(1) * fabs(num);
     double t = num / den;
     float tf = round_t(t, quotient_err(t, den, e_num, e_den), &h->terr);
     if (!(tf > 0.0f && tf < r->tmax))
