@@ -514,39 +514,30 @@ int image_write_png(const Image *img, const char *path, char *err, size_t errlen
         snprintf(err, errlen, "%s: cannot write: invalid image", path);
         return -1;
     }
-    char tmp[AFILE_PATH_MAX];
-    if (afile_temp(path, tmp, sizeof tmp, err, errlen) != 0)
-        return -1;
-
     ImagePngJob job;
     memset(&job, 0, sizeof job);
     job.img = img;
     job.row = malloc((size_t)img->width * 3);
     if (job.row == NULL) {
-        afile_abort(tmp);
         snprintf(err, errlen, "%s: cannot write: out of memory", path);
         return -1;
     }
-    job.fp = fopen(tmp, "wb");
+    char tmp[AFILE_PATH_MAX];
+    job.fp = afile_fopen(path, tmp, sizeof tmp, err, errlen);
     if (job.fp == NULL) {
-        snprintf(job.msg, sizeof job.msg, "%s", strerror(errno));
-    } else {
-        int rc = image_png_run(&job);
-        if (job.png != NULL)
-            png_destroy_write_struct(&job.png, &job.info);
-        /* fclose flushes the last buffered bytes: a late ENOSPC shows here. */
-        errno = 0;
-        if (fclose(job.fp) != 0 && rc == 0) {
-            snprintf(job.msg, sizeof job.msg, "%s", strerror(errno != 0 ? errno : EIO));
-        } else if (rc != 0 && job.msg[0] == '\0') {
-            snprintf(job.msg, sizeof job.msg, "PNG encoding failed");
-        }
-    }
-    free(job.row);
-    if (job.msg[0] != '\0') {
-        afile_abort(tmp);
-        snprintf(err, errlen, "%s: cannot write: %s", path, job.msg);
+        free(job.row);
         return -1;
     }
-    return afile_commit(tmp, path, err, errlen);
+    int rc = image_png_run(&job);
+    if (job.png != NULL)
+        png_destroy_write_struct(&job.png, &job.info);
+    free(job.row);
+    if (rc != 0) {
+        fclose(job.fp);
+        afile_abort(tmp);
+        snprintf(err, errlen, "%s: cannot write: %s", path, job.msg[0] ? job.msg : "PNG encoding failed");
+        return -1;
+    }
+    /* fclose flushes the last buffered bytes: a late ENOSPC shows there */
+    return afile_fclose(job.fp, tmp, path, err, errlen);
 }
