@@ -414,6 +414,25 @@ static int push_tri(const Reader *R, Build *B, const int c[3], const int nc[3])
     return 0;
 }
 
+/* Corner j of a polygon fanned into triangles from its first corner:
+ * vertex v (and normal n, when nc is given) into c (nc); from the third
+ * corner on, each closes a triangle. */
+static int fan_corner(const Reader *R, Build *B, long long j, int v, int n, int c[3], int nc[3])
+{
+    int at = j < 2 ? (int)j : 2;
+    c[at] = v;
+    if (nc)
+        nc[at] = n;
+    if (j < 2)
+        return 0;
+    if (push_tri(R, B, c, nc) != 0)
+        return -1;
+    c[1] = c[2];
+    if (nc)
+        nc[1] = nc[2];
+    return 0;
+}
+
 /* Two-sum (Knuth): a + b == *s + *e exactly, |*e| <= ulp(*s) / 2. */
 static void two_sum(double a, double b, double *s, double *e)
 {
@@ -666,12 +685,8 @@ static int parse_off(Reader *R, Build *B)
                 return fail(R, R->line, "malformed vertex index '%s'", quote(t, qb));
             if (idx < 0 || idx >= nv)
                 return fail(R, R->line, "vertex index %lld out of range (%lld vertices)", idx, nv);
-            c[j < 2 ? j : 2] = (int)idx;
-            if (j >= 2) {
-                if (push_tri(R, B, c, NULL) != 0)
-                    return -1;
-                c[1] = c[2];
-            }
+            if (fan_corner(R, B, j, (int)idx, 0, c, NULL) != 0)
+                return -1;
         }
         int extra = 0;
         while (next_tok(&q, e, &t)) {
@@ -828,14 +843,8 @@ static int parse_obj(Reader *R, Build *B)
                     with_n = ni >= 0;
                 else if (with_n != (ni >= 0))
                     return fail(R, R->line, "face mixes corners with and without normals");
-                c[k < 2 ? k : 2] = vi;
-                nc[k < 2 ? k : 2] = ni < 0 ? 0 : ni;
-                if (k >= 2) {
-                    if (push_tri(R, B, c, nc) != 0)
-                        return -1;
-                    c[1] = c[2];
-                    nc[1] = nc[2];
-                }
+                if (fan_corner(R, B, k, vi, ni < 0 ? 0 : ni, c, nc) != 0)
+                    return -1;
                 k++;
             }
             if (k < 3)
@@ -1138,18 +1147,6 @@ static const char *ply_slot_name(const Ply *P, int j)
     return j == P->pos[0] || j == P->pos[1] || j == P->pos[2] ? "coordinate" : "normal component";
 }
 
-/* Adds the corner with vertex index idx to the fan of corner j. */
-static int ply_corner(Ply *P, long long j, long long idx, int c[3])
-{
-    c[j < 2 ? j : 2] = (int)idx;
-    if (j >= 2) {
-        if (push_tri(P->R, P->B, c, NULL) != 0)
-            return -1;
-        c[1] = c[2];
-    }
-    return 0;
-}
-
 /* Checks that ASCII token t is a value of type `type`. */
 static int ply_check_ascii(const Reader *R, Tok t, PlyType type)
 {
@@ -1215,7 +1212,7 @@ static int ply_ascii(Ply *P)
                         return fail(R, R->line, "malformed vertex index '%s'", quote(t, q1));
                     if (idx < 0 || idx >= nv)
                         return fail(R, R->line, "vertex index %lld out of range (%d vertices)", idx, nv);
-                    if (ply_corner(P, k, idx, corner) != 0)
+                    if (fan_corner(P->R, P->B, k, (int)idx, 0, corner, NULL) != 0)
                         return -1;
                 }
             }
@@ -1332,7 +1329,7 @@ static int ply_binary(Ply *P)
                     long long idx = (long long)ply_get(base + off, pr->type);
                     if (idx < 0 || idx >= nv)
                         return fail_at(R, E->line, off, "vertex index %lld out of range (%d vertices)", idx, nv);
-                    if (ply_corner(P, k, idx, corner) != 0)
+                    if (fan_corner(P->R, P->B, k, (int)idx, 0, corner, NULL) != 0)
                         return -1;
                 }
             }
