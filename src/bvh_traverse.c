@@ -382,15 +382,15 @@ int OCCLUDED(const Bvh *b, const Ray *r, unsigned long long *tests)
  * padding). Leaves are then tested ray by ray with the single-ray slab test,
  * lanes for rays. */
 typedef struct {
-    __m256 o8[3];          /* the common origin */
+    __m256 o8[3];              /* the common origin */
     __m256 imin8[3], imax8[3]; /* the ends of the packet's inverse directions, by axis */
-    __m256 inv8[3];        /* lane k: ray k's inverse direction */
-    int near[3], far[3];   /* as in RayPre: all rays share each axis's sign */
+    __m256 inv8[3];            /* lane k: ray k's inverse direction */
+    int near[3], far[3];       /* as in RayPre: all rays share each axis's sign */
 } PacketPre;
 
 /* 0 when the rays do not share an origin, or a direction's sign on some
- * axis, or one is parallel to an axis plane (or there are none): those go
- * one by one. */
+ * axis, or one is parallel to an axis plane or not a number (or there are
+ * none): those go one by one. */
 static int packet_pre(const Ray *r, int n, PacketPre *p)
 {
     if (n < 1)
@@ -403,8 +403,13 @@ static int packet_pre(const Ray *r, int n, PacketPre *p)
         /* as ray_pre divides */
         float v[4];
         _mm_storeu_ps(v, _mm_div_ps(_mm_set1_ps(1.0f), _mm_setr_ps(rk->d.x, rk->d.y, rk->d.z, 1.0f)));
-        for (int a = 0; a < 3; a++)
+        for (int a = 0; a < 3; a++) {
+            /* every lane finite, non-zero and of ray 0's sign: a NaN would
+             * slip past the min and max below */
+            if (!(fabsf(v[a]) <= FLT_MAX) || v[a] == 0.0f || (k > 0 && (v[a] < 0.0f) != (inv[a][0] < 0.0f)))
+                return 0;
             inv[a][k] = v[a];
+        }
     }
     const float o[3] = {r->o.x, r->o.y, r->o.z};
     for (int a = 0; a < 3; a++) {
@@ -413,8 +418,6 @@ static int packet_pre(const Ray *r, int n, PacketPre *p)
             lo = inv[a][k] < lo ? inv[a][k] : lo;
             hi = inv[a][k] > hi ? inv[a][k] : hi;
         }
-        if (!(lo > 0.0f || hi < 0.0f) || !(hi - lo < INFINITY))
-            return 0; /* mixed signs, or infinite (or NaN) */
         int neg = hi < 0.0f;
         int l = (int)(offsetof(BvhWideNode, lo) + sizeof(float[BVH_WIDTH]) * (size_t)a);
         int h = (int)(offsetof(BvhWideNode, hi) + sizeof(float[BVH_WIDTH]) * (size_t)a);
@@ -553,7 +556,8 @@ int bvh_occluded(const Bvh *b, const Ray *r, unsigned long long *tests)
 void bvh_closest_packet(const Bvh *b, const Ray *r, int n, PrimHit *h, int *best, unsigned long long *tests)
 {
     if (__builtin_cpu_supports("avx2")) {
-        bvh_closest_packet_avx2(b, r, n, h, best, tests);
+        for (int k = 0; k < n; k += BVH_PACKET) /* packets of at most BVH_PACKET */
+            bvh_closest_packet_avx2(b, r + k, n - k < BVH_PACKET ? n - k : BVH_PACKET, h + k, best + k, tests);
         return;
     }
     for (int k = 0; k < n; k++)

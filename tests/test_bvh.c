@@ -298,26 +298,32 @@ static void test_closed_mesh_has_no_leaks(void **state)
     free(p);
 }
 
-/* Counts the rays of `packets` packets from shared origins on which
- * bvh_closest_packet and bvh_closest disagree (primitive or hit, bit for
- * bit). Packets are narrow and wide cones (traced together) and, one in
- * eight, rays from different origins or of mixed signs (one by one). Aims
- * at targets(k) when given, else into the cube [-10, 10]^3. */
+/* Counts the rays of `packets` packets on which bvh_closest_packet and
+ * bvh_closest disagree (primitive or hit, bit for bit). Packets of 1 to
+ * BVH_PACKET rays from one origin, narrow and wide cones (traced together
+ * unless their directions' signs differ), and rays that must go one by
+ * one: from two origins, with a NaN or a zero in a direction. Aims at
+ * target(p, k) when given, else into the cube [-10, 10]^3. */
 static int packet_disagreements(const Bvh *b, const Prim *p, int packets, Vec3 (*target)(const Prim *, int))
 {
     unsigned long long tests = 0;
     int bad = 0;
     for (int k = 0; k < packets; k++) {
-        int n = 1 + k % BVH_PACKET;
+        int n = 1 + k % BVH_PACKET, odd = k / BVH_PACKET % 8;
         float spread = k % 3 == 0 ? 0.01f : k % 3 == 1 ? 0.3f : 3.0f;
         Vec3 o = target ? test_rvec(&rng, -0.9f, 0.9f) : test_rvec(&rng, -14, 14);
-        Vec3 aim = target ? target(p, k) : test_rvec(&rng, -10, 10);
+        Vec3 aim = target ? o : test_rvec(&rng, -10, 10);
         Ray r[BVH_PACKET];
         for (int j = 0; j < n; j++) {
             Vec3 at = target ? target(p, k + j) : vec_add(aim, test_rvec(&rng, -spread, spread));
-            Vec3 from = k % 8 == 7 && j == n - 1 ? vec_add(o, vec3(0, 0, 1e-3f)) : o;
-            r[j] = ray_make(from, vec_normalize(vec_sub(at, from)), j % 3 ? INFINITY : test_uniform(&rng, 1, 20));
+            r[j] = ray_make(o, vec_normalize(vec_sub(at, o)), j % 3 ? INFINITY : test_uniform(&rng, 1, 20));
         }
+        if (n > 1 && odd == 5)
+            r[n - 1].o.z += 1e-3f;
+        if (n > 1 && odd == 6)
+            r[n - 1].d.x = NAN;
+        if (n > 1 && odd == 7)
+            r[n - 1].d.y = 0.0f;
         PrimHit h[BVH_PACKET], w;
         int got[BVH_PACKET];
         bvh_closest_packet(b, r, n, h, got, &tests);
@@ -339,13 +345,17 @@ static Vec3 cube_edge_point(const Prim *p, int k)
 static void test_packets_agree_with_single_rays(void **state)
 {
     (void)state;
-    const int n = 60;
-    Prim *p = random_prims(n);
+    /* a tree of one node, and one deep enough for the stack and culling */
+    for (int n = 60; n <= 3000; n *= 50) {
+        Prim *p = random_prims(n);
+        Bvh b;
+        build_ok(&b, p, n, 1);
+        assert_int_equal(packet_disagreements(&b, p, 50000, NULL), 0);
+        bvh_free(&b);
+        free(p);
+    }
+    Prim *p;
     Bvh b;
-    build_ok(&b, p, n, 1);
-    assert_int_equal(packet_disagreements(&b, p, 100000, NULL), 0);
-    bvh_free(&b);
-    free(p);
     /* ties: rays from inside a closed mesh through its shared edges */
     p = calloc(12 * 8 * 8, sizeof(Prim));
     assert_non_null(p);
