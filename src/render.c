@@ -40,6 +40,23 @@ static void prefetch_prims(const Accel *a, const int *best, int n)
 #endif
 }
 
+/* Traces camera rays r[0 .. n-1] through the BVH together and adds each
+ * one's colour to its pixel px[m] of row. */
+static void trace_packet(const Job *job, const Ray *r, const int *px, int n, float *row, RayStats *st)
+{
+    int best[BVH_PACKET];
+    PrimHit h[BVH_PACKET];
+    accel_closest_packet(job->a, r, n, h, best, st);
+    prefetch_prims(job->a, best, n);
+    for (int m = 0; m < n; m++) {
+        Vec3 c = shade_traced(job->s, job->a, &r[m], best[m], &h[m], &job->in, st);
+        float *p = row + 3 * px[m];
+        p[0] += c.x;
+        p[1] += c.y;
+        p[2] += c.z;
+    }
+}
+
 /* Row y into row (3 floats a pixel): each pixel the mean of s->spp x
  * s->spp camera rays through a regular grid of sub-pixel centres, the same
  * points as the pixel centres of a render at spp times the size (that
@@ -48,11 +65,9 @@ static void prefetch_prims(const Accel *a, const int *best, int n)
  * of their path through the BVH. */
 static void render_row(const Job *job, int y, float *row, RayStats *st)
 {
-    const Scene *s = job->s;
-    int k = s->spp, w = job->img->width;
+    int k = job->s->spp, w = job->img->width, n = 0;
     Ray r[BVH_PACKET];
-    int px[BVH_PACKET], best[BVH_PACKET], n = 0;
-    PrimHit h[BVH_PACKET];
+    int px[BVH_PACKET];
     for (int x = 0; x < w; x++) {
         row[3 * x] = row[3 * x + 1] = row[3 * x + 2] = 0.0f;
         for (int j = 0; j < k; j++)
@@ -61,21 +76,15 @@ static void render_row(const Job *job, int y, float *row, RayStats *st)
                 float sy = (float)y + ((float)j + 0.5f) / (float)k;
                 r[n] = camera_ray(&job->cam, sx, sy);
                 px[n++] = x;
-                if (n < BVH_PACKET && !(x == w - 1 && j == k - 1 && i == k - 1))
-                    continue;
-                accel_closest_packet(job->a, r, n, h, best, st);
-                prefetch_prims(job->a, best, n);
-                for (int m = 0; m < n; m++) {
-                    Vec3 c = shade_traced(s, job->a, &r[m], best[m], &h[m], &job->in, st);
-                    float *p = row + 3 * px[m];
-                    p[0] += c.x;
-                    p[1] += c.y;
-                    p[2] += c.z;
+                if (n == BVH_PACKET) {
+                    trace_packet(job, r, px, n, row, st);
+                    n = 0;
                 }
-                n = 0;
             }
         st->camera += (unsigned long long)(k * k);
     }
+    if (n > 0)
+        trace_packet(job, r, px, n, row, st);
     if (k > 1)
         for (int x = 0; x < 3 * w; x++)
             row[x] *= 1.0f / (float)(k * k);

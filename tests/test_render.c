@@ -90,50 +90,55 @@ static void test_counts_and_progress(void **state)
 /* render_image traces camera rays in packets; each pixel must still be the
  * mean of shade_trace over its sub-pixel centres, one ray at a time, bit
  * for bit, with one sample or several, on a width that leaves a partial
- * packet at each row's end. */
+ * packet at each row's end; on the default scene, and on glass spheres
+ * (refraction, transparent shadows). */
 static void test_pixels_are_single_rays(void **state)
 {
     (void)state;
-    for (int k = 1; k <= 2; k++) {
-        Scene s;
-        Accel a;
-        Image img;
-        RayStats st = {0, 0, 0, 0, 0}, st1 = st;
-        char err[512];
-        assert_int_equal(scene_load("scenes/default.scn", &s, err, sizeof err), 0);
-        s.width = 29;
-        s.height = 23;
-        s.spp = k;
-        assert_int_equal(accel_build(&a, &s, 1), 0);
-        assert_int_equal(image_init(&img, s.width, s.height), 0);
-        RenderOptions opt = {1, NULL, NULL};
-        assert_int_equal(render_image(&s, &a, &opt, &img, &st), 0);
-        Camera cam;
-        Interiors in;
-        camera_init(&cam, &s.camera, s.width, s.height);
-        shade_interiors_at(&s, s.camera.eye, &in);
-        for (int y = 0; y < s.height; y++)
-            for (int x = 0; x < s.width; x++) {
-                Vec3 sum = vec3(0, 0, 0);
-                for (int j = 0; j < k; j++)
-                    for (int i = 0; i < k; i++) {
-                        Ray r = camera_ray(&cam, (float)x + ((float)i + 0.5f) / (float)k,
-                                           (float)y + ((float)j + 0.5f) / (float)k);
-                        sum = vec_add(sum, shade_trace(&s, &a, &r, &in, &st1));
-                        st1.camera++;
-                    }
-                if (k > 1)
-                    sum = vec_scale(sum, 1.0f / (float)(k * k));
-                float want[3] = {sum.x, sum.y, sum.z};
-                assert_memory_equal(&img.rgb[3 * (y * s.width + x)], want, sizeof want);
-            }
-        /* the same rays (the tests made may differ: a packet meets leaves in
-         * its own order) */
-        assert_true(st.camera == st1.camera && st.shadow == st1.shadow && st.reflection == st1.reflection);
-        image_free(&img);
-        accel_free(&a);
-        scene_free(&s);
-    }
+    const char *scenes[] = {"scenes/default.scn", "scenes/parity/glass.scn"};
+    for (int sc = 0; sc < 2; sc++)
+        for (int k = 1; k <= 2; k++) {
+            Scene s;
+            Accel a;
+            Image img;
+            RayStats st = {0, 0, 0, 0, 0}, st1 = st;
+            char err[512];
+            assert_int_equal(scene_load(scenes[sc], &s, err, sizeof err), 0);
+            s.width = 29;
+            s.height = 23;
+            s.spp = k;
+            assert_int_equal(accel_build(&a, &s, 1), 0);
+            assert_int_equal(image_init(&img, s.width, s.height), 0);
+            RenderOptions opt = {1, NULL, NULL};
+            assert_int_equal(render_image(&s, &a, &opt, &img, &st), 0);
+            Camera cam;
+            Interiors in;
+            camera_init(&cam, &s.camera, s.width, s.height);
+            shade_interiors_at(&s, s.camera.eye, &in);
+            for (int y = 0; y < s.height; y++)
+                for (int x = 0; x < s.width; x++) {
+                    Vec3 sum = vec3(0, 0, 0);
+                    for (int j = 0; j < k; j++)
+                        for (int i = 0; i < k; i++) {
+                            Ray r = camera_ray(&cam, (float)x + ((float)i + 0.5f) / (float)k,
+                                               (float)y + ((float)j + 0.5f) / (float)k);
+                            sum = vec_add(sum, shade_trace(&s, &a, &r, &in, &st1));
+                            st1.camera++;
+                        }
+                    if (k > 1)
+                        sum = vec_scale(sum, 1.0f / (float)(k * k));
+                    float want[3] = {sum.x, sum.y, sum.z};
+                    assert_memory_equal(&img.rgb[3 * (y * s.width + x)], want, sizeof want);
+                }
+            /* the same rays (the tests made may differ: a packet meets
+             * leaves in its own order) */
+            assert_true(st.camera == st1.camera && st.shadow == st1.shadow && st.reflection == st1.reflection &&
+                        st.refraction == st1.refraction);
+            assert_true(sc == 0 || st.refraction > 0);
+            image_free(&img);
+            accel_free(&a);
+            scene_free(&s);
+        }
 }
 
 int main(void)
