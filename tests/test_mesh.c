@@ -358,8 +358,10 @@ static const char obj_normals[] = "v 0 0 0\n"
                                   "v 0 1 0\n"
                                   "vn 0 0 1\n"
                                   "vn 0 0 -1\n"
+                                  "vn 0 1 0\n"
+                                  "vn 1 0 0\n"
                                   "vt 0 0\n"
-                                  "f 1//1 2//1 3//1 4//1\n"
+                                  "f 1//1 2//3 3//4 4//2\n"
                                   "f 1/1/2 3/1/2 2/1/-1\n";
 
 static void test_obj_normals(void **state)
@@ -368,12 +370,15 @@ static void test_obj_normals(void **state)
     Mesh m;
     parse_ok(MESH_OBJ, obj_normals, &m);
     assert_int_equal(m.nt, 3);
-    assert_int_equal(m.nn, 2);
+    assert_int_equal(m.nn, 4);
     assert_non_null(m.ntri);
     assert_vec(m.n[1], 0, 0, -1, 0);
-    assert_tri(m.ntri[0], 0, 0, 0);
-    assert_tri(m.ntri[1], 0, 0, 0);
-    assert_tri(m.ntri[2], 1, 1, 1);
+    /* the quad's fan keeps each corner's own normal */
+    assert_tri(m.tri[0], 0, 1, 2);
+    assert_tri(m.ntri[0], 0, 2, 3);
+    assert_tri(m.tri[1], 0, 2, 3);
+    assert_tri(m.ntri[1], 0, 3, 1);
+    assert_tri(m.ntri[2], 1, 1, 3);
     assert_tri(m.tri[2], 0, 2, 1);
     mesh_free(&m);
 
