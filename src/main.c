@@ -195,8 +195,6 @@ static int parse_opts(const char *cmd, const char *usage, int argc, char **argv,
                 return usage_error(cmd, "option '%s' needs a value", arg);
             val = argv[++i];
         }
-        char *end;
-        errno = 0;
         if (o->kind == OPT_STRING) {
             *(const char **)o->dst = val;
         } else if (o->kind == OPT_INT) {
@@ -204,6 +202,8 @@ static int parse_opts(const char *cmd, const char *usage, int argc, char **argv,
                 return usage_error(cmd, "%s needs a whole number from %d to %d, not '%s'", o->name, o->lo, o->hi,
                                    val);
         } else {
+            char *end;
+            errno = 0;
             double v = strtod(val, &end);
             if (errno || end == val || *end || !(v > 0) || !isfinite(v))
                 return usage_error(cmd, "%s needs a positive number, not '%s'", o->name, val);

@@ -41,8 +41,9 @@ static float float_next(float x, int up)
 /* A float >= x, for x >= 0: x rounded, and one ulp more when that rounded
  * down (f * (1 + 2^-23) is at least the next float for a normal f, and
  * avoids float_next's branches on this hot path). Both are computed and
- * one is picked: whether x rounded down is a coin toss, and a branch on it
- * is mispredicted half the time. */
+ * one is picked by a mask: whether x rounded down is a coin toss, and a
+ * branch on it is mispredicted half the time. (The branch left, on a
+ * normal f, goes the same way almost always.) */
 static float float_up(double x)
 {
     float f = (float)x;
