@@ -519,22 +519,18 @@ void bvh_closest_packet_avx2(const Bvh *b, const Ray *r, int n, PrimHit *h, int 
         const BvhWideNode *nd = &b->nodes[e.code];
         float tn[BVH_WIDTH];
         unsigned mask = packet_enter(nd, &p, far, tn);
-        PacketEntry c[BVH_WIDTH];
-        int kc = 0;
         __m256 qt8 = _mm256_loadu_ps(qt);
-        for (; mask; mask &= mask - 1) {
+        for (int base = sp; mask; mask &= mask - 1) {
             int i = tri_low_bit(mask);
             unsigned rays = all;
             if (nd->child[i] < 0 && !(rays = packet_rays_enter(nd, i, &p, qt8)))
                 continue;
-            /* insertion by entry distance, farthest first */
-            int j = kc++;
-            for (; j > 0 && c[j - 1].t < tn[i]; j--)
-                c[j] = c[j - 1];
-            c[j] = (PacketEntry){nd->child[i], tn[i], rays};
+            /* onto the stack by insertion, the nearest on top */
+            int j = sp++;
+            for (; j > base && stack[j - 1].t < tn[i]; j--)
+                stack[j] = stack[j - 1];
+            stack[j] = (PacketEntry){nd->child[i], tn[i], rays};
         }
-        for (int j = 0; j < kc; j++)
-            stack[sp++] = c[j];
     }
     *tests += nt;
 }
