@@ -45,9 +45,7 @@ static int closest_unbounded(const Accel *a, const Ray *r, int best, PrimHit *h,
     PrimHit cur;
     for (int k = 0; k < a->nunbounded; k++) {
         int i = a->unbounded[k];
-        /* of hits at the same t the lowest scene index wins, as in the BVH */
-        if (prim_intersect(&a->prims[i], &q, a->variant, &cur) &&
-            (best < 0 || cur.t < h->t || (cur.t == h->t && i < best))) {
+        if (prim_intersect(&a->prims[i], &q, a->variant, &cur) && prim_hit_wins(cur.t, i, h->t, best)) {
             best = i;
             *h = cur;
             q.tmax = prim_tmax_past(cur.t, r->tmax);

@@ -237,7 +237,7 @@ TRI_INLINE int leaf_closest(const Bvh *b, const BvhLeaf *L, TriPre *tp, const Ra
             cur = (PrimHit){lh.t[i], lh.terr[i], lh.u[i], lh.v[i], 0};
         else if (!prim_intersect(&b->prims[id], q, b->variant, &cur))
             continue;
-        if (*best < 0 || cur.t < h->t || (cur.t == h->t && id < *best)) {
+        if (prim_hit_wins(cur.t, id, h->t, *best)) {
             *best = id;
             *h = cur;
             q->tmax = prim_tmax_past(cur.t, r->tmax);

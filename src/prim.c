@@ -504,7 +504,7 @@ void prim_triray_init(PrimTriRay *p, const Ray *r)
     p->o[1] = r->o.y;
     p->o[2] = r->o.z;
     /* Directions that prim_triangle_hit_watertight3 rescales go through it. */
-    p->simd = !dir_needs_rescale(m) && isfinite(d[0]) && isfinite(d[1]) && isfinite(d[2]);
+    p->simd = !dir_needs_rescale(m) && vec_is_finite(r->d);
     p->sx = -d[kx] / d[kz];
     p->sy = -d[ky] / d[kz];
     p->sz = 1.0f / d[kz];

@@ -211,6 +211,14 @@ static inline float prim_tmax_past(float t, float tmax)
     return past < tmax ? past : tmax;
 }
 
+/* Whether a hit of primitive id at t replaces the best so far (best, -1
+ * for none, at best_t): nearer, or as near with a lower index, so that the
+ * closest hit does not depend on the order primitives are tested in. */
+static inline int prim_hit_wins(float t, int id, float best_t, int best)
+{
+    return best < 0 || t < best_t || (t == best_t && id < best);
+}
+
 /* Dispatches to the routine for p->kind in the given variant. */
 int prim_intersect(const Prim *p, const Ray *r, PrimVariant v, PrimHit *h);
 
