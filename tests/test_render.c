@@ -27,22 +27,32 @@ static void log_progress(void *ctx, int done, int total)
     p->total = total;
 }
 
+/* Renders scene file `path` at w x h (and spp x spp samples when spp > 0)
+ * on `threads` threads into img; *s and *a are left for the caller to free. */
+static void render_scene(const char *path, int threads, int w, int h, int spp, Scene *s, Accel *a, Image *img,
+                         RayStats *st, ProgressLog *log)
+{
+    char err[512];
+    int rc = scene_load(path, s, err, sizeof err);
+    if (rc)
+        print_error("%s\n", err);
+    assert_int_equal(rc, 0);
+    s->width = w;
+    s->height = h;
+    if (spp > 0)
+        s->spp = spp;
+    assert_int_equal(accel_build(a, s, 2), 0);
+    assert_int_equal(image_init(img, w, h), 0);
+    memset(st, 0, sizeof *st);
+    RenderOptions opt = {threads, log ? log_progress : NULL, log};
+    assert_int_equal(render_image(s, a, &opt, img, st), 0);
+}
+
 static void render_default(int threads, int w, int h, Image *img, RayStats *st, ProgressLog *log)
 {
     Scene s;
     Accel a;
-    char err[512];
-    int rc = scene_load("scenes/default.scn", &s, err, sizeof err);
-    if (rc)
-        print_error("%s\n", err);
-    assert_int_equal(rc, 0);
-    s.width = w;
-    s.height = h;
-    assert_int_equal(accel_build(&a, &s, 2), 0);
-    assert_int_equal(image_init(img, w, h), 0);
-    memset(st, 0, sizeof *st);
-    RenderOptions opt = {threads, log ? log_progress : NULL, log};
-    assert_int_equal(render_image(&s, &a, &opt, img, st), 0);
+    render_scene("scenes/default.scn", threads, w, h, 0, &s, &a, img, st, log);
     accel_free(&a);
     scene_free(&s);
 }
@@ -101,16 +111,8 @@ static void test_pixels_are_single_rays(void **state)
             Scene s;
             Accel a;
             Image img;
-            RayStats st = {0, 0, 0, 0, 0}, st1 = st;
-            char err[512];
-            assert_int_equal(scene_load(scenes[sc], &s, err, sizeof err), 0);
-            s.width = 29;
-            s.height = 23;
-            s.spp = k;
-            assert_int_equal(accel_build(&a, &s, 1), 0);
-            assert_int_equal(image_init(&img, s.width, s.height), 0);
-            RenderOptions opt = {1, NULL, NULL};
-            assert_int_equal(render_image(&s, &a, &opt, &img, &st), 0);
+            RayStats st, st1 = {0, 0, 0, 0, 0};
+            render_scene(scenes[sc], 1, 29, 23, k, &s, &a, &img, &st, NULL);
             Camera cam;
             Interiors in;
             camera_init(&cam, &s.camera, s.width, s.height);
