@@ -72,6 +72,16 @@ static Vec3 pass_factor(const Material *m)
     return vec_add(vec_scale(m->color, m->filter), vec3(m->transmit, m->transmit, m->transmit));
 }
 
+/* The distance from p to q, and the unit direction towards q into *dir
+ * (not a number when they coincide: callers check the distance). */
+static float toward(Vec3 p, Vec3 q, Vec3 *dir)
+{
+    Vec3 d = vec_sub(q, p);
+    float dist = vec_length(d);
+    *dir = vec_scale(d, 1.0f / dist);
+    return dist;
+}
+
 /* The light arriving at p from point q, at distance dist in unit
  * direction d: 1 when nothing is in between, 0 behind an opaque object,
  * and the product of pass_factor over every transparent surface crossed
@@ -116,9 +126,9 @@ static Vec3 light_visibility(const Ctx *c, const Light *l, const Surface *sf, Ve
         for (int i = 0; i < l->area_n1; i++) {
             float su = l->area_n1 > 1 ? (float)i / (float)(l->area_n1 - 1) - 0.5f : 0.0f;
             Vec3 q = vec_madd(vec_madd(l->pos, l->area_u, su), l->area_v, sv);
-            Vec3 d = vec_sub(q, sf->p);
-            float qd = vec_length(d);
-            vis = vec_madd(vis, transmittance(c, sf, q, vec_scale(d, 1.0f / qd), qd), w1[i] * w2[j]);
+            Vec3 d;
+            float qd = toward(sf->p, q, &d);
+            vis = vec_madd(vis, transmittance(c, sf, q, d, qd), w1[i] * w2[j]);
         }
     }
     return vis;
@@ -134,11 +144,10 @@ static Vec3 direct(const Ctx *c, const Material *m, const Surface *sf, const Ray
     Vec3 view = vec_neg(r->d);
     for (int i = 0; i < c->s->nlights; i++) {
         const Light *l = &c->s->lights[i];
-        Vec3 tol = vec_sub(l->pos, sf->p);
-        float dist = vec_length(tol);
+        Vec3 L;
+        float dist = toward(sf->p, l->pos, &L);
         if (!(dist > 0.0f))
             continue;
-        Vec3 L = vec_scale(tol, 1.0f / dist);
         float nl = vec_dot(n, L);
         if (nl < LIGHT_EPSILON)
             continue; /* light behind the surface: no diffuse, highlight or shadow ray */
