@@ -170,6 +170,13 @@ static int same_hit(const Prim *p, const PrimHit *a, const PrimHit *b)
     return a->t == b->t && a->terr == b->terr && (!tri || (a->u == b->u && a->v == b->v)) && (!box || a->face == b->face);
 }
 
+/* Whether closest-hit answers got (h) and want (w) differ: in the
+ * primitive, or in its hit, bit for bit. */
+static int closest_differs(const Prim *p, int got, const PrimHit *h, int want, const PrimHit *w)
+{
+    return got != want || (want >= 0 && !same_hit(&p[want], h, w));
+}
+
 /* Traces `rays` random rays aimed into the primitives through the BVH and by
  * brute force and counts the rays on which they disagree: on the closest
  * primitive, its hit (t, terr, u and v, bit for bit: the SIMD leaf tests
@@ -187,7 +194,7 @@ static int disagreements(const Bvh *b, const Prim *p, int n, int rays, int *hits
         PrimHit h, w = {0, 0, 0, 0, 0};
         int got = bvh_closest(b, &r, &h, &tests), want = brute_closest(p, n, &r, &w);
         *hits += want >= 0;
-        bad += got != want || (want >= 0 && !same_hit(&p[want], &h, &w)) || bvh_occluded(b, &r, &tests) != (want >= 0);
+        bad += closest_differs(p, got, &h, want, &w) || bvh_occluded(b, &r, &tests) != (want >= 0);
     }
     return bad;
 }
@@ -235,6 +242,9 @@ static void test_mesh_leaves_agree_with_brute_force(void **state)
     free(p);
 }
 
+/* The grid of the closed-mesh tests' cube. */
+#define CUBE_G 8
+
 /* The surface of the cube [-1, 1]^3, each face a g x g grid of quads split
  * into two triangles; returns the triangle count (12 g^2). */
 static int grid_cube(Prim *p, int g)
@@ -272,7 +282,7 @@ static void test_closed_mesh_has_no_leaks(void **state)
      * must hit, and the BVH must agree with brute force, ties included (a
      * ray through a shared edge hits two triangles at the same t; before
      * prim_tmax_past, the one the traversal met first could win). */
-    const int g = 8, rays = 100000;
+    const int g = CUBE_G, rays = 100000;
     Prim *p = calloc(12 * g * g, sizeof(Prim));
     assert_non_null(p);
     int n = grid_cube(p, g);
@@ -290,7 +300,7 @@ static void test_closed_mesh_has_no_leaks(void **state)
         PrimHit h, w = {0, 0, 0, 0, 0};
         int got = bvh_closest(&b, &r, &h, &tests), want = brute_closest(p, n, &r, &w);
         leaks += got < 0 || !bvh_occluded(&b, &r, &tests);
-        bad += got != want || (want >= 0 && !same_hit(&p[want], &h, &w));
+        bad += closest_differs(p, got, &h, want, &w);
     }
     assert_int_equal(leaks, 0);
     assert_int_equal(bad, 0);
@@ -329,7 +339,7 @@ static int packet_disagreements(const Bvh *b, const Prim *p, int packets, Vec3 (
         bvh_closest_packet(b, r, n, h, got, &tests);
         for (int j = 0; j < n; j++) {
             int want = bvh_closest(b, &r[j], &w, &tests);
-            bad += got[j] != want || (want >= 0 && !same_hit(&p[want], &h[j], &w));
+            bad += closest_differs(p, got[j], &h[j], want, &w);
         }
     }
     return bad;
@@ -338,7 +348,7 @@ static int packet_disagreements(const Bvh *b, const Prim *p, int packets, Vec3 (
 /* A vertex, or a point on an edge, of triangle k % count of grid_cube's. */
 static Vec3 cube_edge_point(const Prim *p, int k)
 {
-    const Triangle *tr = &p[k % (12 * 8 * 8)].g.tri;
+    const Triangle *tr = &p[k % (12 * CUBE_G * CUBE_G)].g.tri;
     return k % 2 ? tr->a : vec_add(tr->b, vec_scale(vec_sub(tr->c, tr->b), 0.5f));
 }
 
@@ -357,9 +367,9 @@ static void test_packets_agree_with_single_rays(void **state)
     Prim *p;
     Bvh b;
     /* ties: rays from inside a closed mesh through its shared edges */
-    p = calloc(12 * 8 * 8, sizeof(Prim));
+    p = calloc(12 * CUBE_G * CUBE_G, sizeof(Prim));
     assert_non_null(p);
-    build_ok(&b, p, grid_cube(p, 8), 1);
+    build_ok(&b, p, grid_cube(p, CUBE_G), 1);
     assert_int_equal(packet_disagreements(&b, p, 20000, cube_edge_point), 0);
     bvh_free(&b);
     free(p);
