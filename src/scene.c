@@ -329,7 +329,7 @@ static int parse_block(Parser *P, const char *what, const Field *f, int nf, Valu
         int count = kind == F_VEC ? 3 : kind == F_PAIR ? 2 : kind == F_MAT ? 12 : 0;
         if (kind == F_NUM || kind == F_SCALE)
             count = 1;
-        if (f[i].kind == F_STRING) {
+        if (kind == F_STRING) {
             if (P->tok.kind == TOK_RBRACE || P->tok.kind == TOK_EOF)
                 return fail(P, P->tok.loc, "%s: missing value for '%s' (expects a quoted string)", what, f[i].key);
             if (P->tok.kind != TOK_STRING)
@@ -348,7 +348,7 @@ static int parse_block(Parser *P, const char *what, const Field *f, int nf, Valu
             if (next(P))
                 return -1;
         }
-        if (f[i].kind == F_NAME) {
+        if (kind == F_NAME) {
             if (P->tok.kind == TOK_RBRACE || P->tok.kind == TOK_EOF)
                 return fail(P, P->tok.loc, "%s: missing value for '%s' (expects a name)", what, f[i].key);
             if (P->tok.kind != TOK_IDENT)
@@ -363,7 +363,7 @@ static int parse_block(Parser *P, const char *what, const Field *f, int nf, Valu
                 v->n = k + 1;
                 if (next(P))
                     return -1;
-                if (f[i].kind == F_SCALE && k == 0 && P->tok.kind == TOK_NUMBER)
+                if (kind == F_SCALE && k == 0 && P->tok.kind == TOK_NUMBER)
                     count = 3; /* a second number: three of them */
                 continue;
             }
@@ -373,14 +373,14 @@ static int parse_block(Parser *P, const char *what, const Field *f, int nf, Valu
                 if (count == 1)
                     return fail(P, P->tok.loc, "%s: missing value for '%s' (expects a number)", what, f[i].key);
                 return fail(P, P->tok.loc, "%s: missing value for '%s' (expects %s, got %d)", what, f[i].key,
-                            kind_desc(f[i].kind), k);
+                            kind_desc(kind), k);
             }
             return fail(P, P->tok.loc, "%s: wrong type for '%s': expected a number, found %s", what, f[i].key,
                         tok_desc(&P->tok, buf, sizeof buf));
         }
         if (P->tok.kind == TOK_NUMBER)
             return fail(P, P->tok.loc, "%s: extra value '%.*s' after '%s' (expects %s)", what, (int)P->tok.len,
-                        P->tok.start, f[i].key, kind_desc(f[i].kind));
+                        P->tok.start, f[i].key, kind_desc(kind));
     }
     return next(P);
 }
