@@ -6,8 +6,9 @@
  * BVH_BINS bins by centroid along each axis, and the best of the bin
  * boundaries by the surface area heuristic becomes the split.
  *
- * The binary tree is then collapsed into BVH_WIDTH-wide nodes and leaves of up to
- * BVH_LEAF_MAX primitives (bvh.h), and dropped.
+ * The binary tree is then collapsed into BVH_WIDTH-wide nodes and leaves of
+ * up to BVH_LEAF_MAX primitives (bvh.h), by the collapse of least SAH cost
+ * (Ylitie, Karras and Laine, HPG 2017; plan_collapse), and dropped.
  *
  * Traversal is in bvh_traverse.c.
  */
@@ -454,11 +455,20 @@ static int build_tree(Builder *B, int n, int threads)
 
 /* ---- the wide tree ---- */
 
+/* How binary node n's subtree is best laid out in i slots of a wide node
+ * (at most i of its nodes side by side), for i = 1 .. BVH_WIDTH. */
+typedef struct {
+    float cost[BVH_WIDTH]; /* cost[i - 1]: the least sum of the areas of the wide nodes made */
+    uint8_t left[BVH_WIDTH]; /* left[i - 1]: 0 for n itself in one slot, else the slots of
+                              * its left child (the right child takes the other i - left) */
+    uint8_t wide_left; /* n as a wide node: the slots of its left child among its own */
+} Plan;
+
 typedef struct {
     Bvh *b;
     const BvhNode *bin; /* the binary tree */
+    const Plan *plan;
 } Collapse;
-
 static void slot_box(BvhWideNode *n, int i, const BvhNode *src)
 {
     for (int a = 0; a < 3; a++) {
@@ -502,42 +512,87 @@ static void fill_leaves(Bvh *b)
     }
 }
 
-/* Fills nodes[at] from binary node ni: it and then its descendants are
- * opened, largest surface area first, until the slots are taken, and every
- * inner one left among them becomes a wide node in turn. (A leaf root
- * stays alone in slot 0.) */
+/* The least cost of a and b in `slots` slots together, and the slots a
+ * takes then (ties: the fewest). */
+static float share(const Plan *a, const Plan *b, int slots, uint8_t *left)
+{
+    float best = INFINITY;
+    for (int k = 1; k < slots; k++) {
+        float c = a->cost[k - 1] + b->cost[slots - k - 1];
+        if (c < best) {
+            best = c;
+            *left = (uint8_t)k;
+        }
+    }
+    return best;
+}
+
+/* The collapse into wide nodes that is optimal under the SAH (Ylitie,
+ * Karras and Laine, "Efficient Incoherent Ray Traversal on GPUs Through
+ * Compressed Wide BVHs", HPG 2017), by dynamic programming from the
+ * leaves up. Every binary leaf stays a leaf whatever the collapse, and a
+ * wide node costs one box test of all its slots, however many are used;
+ * so the cost is the sum of the wide nodes' areas (the chance that a ray
+ * enters each). Greedily opening the largest child left a third of the
+ * nodes with two children on bunny00. Children follow their parents in
+ * bin[], so one backward pass sees children first. */
+static void plan_collapse(const BvhNode *bin, int nbin, Plan *plan)
+{
+    for (int n = nbin - 1; n >= 0; n--) {
+        Plan *p = &plan[n];
+        memset(p->left, 0, sizeof p->left);
+        p->wide_left = 0;
+        if (bin[n].count > 0) { /* a leaf: one slot, no wide node */
+            for (int i = 0; i < BVH_WIDTH; i++)
+                p->cost[i] = 0.0f;
+            continue;
+        }
+        const Plan *l = &plan[bin[n].first], *r = &plan[bin[n].first + 1];
+        p->cost[0] = area(bin[n].lo, bin[n].hi) + share(l, r, BVH_WIDTH, &p->wide_left);
+        for (int i = 2; i <= BVH_WIDTH; i++) {
+            uint8_t k = 0;
+            float c = share(l, r, i, &k);
+            p->cost[i - 1] = p->cost[i - 2];
+            p->left[i - 1] = p->left[i - 2];
+            if (c < p->cost[i - 1]) {
+                p->cost[i - 1] = c;
+                p->left[i - 1] = k;
+            }
+        }
+    }
+}
+
+/* The binary nodes that fill `slots` slots for node n, by its plan. */
+static void gather(const Collapse *C, int n, int slots, int *kids, int *nk)
+{
+    int k = C->plan[n].left[slots - 1];
+    if (k == 0) {
+        kids[(*nk)++] = n;
+        return;
+    }
+    gather(C, (int)C->bin[n].first, k, kids, nk);
+    gather(C, (int)C->bin[n].first + 1, slots - k, kids, nk);
+}
+
+/* Fills nodes[at] from binary node ni, an inner node, by the plan; every
+ * inner node among its slots becomes a wide node in turn. */
 static void collapse(Collapse *C, int ni, int at)
 {
     const BvhNode *bin = C->bin;
     Bvh *b = C->b;
-    int kids[BVH_WIDTH] = {ni}, nk = 1;
-    while (nk < BVH_WIDTH) {
-        int best = -1;
-        float area_best = -1.0f;
-        for (int k = 0; k < nk; k++) {
-            const BvhNode *c = &bin[kids[k]];
-            float a = area(c->lo, c->hi);
-            if (c->count == 0 && a > area_best) {
-                area_best = a;
-                best = k;
-            }
-        }
-        if (best < 0)
-            break; /* only leaves left */
-        int c = kids[best];
-        kids[best] = (int)bin[c].first;
-        kids[nk++] = (int)bin[c].first + 1;
-    }
+    int kids[BVH_WIDTH], nk = 0, k = C->plan[ni].wide_left;
+    gather(C, (int)bin[ni].first, k, kids, &nk);
+    gather(C, (int)bin[ni].first + 1, BVH_WIDTH - k, kids, &nk);
     memset(&b->nodes[at], 0, sizeof(BvhWideNode));
-    for (int k = 0; k < BVH_WIDTH; k++) {
-        const BvhNode *c = k < nk ? &bin[kids[k]] : NULL;
-        slot_box(&b->nodes[at], k, c);
+    for (int i = 0; i < BVH_WIDTH; i++) {
+        const BvhNode *c = i < nk ? &bin[kids[i]] : NULL;
+        slot_box(&b->nodes[at], i, c);
         if (c && c->count > 0) {
-            b->nodes[at].child[k] = add_leaf(b, c);
+            b->nodes[at].child[i] = add_leaf(b, c);
         } else if (c) {
             int sub = b->nnodes++;
-            b->nodes[at].child[k] = sub;
-            collapse(C, kids[k], sub);
+            b->nodes[at].child[i] = sub;
+            collapse(C, kids[i], sub);
         }
     }
 }
@@ -556,17 +611,29 @@ static int shrink(void **p, size_t n)
 }
 
 /* Builds b->nodes and b->leaves from the binary tree of nbin nodes. */
-static int build4(Bvh *b, const BvhNode *bin, int nbin)
+static int build_wide(Bvh *b, const BvhNode *bin, int nbin)
 {
     /* never more wide nodes or leaves than binary nodes: collapsed into
      * that much, then copied into exactly what is used */
     b->nodes = malloc(sizeof(BvhWideNode) * (size_t)nbin);
     b->leaves = malloc(sizeof(BvhLeaf) * (size_t)nbin);
-    if (!b->nodes || !b->leaves)
+    Plan *plan = malloc(sizeof(Plan) * (size_t)nbin);
+    if (!b->nodes || !b->leaves || !plan) {
+        free(plan);
         return -1;
+    }
     b->nnodes = 1;
-    Collapse C = {b, bin};
-    collapse(&C, 0, 0);
+    if (bin[0].count > 0) { /* a leaf root stays alone in slot 0 */
+        memset(&b->nodes[0], 0, sizeof(BvhWideNode));
+        for (int i = 0; i < BVH_WIDTH; i++)
+            slot_box(&b->nodes[0], i, i == 0 ? &bin[0] : NULL);
+        b->nodes[0].child[0] = add_leaf(b, &bin[0]);
+    } else {
+        plan_collapse(bin, nbin, plan);
+        Collapse C = {b, bin, plan};
+        collapse(&C, 0, 0);
+    }
+    free(plan);
     for (int a = 0; a < 3; a++) {
         b->lo[a] = bin[0].lo[a];
         b->hi[a] = bin[0].hi[a];
@@ -625,7 +692,7 @@ int bvh_build(Bvh *b, const Prim *prims, int n, PrimVariant v, int threads)
             b->order = order ? order : B.ids;
             B.ids = NULL;
             b->nprims = m;
-            rc = build4(b, B.nodes, B.nnodes);
+            rc = build_wide(b, B.nodes, B.nnodes);
         }
     }
     free(B.refs);
