@@ -48,11 +48,11 @@ void bvh_closest_packet_avx2(const Bvh *b, const Ray *r, int n, PrimHit *h, int 
 
 typedef struct {
 #ifdef BVH_AVX
-    __m256 o8[3], inv8[3];
+    __m256 o8[3], inv8[3], ipad8[3];
 #elif defined(BVH_SSE)
-    __m128 o4[3], inv4[3];
+    __m128 o4[3], inv4[3], ipad4[3];
 #endif
-    float o[3], inv[3];
+    float o[3], inv[3], ipad[3]; /* ipad: inv * BVH_PAD, for the far planes */
     int near[3], far[3]; /* byte offsets in a node of the near and far planes, by axis */
 } RayPre;
 
@@ -63,6 +63,13 @@ typedef struct {
     PrimTriRay tri;
     int ready;
 } TriPre;
+
+/* Ize 2013: each slab distance is within gamma(3) of exact, so a far
+ * distance grown by this much is never short of the exact one. The growth
+ * is folded into the inverse direction (x * (inv * pad), not x * inv *
+ * pad): the same four roundings, so the same bound, and one multiplication
+ * less per plane. */
+#define BVH_PAD (1.0f + 2.0f * TRI4_GAMMA(3))
 
 static inline void ray_pre(const Ray *r, RayPre *p)
 {
@@ -77,6 +84,7 @@ static inline void ray_pre(const Ray *r, RayPre *p)
     for (int i = 0; i < 3; i++) {
         p->o[i] = o[i];
         p->inv[i] = inv[i];
+        p->ipad[i] = inv[i] * BVH_PAD;
         /* the planes by arithmetic: a branch on a random ray's signs
          * mispredicts half the time */
         int neg = inv[i] < 0.0f;
@@ -87,9 +95,11 @@ static inline void ray_pre(const Ray *r, RayPre *p)
 #ifdef BVH_AVX
         p->o8[i] = _mm256_set1_ps(o[i]);
         p->inv8[i] = _mm256_set1_ps(inv[i]);
+        p->ipad8[i] = _mm256_set1_ps(p->ipad[i]);
 #elif defined(BVH_SSE)
         p->o4[i] = _mm_set1_ps(o[i]);
         p->inv4[i] = _mm_set1_ps(inv[i]);
+        p->ipad4[i] = _mm_set1_ps(p->ipad[i]);
 #endif
     }
 }
@@ -112,9 +122,6 @@ static inline void prefetch_child(const Bvh *b, int32_t c)
 }
 #endif
 
-/* Ize 2013: each slab distance is within gamma(3) of exact. */
-#define BVH_PAD (1.0f + 2.0f * TRI4_GAMMA(3))
-
 static inline const float *plane(const BvhWideNode *n, int offset) { return (const float *)((const char *)n + offset); }
 
 #if defined(BVH_SSE) && !defined(BVH_AVX)
@@ -123,12 +130,11 @@ static inline const float *plane(const BvhWideNode *n, int offset) { return (con
  * loops are not unrolled at -O2.) */
 static inline int slots_enter4(const BvhWideNode *n, const RayPre *p, __m128 tmax, int h, float tn[4])
 {
-    const __m128 pad = _mm_set1_ps(BVH_PAD);
     __m128 lo = _mm_setzero_ps(), hi = tmax;
     const int at = 16 * h;
 #define SLAB(a)                                                                                                \
     lo = _mm_max_ps(_mm_mul_ps(_mm_sub_ps(_mm_load_ps(plane(n, p->near[a] + at)), p->o4[a]), p->inv4[a]), lo); \
-    hi = _mm_min_ps(_mm_mul_ps(_mm_mul_ps(_mm_sub_ps(_mm_load_ps(plane(n, p->far[a] + at)), p->o4[a]), p->inv4[a]), pad), hi)
+    hi = _mm_min_ps(_mm_mul_ps(_mm_sub_ps(_mm_load_ps(plane(n, p->far[a] + at)), p->o4[a]), p->ipad4[a]), hi)
     SLAB(0);
     SLAB(1);
     SLAB(2);
@@ -147,11 +153,10 @@ static inline int slots_enter(const BvhWideNode *n, const RayPre *p, float tmax,
 {
 #ifdef BVH_AVX
     /* as slots_enter4, eight at once */
-    const __m256 pad = _mm256_set1_ps(BVH_PAD);
     __m256 lo = _mm256_setzero_ps(), hi = _mm256_set1_ps(tmax);
 #define SLAB(a)                                                                                                     \
     lo = _mm256_max_ps(_mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(plane(n, p->near[a])), p->o8[a]), p->inv8[a]), lo); \
-    hi = _mm256_min_ps(_mm256_mul_ps(_mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(plane(n, p->far[a])), p->o8[a]), p->inv8[a]), pad), hi)
+    hi = _mm256_min_ps(_mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(plane(n, p->far[a])), p->o8[a]), p->ipad8[a]), hi)
     SLAB(0);
     SLAB(1);
     SLAB(2);
@@ -171,7 +176,7 @@ static inline int slots_enter(const BvhWideNode *n, const RayPre *p, float tmax,
         float lo = 0.0f, hi = tmax;
         for (int a = 0; a < 3; a++) {
             float t0 = (plane(n, p->near[a])[i] - p->o[a]) * p->inv[a];
-            float t1 = (plane(n, p->far[a])[i] - p->o[a]) * p->inv[a] * BVH_PAD;
+            float t1 = (plane(n, p->far[a])[i] - p->o[a]) * p->ipad[a];
             if (t0 > lo)
                 lo = t0;
             if (t1 < hi)
@@ -385,6 +390,7 @@ typedef struct {
     __m256 o8[3];              /* the common origin */
     __m256 imin8[3], imax8[3]; /* the ends of the packet's inverse directions, by axis */
     __m256 inv8[3];            /* lane k: ray k's inverse direction */
+    __m256 pmin8[3], pmax8[3], ipad8[3]; /* the same times BVH_PAD, as RayPre's ipad */
     int near[3], far[3];       /* as in RayPre: all rays share each axis's sign */
 } PacketPre;
 
@@ -427,6 +433,9 @@ static int packet_pre(const Ray *r, int n, PacketPre *p)
         p->imin8[a] = _mm256_set1_ps(lo);
         p->imax8[a] = _mm256_set1_ps(hi);
         p->inv8[a] = _mm256_loadu_ps(inv[a]);
+        p->pmin8[a] = _mm256_set1_ps(lo * BVH_PAD);
+        p->pmax8[a] = _mm256_set1_ps(hi * BVH_PAD);
+        p->ipad8[a] = _mm256_mul_ps(p->inv8[a], _mm256_set1_ps(BVH_PAD));
     }
     return 1;
 }
@@ -435,14 +444,12 @@ static int packet_pre(const Ray *r, int n, PacketPre *p)
  * (the farthest any ray still looks), and the packet's entry distances. */
 static inline unsigned packet_enter(const BvhWideNode *n, const PacketPre *p, float tmax, float tn[BVH_WIDTH])
 {
-    const __m256 pad = _mm256_set1_ps(BVH_PAD);
     __m256 lo = _mm256_setzero_ps(), hi = _mm256_set1_ps(tmax);
     for (int a = 0; a < 3; a++) {
         __m256 pn = _mm256_sub_ps(_mm256_load_ps(plane(n, p->near[a])), p->o8[a]);
         __m256 pf = _mm256_sub_ps(_mm256_load_ps(plane(n, p->far[a])), p->o8[a]);
         __m256 t0 = _mm256_min_ps(_mm256_mul_ps(pn, p->imin8[a]), _mm256_mul_ps(pn, p->imax8[a]));
-        __m256 t1 = _mm256_max_ps(_mm256_mul_ps(_mm256_mul_ps(pf, p->imin8[a]), pad),
-                                  _mm256_mul_ps(_mm256_mul_ps(pf, p->imax8[a]), pad));
+        __m256 t1 = _mm256_max_ps(_mm256_mul_ps(pf, p->pmin8[a]), _mm256_mul_ps(pf, p->pmax8[a]));
         lo = _mm256_max_ps(t0, lo);
         hi = _mm256_min_ps(t1, hi);
     }
@@ -454,13 +461,12 @@ static inline unsigned packet_enter(const BvhWideNode *n, const PacketPre *p, fl
  * lane is slots_enter's test of that slot for that ray, bit for bit. */
 static inline unsigned packet_rays_enter(const BvhWideNode *n, int i, const PacketPre *p, __m256 tmax)
 {
-    const __m256 pad = _mm256_set1_ps(BVH_PAD);
     __m256 lo = _mm256_setzero_ps(), hi = tmax;
     for (int a = 0; a < 3; a++) {
         __m256 pn = _mm256_sub_ps(_mm256_set1_ps(plane(n, p->near[a])[i]), p->o8[a]);
         __m256 pf = _mm256_sub_ps(_mm256_set1_ps(plane(n, p->far[a])[i]), p->o8[a]);
         lo = _mm256_max_ps(_mm256_mul_ps(pn, p->inv8[a]), lo);
-        hi = _mm256_min_ps(_mm256_mul_ps(_mm256_mul_ps(pf, p->inv8[a]), pad), hi);
+        hi = _mm256_min_ps(_mm256_mul_ps(pf, p->ipad8[a]), hi);
     }
     return (unsigned)_mm256_movemask_ps(_mm256_cmp_ps(lo, hi, _CMP_LE_OQ));
 }
