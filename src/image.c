@@ -57,6 +57,12 @@ static int image_valid(const Image *img)
 
 /* ---- OpenEXR ------------------------------------------------------------ */
 
+/* zlib's level for the EXR's ZIP chunks and the PNG, instead of its default
+ * 6: bunny.scn's 1024^2 EXR took 0.17 s at 6 and takes 0.075 s at 4, 6%
+ * larger (the PNG 0.12 s against 0.08 s, 5% larger). At 6, writing took
+ * about as long as rendering on two threads. */
+#define IMAGE_ZIP_LEVEL 4
+
 /* Where the error callback leaves its message. The first one is kept: later
  * ones (e.g. from exr_finish cleaning up) are consequences, not causes. */
 typedef struct {
@@ -194,6 +200,8 @@ static exr_result_t image_exr_write_file(const Image *img, const char *file, Ima
     /* pLinear 0 ("logarithmic"), as OpenEXR's own RGBA writer marks colour. */
     for (int c = 0; c < 3 && rv == EXR_ERR_SUCCESS; c++)
         rv = exr_add_channel(ctx, part, names[c], type, EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
+    if (rv == EXR_ERR_SUCCESS)
+        rv = exr_set_zip_compression_level(ctx, part, IMAGE_ZIP_LEVEL);
     if (rv == EXR_ERR_SUCCESS)
         rv = exr_write_header(ctx);
     if (rv == EXR_ERR_SUCCESS)
@@ -497,6 +505,7 @@ static int image_png_run(ImagePngJob *job)
                  PNG_FILTER_TYPE_DEFAULT);
     /* Tells viewers the bytes are sRGB-encoded (sRGB, gAMA and cHRM chunks). */
     png_set_sRGB_gAMA_and_cHRM(job->png, job->info, PNG_sRGB_INTENT_PERCEPTUAL);
+    png_set_compression_level(job->png, IMAGE_ZIP_LEVEL);
     png_write_info(job->png, job->info);
     for (int y = 0; y < img->height; y++) {
         const float *src = img->rgb + (size_t)y * (size_t)img->width * 3;
