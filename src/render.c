@@ -40,12 +40,16 @@ static void prefetch_prims(const Accel *a, const int *best, int n)
 #endif
 }
 
-/* Traces camera rays r[0 .. n-1] through the BVH together and adds each
- * one's colour to its pixel px[m] of row. */
-static void trace_packet(const Job *job, const Ray *r, const int *px, int n, float *row, RayStats *st)
+/* Traces the camera rays through image-plane positions (sx[m], sy[m]),
+ * m < n, through the BVH together and adds each one's colour to its pixel
+ * px[m] of row. */
+static void trace_packet(const Job *job, const float *sx, const float *sy, const int *px, int n, float *row,
+                         RayStats *st)
 {
+    Ray r[BVH_PACKET];
     int best[BVH_PACKET];
     PrimHit h[BVH_PACKET];
+    camera_rays(&job->cam, sx, sy, n, r);
     accel_closest_packet(job->a, r, n, h, best, st);
     prefetch_prims(job->a, best, n);
     for (int m = 0; m < n; m++) {
@@ -66,25 +70,24 @@ static void trace_packet(const Job *job, const Ray *r, const int *px, int n, flo
 static void render_row(const Job *job, int y, float *row, RayStats *st)
 {
     int k = job->s->spp, w = job->img->width, n = 0;
-    Ray r[BVH_PACKET];
+    float sx[BVH_PACKET], sy[BVH_PACKET]; /* the samples' image-plane positions */
     int px[BVH_PACKET];
     for (int x = 0; x < w; x++) {
         row[3 * x] = row[3 * x + 1] = row[3 * x + 2] = 0.0f;
         for (int j = 0; j < k; j++)
             for (int i = 0; i < k; i++) {
-                float sx = (float)x + ((float)i + 0.5f) / (float)k;
-                float sy = (float)y + ((float)j + 0.5f) / (float)k;
-                r[n] = camera_ray(&job->cam, sx, sy);
+                sx[n] = (float)x + ((float)i + 0.5f) / (float)k;
+                sy[n] = (float)y + ((float)j + 0.5f) / (float)k;
                 px[n++] = x;
                 if (n == BVH_PACKET) {
-                    trace_packet(job, r, px, n, row, st);
+                    trace_packet(job, sx, sy, px, n, row, st);
                     n = 0;
                 }
             }
         st->camera += (unsigned long long)(k * k);
     }
     if (n > 0)
-        trace_packet(job, r, px, n, row, st);
+        trace_packet(job, sx, sy, px, n, row, st);
     if (k > 1)
         for (int x = 0; x < 3 * w; x++)
             row[x] *= 1.0f / (float)(k * k);
