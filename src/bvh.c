@@ -458,7 +458,7 @@ static int build_tree(Builder *B, int n, int threads)
 /* How binary node n's subtree is best laid out in i slots of a wide node
  * (at most i of its nodes side by side), for i = 1 .. BVH_WIDTH. */
 typedef struct {
-    float cost[BVH_WIDTH]; /* cost[i - 1]: the least sum of the areas of the wide nodes made */
+    double cost[BVH_WIDTH]; /* cost[i - 1]: the least sum of the areas of the wide nodes made */
     uint8_t left[BVH_WIDTH]; /* left[i - 1]: 0 for n itself in one slot, else the slots of
                               * its left child (the right child takes the other i - left) */
     uint8_t wide_left; /* n as a wide node: the slots of its left child among its own */
@@ -469,6 +469,7 @@ typedef struct {
     const BvhNode *bin; /* the binary tree */
     const Plan *plan;
 } Collapse;
+
 static void slot_box(BvhWideNode *n, int i, const BvhNode *src)
 {
     for (int a = 0; a < 3; a++) {
@@ -513,12 +514,16 @@ static void fill_leaves(Bvh *b)
 }
 
 /* The least cost of a and b in `slots` slots together, and the slots a
- * takes then (ties: the fewest). */
-static float share(const Plan *a, const Plan *b, int slots, uint8_t *left)
+ * takes then (ties: the fewest). Seeded with the first split, so that the
+ * answer is a valid split even when every cost is infinite or not a number
+ * (a box too large for its area in float): the plan must place every
+ * node whatever the costs. */
+static double share(const Plan *a, const Plan *b, int slots, uint8_t *left)
 {
-    float best = INFINITY;
-    for (int k = 1; k < slots; k++) {
-        float c = a->cost[k - 1] + b->cost[slots - k - 1];
+    double best = a->cost[0] + b->cost[slots - 2];
+    *left = 1;
+    for (int k = 2; k < slots; k++) {
+        double c = a->cost[k - 1] + b->cost[slots - k - 1];
         if (c < best) {
             best = c;
             *left = (uint8_t)k;
@@ -544,14 +549,16 @@ static void plan_collapse(const BvhNode *bin, int nbin, Plan *plan)
         p->wide_left = 0;
         if (bin[n].count > 0) { /* a leaf: one slot, no wide node */
             for (int i = 0; i < BVH_WIDTH; i++)
-                p->cost[i] = 0.0f;
+                p->cost[i] = 0.0;
             continue;
         }
         const Plan *l = &plan[bin[n].first], *r = &plan[bin[n].first + 1];
-        p->cost[0] = area(bin[n].lo, bin[n].hi) + share(l, r, BVH_WIDTH, &p->wide_left);
+        const float *lo = bin[n].lo, *hi = bin[n].hi; /* the area in double: no overflow */
+        double dx = (double)hi[0] - lo[0], dy = (double)hi[1] - lo[1], dz = (double)hi[2] - lo[2];
+        p->cost[0] = dx * dy + dy * dz + dz * dx + share(l, r, BVH_WIDTH, &p->wide_left);
         for (int i = 2; i <= BVH_WIDTH; i++) {
-            uint8_t k = 0;
-            float c = share(l, r, i, &k);
+            uint8_t k = 1;
+            double c = share(l, r, i, &k);
             p->cost[i - 1] = p->cost[i - 2];
             p->left[i - 1] = p->left[i - 2];
             if (c < p->cost[i - 1]) {

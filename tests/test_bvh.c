@@ -237,6 +237,30 @@ static void test_agrees_with_brute_force(void **state)
     free(p);
 }
 
+static void test_huge_boxes(void **state)
+{
+    (void)state;
+    /* Spheres of radius 1e20 among small primitives: their boxes' areas
+     * overflow a float. The collapse's plan must still place every node
+     * (it once read out of bounds, and lost primitives, when all its costs
+     * were infinite), and the tree must answer as brute force does. */
+    const int n = 3000;
+    Prim *p = random_prims(n);
+    for (int i = 0; i < n; i += 500) {
+        p[i].kind = PRIM_SPHERE;
+        p[i].g.sphere.c = vec3(0, -1e20f - 20.0f * (float)i, 0);
+        p[i].g.sphere.r = 1e20f;
+    }
+    Bvh b;
+    int hits;
+    build_ok(&b, p, n, 1);
+    assert_int_equal(b.nprims, n);
+    assert_int_equal(disagreements(&b, p, n, 20000, &hits), 0);
+    assert_true(hits > 20000 / 10);
+    bvh_free(&b);
+    free(p);
+}
+
 static void test_mesh_leaves_agree_with_brute_force(void **state)
 {
     (void)state;
@@ -403,6 +427,7 @@ int main(void)
         cmocka_unit_test(test_coincident_centroids),
         cmocka_unit_test(test_validate_catches_damage),
         cmocka_unit_test(test_agrees_with_brute_force),
+        cmocka_unit_test(test_huge_boxes),
         cmocka_unit_test(test_mesh_leaves_agree_with_brute_force),
         cmocka_unit_test(test_closed_mesh_has_no_leaks),
         cmocka_unit_test(test_packets_agree_with_single_rays),
