@@ -52,7 +52,7 @@ typedef struct {
 #elif defined(BVH_SSE)
     __m128 o4[3], inv4[3], ipad4[3];
 #endif
-    float o[3], inv[3], ipad[3]; /* ipad: inv * BVH_PAD, for the far planes */
+    float o[3], inv[3], ipad[3]; /* ipad: inv * BVH_SLAB_PAD (bvh.h), one product less per far plane */
     int near[3], far[3]; /* byte offsets in a node of the near and far planes, by axis */
 } RayPre;
 
@@ -64,12 +64,6 @@ typedef struct {
     int ready;
 } TriPre;
 
-/* Ize 2013: each slab distance is within gamma(3) of exact, so a far
- * distance grown by this much is never short of the exact one. The growth
- * is folded into the inverse direction (x * (inv * pad), not x * inv *
- * pad): the same four roundings, so the same bound, and one multiplication
- * less per plane. */
-#define BVH_PAD (1.0f + 2.0f * TRI4_GAMMA(3))
 
 static inline void ray_pre(const Ray *r, RayPre *p)
 {
@@ -84,7 +78,7 @@ static inline void ray_pre(const Ray *r, RayPre *p)
     for (int i = 0; i < 3; i++) {
         p->o[i] = o[i];
         p->inv[i] = inv[i];
-        p->ipad[i] = inv[i] * BVH_PAD;
+        p->ipad[i] = inv[i] * BVH_SLAB_PAD;
         /* the planes by arithmetic: a branch on a random ray's signs
          * mispredicts half the time */
         int neg = inv[i] < 0.0f;
@@ -263,6 +257,7 @@ int CLOSEST(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *tests)
     TriPre tp;
     tp.ready = 0;
     Ray q = *r; /* tmax: past the nearest hit so far, to see ties */
+    float reach = q.tmax * BVH_REACH;
     int best = -1;
     unsigned long long nt = 0;
     Entry stack[BVH_ENTRIES];
@@ -275,7 +270,7 @@ int CLOSEST(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *tests)
              * cases) take no loop. */
             const BvhWideNode *n = &b->nodes[code];
             float tn[BVH_WIDTH];
-            unsigned mask = (unsigned)slots_enter(n, &p, q.tmax, tn);
+            unsigned mask = (unsigned)slots_enter(n, &p, reach, tn);
             if (mask) {
                 int i0 = tri_low_bit(mask);
                 mask &= mask - 1;
@@ -317,8 +312,9 @@ int CLOSEST(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *tests)
             }
         } else {
             nt += leaf_closest(b, &b->leaves[-1 - code], &tp, r, &q, &best, h);
+            reach = q.tmax * BVH_REACH;
         }
-        while (sp > 0 && stack[sp - 1].t > q.tmax) /* entered past the nearest hit */
+        while (sp > 0 && stack[sp - 1].t > reach) /* entered past the nearest hit */
             sp--;
         if (sp == 0)
             break;
@@ -340,6 +336,7 @@ int OCCLUDED(const Bvh *b, const Ray *r, unsigned long long *tests)
     TriPre tp;
     tp.ready = 0;
     int32_t stack[BVH_ENTRIES]; /* any hit will do: no distances, no order */
+    const float reach = r->tmax * BVH_REACH;
     int sp = 0, hit = 0;
     unsigned long long nt = 0;
     stack[sp++] = 0;
@@ -360,7 +357,7 @@ int OCCLUDED(const Bvh *b, const Ray *r, unsigned long long *tests)
         }
         const BvhWideNode *n = &b->nodes[code];
         float tn[BVH_WIDTH];
-        int mask = slots_enter(n, &p, r->tmax, tn);
+        int mask = slots_enter(n, &p, reach, tn);
         /* A branch per slot, not a loop over the mask's set bits nor a
          * branch-free push: the branches are predicted, so the next node's
          * address is known before the box test ends and its load can start
@@ -390,7 +387,7 @@ typedef struct {
     __m256 o8[3];              /* the common origin */
     __m256 imin8[3], imax8[3]; /* the ends of the packet's inverse directions, by axis */
     __m256 inv8[3];            /* lane k: ray k's inverse direction */
-    __m256 pmin8[3], pmax8[3], ipad8[3]; /* the same times BVH_PAD, as RayPre's ipad */
+    __m256 pmin8[3], pmax8[3], ipad8[3]; /* the same times BVH_SLAB_PAD, as RayPre's ipad */
     int near[3], far[3];       /* as in RayPre: all rays share each axis's sign */
 } PacketPre;
 
@@ -433,9 +430,9 @@ static int packet_pre(const Ray *r, int n, PacketPre *p)
         p->imin8[a] = _mm256_set1_ps(lo);
         p->imax8[a] = _mm256_set1_ps(hi);
         p->inv8[a] = _mm256_loadu_ps(inv[a]);
-        p->pmin8[a] = _mm256_set1_ps(lo * BVH_PAD);
-        p->pmax8[a] = _mm256_set1_ps(hi * BVH_PAD);
-        p->ipad8[a] = _mm256_mul_ps(p->inv8[a], _mm256_set1_ps(BVH_PAD));
+        p->pmin8[a] = _mm256_set1_ps(lo * BVH_SLAB_PAD);
+        p->pmax8[a] = _mm256_set1_ps(hi * BVH_SLAB_PAD);
+        p->ipad8[a] = _mm256_mul_ps(p->inv8[a], _mm256_set1_ps(BVH_SLAB_PAD));
     }
     return 1;
 }
@@ -490,15 +487,15 @@ void bvh_closest_packet_avx2(const Bvh *b, const Ray *r, int n, PrimHit *h, int 
     const unsigned all = (1u << n) - 1;
     Ray q[BVH_PACKET];
     TriPre tp[BVH_PACKET];
-    float qt[BVH_PACKET]; /* lane k: ray k's q.tmax (rays past n: -1, never entering) */
+    float qt[BVH_PACKET]; /* lane k: ray k's q.tmax * BVH_REACH (rays past n: -1, never entering) */
     for (int k = 0; k < BVH_PACKET; k++) {
         qt[k] = -1.0f;
         tp[k].ready = 0;
     }
-    float far = 0.0f; /* the largest q.tmax */
+    float far = 0.0f; /* the largest qt */
     for (int k = 0; k < n; k++) {
         q[k] = r[k];
-        qt[k] = r[k].tmax;
+        qt[k] = r[k].tmax * BVH_REACH;
         far = qt[k] > far ? qt[k] : far;
         best[k] = -1;
     }
@@ -515,7 +512,7 @@ void bvh_closest_packet_avx2(const Bvh *b, const Ray *r, int n, PrimHit *h, int 
             for (unsigned m = e.rays; m; m &= m - 1) {
                 int k = tri_low_bit(m);
                 nt += (unsigned long long)leaf_closest(b, L, &tp[k], &r[k], &q[k], &best[k], &h[k]);
-                qt[k] = q[k].tmax;
+                qt[k] = q[k].tmax * BVH_REACH;
             }
             far = 0.0f;
             for (int k = 0; k < n; k++)

@@ -261,6 +261,61 @@ static void test_huge_boxes(void **state)
     free(p);
 }
 
+static void test_padding_covers_the_roundings(void **state)
+{
+    (void)state;
+    /* bvh.h's bounds, with u = 2^-24: a far distance (four roundings down,
+     * times the pad) stays at least the near one (three roundings up) of a
+     * ray that touches a box; the reach (itself rounded) stays past a box
+     * entry whose hit lies 2^-18 beyond tmax, rounded three times up. */
+    const double u = 0x1p-24;
+    assert_true((double)BVH_SLAB_PAD * pow(1 - u, 4) >= pow(1 + u, 3));
+    assert_true((double)BVH_REACH * (1 - u) >= (1 + 0x1p-18) * pow(1 + u, 3));
+}
+
+static void test_hits_just_before_tmax(void **state)
+{
+    (void)state;
+    /* Triangles in axis planes, whose box face is the triangle's plane, and
+     * rays ending one float past a hit: the box's entry distance, rounded
+     * on its own, may land after tmax where the triangle's t lands before
+     * it. The tree must still find the hit (7% were lost before boxes were
+     * entered up to a grown tmax). */
+    const int n = 200, rays = 40000;
+    Prim *p = calloc(n, sizeof(Prim));
+    assert_non_null(p);
+    for (int i = 0; i < n; i++) {
+        Vec3 a = test_rvec(&rng, -10, 10), b = vec_add(a, test_rvec(&rng, -2, 2)), c = vec_add(a, test_rvec(&rng, -2, 2));
+        float *pb = &b.x, *pc = &c.x;
+        pb[i % 3] = pc[i % 3] = (&a.x)[i % 3]; /* in the plane of constant coordinate i % 3 */
+        p[i].kind = PRIM_TRIANGLE;
+        p[i].g.tri.a = a;
+        p[i].g.tri.b = b;
+        p[i].g.tri.c = c;
+    }
+    Bvh b;
+    build_ok(&b, p, n, 1);
+    unsigned long long tests = 0;
+    int bad = 0, tried = 0;
+    for (int k = 0; k < rays; k++) {
+        const Triangle *tr = &p[k % n].g.tri;
+        Vec3 o = test_rvec(&rng, -14, 14);
+        Vec3 target = vec_add(tr->a, vec_add(vec_scale(vec_sub(tr->b, tr->a), 0.3f), vec_scale(vec_sub(tr->c, tr->a), 0.3f)));
+        Ray r = ray_make(o, vec_sub(target, o), INFINITY);
+        PrimHit h, w = {0, 0, 0, 0, 0};
+        if (!prim_intersect(&p[k % n], &r, PRIM_ROBUST, &h))
+            continue;
+        r.tmax = nextafterf(h.t, INFINITY);
+        tried++;
+        int got = bvh_closest(&b, &r, &h, &tests), want = brute_closest(p, n, &r, &w);
+        bad += want < 0 || closest_differs(p, got, &h, want, &w) || !bvh_occluded(&b, &r, &tests);
+    }
+    assert_true(tried > rays / 2);
+    assert_int_equal(bad, 0);
+    bvh_free(&b);
+    free(p);
+}
+
 static void test_mesh_leaves_agree_with_brute_force(void **state)
 {
     (void)state;
@@ -424,10 +479,12 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_validate_after_builds),
         cmocka_unit_test(test_wide_nodes_are_full),
+        cmocka_unit_test(test_huge_boxes),
         cmocka_unit_test(test_coincident_centroids),
         cmocka_unit_test(test_validate_catches_damage),
         cmocka_unit_test(test_agrees_with_brute_force),
-        cmocka_unit_test(test_huge_boxes),
+        cmocka_unit_test(test_padding_covers_the_roundings),
+        cmocka_unit_test(test_hits_just_before_tmax),
         cmocka_unit_test(test_mesh_leaves_agree_with_brute_force),
         cmocka_unit_test(test_closed_mesh_has_no_leaks),
         cmocka_unit_test(test_packets_agree_with_single_rays),

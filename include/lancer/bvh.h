@@ -24,9 +24,10 @@
  * tree: bvh_build skips them, and the caller tests them separately.
  *
  * Conservative traversal (Ize, "Robust BVH Ray Traversal", JCGT 2013): box
- * bounds are rounded outwards when built, and every slab's far distance is
- * grown by 1 + 2 gamma(3), so the tree never culls a hit that the
- * primitive's own routine would find.
+ * bounds are rounded outwards when built, every slab's far distance is
+ * grown by BVH_SLAB_PAD, and boxes are entered up to tmax grown by
+ * BVH_REACH, so the tree never culls a hit that the primitive's own
+ * routine would find.
  */
 #ifndef LANCER_BVH_H
 #define LANCER_BVH_H
@@ -35,6 +36,24 @@
 #include <stdint.h>
 
 #include "lancer/prim.h"
+
+/* With u = 2^-24: a slab's near distance (plane - o) * (1 / d) carries
+ * three roundings, so it is at most (1 + u)^3 times the exact one; its far
+ * distance (plane - o) * ((1 / d) * BVH_SLAB_PAD) carries four, so it is at
+ * least (1 - u)^4 BVH_SLAB_PAD times the exact one. A ray that touches a box
+ * (exact near <= exact far) keeps it when BVH_SLAB_PAD >= (1 + u)^3 / (1 -
+ * u)^4, about 1 + 7u: 1 + 8u, which is 1 + 2 gamma(4). (Ize's 1 + 2 gamma(3)
+ * is short by one rounding for a ray through a box's edge: found by
+ * review.) */
+#define BVH_SLAB_PAD (1.0f + 0x1p-21f)
+/* Boxes are entered up to the ray's tmax grown by this much: a hit the
+ * primitive's routine places just before tmax may have its box's entry
+ * computed just after it, by the three roundings above (a triangle in an
+ * axis plane, whose box face is its plane, lost 7% of the hits placed one
+ * float before tmax). It covers those roundings, tmax * BVH_REACH's own,
+ * and a hit's error of up to 2^-18 of its t; a hit less certain than that
+ * may lie on either side of tmax anyway. */
+#define BVH_REACH (1.0f + 0x1p-17f)
 
 /* Children per node: 8, one AVX register or two SSE ones per plane. */
 #define BVH_WIDTH 8
