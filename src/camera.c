@@ -3,7 +3,11 @@
  */
 #include "lancer/camera.h"
 
-#if defined(__SSE2__) && !defined(LANCER_NO_SIMD)
+#include <float.h>
+
+/* (not where floats are evaluated wider, as on i386's x87: bit for bit
+ * needs float arithmetic) */
+#if defined(__SSE2__) && !defined(LANCER_NO_SIMD) && FLT_EVAL_METHOD == 0
 #include <emmintrin.h>
 #define CAMERA_SSE 1
 #endif

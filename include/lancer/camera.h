@@ -4,6 +4,7 @@
  *     Camera cam;
  *     camera_init(&cam, &scene.camera, width, height);
  *     Ray r = camera_ray(&cam, i + 0.5f, j + 0.5f);   pixel (i, j), row 0 at the top
+ *     camera_rays(&cam, xs, ys, n, rays);             n rays at once, the same ones
  *
  * For pixel coordinates (x, y) the direction is
  *     f + (2x/W - 1) * t * a * r + (1 - 2y/H) * t * u,   t = tan(fovy/2), a = W/H,
@@ -25,9 +26,9 @@ typedef struct {
 /* The spec must be valid (scene_parse guarantees it). */
 void camera_init(Camera *cam, const CameraSpec *spec, int width, int height);
 
-/* The ray through image-plane position (x, y) in pixels. Inline: the
- * render loop calls it for every sample, and a Ray returned from a call
- * goes through memory. */
+/* The ray through image-plane position (x, y) in pixels. Inline: single
+ * rays (and camera_rays' last few) would otherwise come back through
+ * memory. */
 static inline Ray camera_ray(const Camera *cam, float x, float y)
 {
     float sx = 2.0f * x * cam->inv_w - 1.0f;
@@ -36,9 +37,10 @@ static inline Ray camera_ray(const Camera *cam, float x, float y)
     return ray_make(cam->eye, vec_normalize(d), INFINITY);
 }
 
-/* camera_ray(cam, x[k], y[k]) into out[k] for k < n, bit for bit: four at
- * a time with SSE (a camera ray's square root and division took a sixth of
- * a render's row loop one by one). */
+/* camera_ray(cam, x[k], y[k]) into out[k] for k < n, bit for bit (NaN
+ * lanes aside, whose sign may differ): four at a time with SSE, where a
+ * camera ray's square root and division took a sixth of a render's row
+ * loop one by one. */
 void camera_rays(const Camera *cam, const float *x, const float *y, int n, Ray *out);
 
 #endif
