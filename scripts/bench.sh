@@ -4,7 +4,7 @@
 # three CGAL meshes, one thread, alternating pass by pass. Prints Markdown.
 #   sh scripts/bench.sh [PASSES]
 set -eu
-passes=${1:-5}
+passes=${1:-11}
 data=build/cgal-data/meshes
 echo "## Intersection routines (Mrays/s, one thread, medians of 9 alternating rounds)"
 echo
