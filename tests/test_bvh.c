@@ -263,6 +263,17 @@ static void test_huge_boxes(void **state)
     free(p);
 }
 
+/* A random triangle: a corner in [-10, 10]^3, the others within 2 of it. */
+static Triangle random_triangle(void)
+{
+    Triangle t;
+    memset(&t, 0, sizeof t);
+    t.a = test_rvec(&rng, -10, 10);
+    t.b = vec_add(t.a, test_rvec(&rng, -2, 2));
+    t.c = vec_add(t.a, test_rvec(&rng, -2, 2));
+    return t;
+}
+
 static void test_padding_covers_the_roundings(void **state)
 {
     (void)state;
@@ -287,13 +298,10 @@ static void test_hits_just_before_tmax(void **state)
     Prim *p = calloc(n, sizeof(Prim));
     assert_non_null(p);
     for (int i = 0; i < n; i++) {
-        Vec3 a = test_rvec(&rng, -10, 10), b = vec_add(a, test_rvec(&rng, -2, 2)), c = vec_add(a, test_rvec(&rng, -2, 2));
-        float *pb = &b.x, *pc = &c.x;
-        pb[i % 3] = pc[i % 3] = (&a.x)[i % 3]; /* in the plane of constant coordinate i % 3 */
+        Triangle t = random_triangle();
+        (&t.b.x)[i % 3] = (&t.c.x)[i % 3] = (&t.a.x)[i % 3]; /* in the plane of constant coordinate i % 3 */
         p[i].kind = PRIM_TRIANGLE;
-        p[i].g.tri.a = a;
-        p[i].g.tri.b = b;
-        p[i].g.tri.c = c;
+        p[i].g.tri = t;
     }
     Bvh b;
     build_ok(&b, p, n, 1);
@@ -326,11 +334,8 @@ static void test_mesh_leaves_agree_with_brute_force(void **state)
     Prim *p = calloc(n, sizeof(Prim));
     assert_non_null(p);
     for (int i = 0; i < n; i++) {
-        Vec3 c = test_rvec(&rng, -10, 10);
         p[i].kind = i % 2 ? PRIM_TRIANGLE : PRIM_SMOOTH_TRIANGLE;
-        p[i].g.tri.a = c;
-        p[i].g.tri.b = vec_add(c, test_rvec(&rng, -2, 2));
-        p[i].g.tri.c = vec_add(c, test_rvec(&rng, -2, 2));
+        p[i].g.tri = random_triangle();
     }
     Bvh b;
     int hits;
