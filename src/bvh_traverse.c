@@ -64,7 +64,6 @@ typedef struct {
     int ready;
 } TriPre;
 
-
 static inline void ray_pre(const Ray *r, RayPre *p)
 {
     const float o[3] = {r->o.x, r->o.y, r->o.z}, d[3] = {r->d.x, r->d.y, r->d.z};
