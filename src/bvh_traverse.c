@@ -64,27 +64,41 @@ typedef struct {
     int ready;
 } TriPre;
 
-static inline void ray_pre(const Ray *r, RayPre *p)
+/* 1 / d by axis into inv[0 .. 2] (inv[3] is scratch). */
+static inline void inverse_dir(const Ray *r, float inv[4])
 {
-    const float o[3] = {r->o.x, r->o.y, r->o.z}, d[3] = {r->d.x, r->d.y, r->d.z};
 #ifdef BVH_SSE
     /* one division for the three axes (lane 3 is 1/1) */
-    float inv[4];
-    _mm_storeu_ps(inv, _mm_div_ps(_mm_set1_ps(1.0f), _mm_setr_ps(d[0], d[1], d[2], 1.0f)));
+    _mm_storeu_ps(inv, _mm_div_ps(_mm_set1_ps(1.0f), _mm_setr_ps(r->d.x, r->d.y, r->d.z, 1.0f)));
 #else
-    const float inv[3] = {1.0f / d[0], 1.0f / d[1], 1.0f / d[2]};
+    inv[0] = 1.0f / r->d.x;
+    inv[1] = 1.0f / r->d.y;
+    inv[2] = 1.0f / r->d.z;
+    inv[3] = 1.0f;
 #endif
+}
+
+/* The byte offsets in a node of axis a's near and far planes, for a
+ * direction of that sign (neg: negative). By arithmetic: a branch on a
+ * random ray's signs mispredicts half the time. */
+static inline void slab_planes(int a, int neg, int *near, int *far)
+{
+    int lo = (int)(offsetof(BvhWideNode, lo) + sizeof(float[BVH_WIDTH]) * (size_t)a);
+    int hi = (int)(offsetof(BvhWideNode, hi) + sizeof(float[BVH_WIDTH]) * (size_t)a);
+    *near = lo + neg * (hi - lo);
+    *far = hi - neg * (hi - lo);
+}
+
+static inline void ray_pre(const Ray *r, RayPre *p)
+{
+    const float o[3] = {r->o.x, r->o.y, r->o.z};
+    float inv[4];
+    inverse_dir(r, inv);
     for (int i = 0; i < 3; i++) {
         p->o[i] = o[i];
         p->inv[i] = inv[i];
         p->ipad[i] = inv[i] * BVH_SLAB_PAD;
-        /* the planes by arithmetic: a branch on a random ray's signs
-         * mispredicts half the time */
-        int neg = inv[i] < 0.0f;
-        int lo = (int)(offsetof(BvhWideNode, lo) + sizeof(float[BVH_WIDTH]) * (size_t)i);
-        int hi = (int)(offsetof(BvhWideNode, hi) + sizeof(float[BVH_WIDTH]) * (size_t)i);
-        p->near[i] = lo + neg * (hi - lo);
-        p->far[i] = hi - neg * (hi - lo);
+        slab_planes(i, inv[i] < 0.0f, &p->near[i], &p->far[i]);
 #ifdef BVH_AVX
         p->o8[i] = _mm256_set1_ps(o[i]);
         p->inv8[i] = _mm256_set1_ps(inv[i]);
@@ -402,9 +416,8 @@ static int packet_pre(const Ray *r, int n, PacketPre *p)
         const Ray *rk = &r[k < n ? k : 0];
         if (rk->o.x != r->o.x || rk->o.y != r->o.y || rk->o.z != r->o.z)
             return 0;
-        /* as ray_pre divides */
         float v[4];
-        _mm_storeu_ps(v, _mm_div_ps(_mm_set1_ps(1.0f), _mm_setr_ps(rk->d.x, rk->d.y, rk->d.z, 1.0f)));
+        inverse_dir(rk, v); /* as ray_pre divides */
         for (int a = 0; a < 3; a++) {
             /* every lane finite, non-zero and of ray 0's sign: a NaN would
              * slip past the min and max below */
@@ -420,11 +433,7 @@ static int packet_pre(const Ray *r, int n, PacketPre *p)
             lo = inv[a][k] < lo ? inv[a][k] : lo;
             hi = inv[a][k] > hi ? inv[a][k] : hi;
         }
-        int neg = hi < 0.0f;
-        int l = (int)(offsetof(BvhWideNode, lo) + sizeof(float[BVH_WIDTH]) * (size_t)a);
-        int h = (int)(offsetof(BvhWideNode, hi) + sizeof(float[BVH_WIDTH]) * (size_t)a);
-        p->near[a] = neg ? h : l;
-        p->far[a] = neg ? l : h;
+        slab_planes(a, hi < 0.0f, &p->near[a], &p->far[a]);
         p->o8[a] = _mm256_set1_ps(o[a]);
         p->imin8[a] = _mm256_set1_ps(lo);
         p->imax8[a] = _mm256_set1_ps(hi);
