@@ -581,18 +581,16 @@ static void gather(const Collapse *C, int n, int slots, int *kids, int *nk)
     gather(C, (int)C->bin[n].first + 1, slots - k, kids, nk);
 }
 
-/* Fills nodes[at] from binary node ni, an inner node, by the plan; every
- * inner node among its slots becomes a wide node in turn. */
-static void collapse(Collapse *C, int ni, int at)
+static void collapse(Collapse *C, int ni, int at);
+
+/* Fills nodes[at] with binary nodes kids[0 .. nk-1], one a slot: a leaf
+ * becomes a leaf, an inner node a wide node in turn. */
+static void fill_node(Collapse *C, const int *kids, int nk, int at)
 {
-    const BvhNode *bin = C->bin;
     Bvh *b = C->b;
-    int kids[BVH_WIDTH], nk = 0, k = C->plan[ni].wide_left;
-    gather(C, (int)bin[ni].first, k, kids, &nk);
-    gather(C, (int)bin[ni].first + 1, BVH_WIDTH - k, kids, &nk);
     memset(&b->nodes[at], 0, sizeof(BvhWideNode));
     for (int i = 0; i < BVH_WIDTH; i++) {
-        const BvhNode *c = i < nk ? &bin[kids[i]] : NULL;
+        const BvhNode *c = i < nk ? &C->bin[kids[i]] : NULL;
         slot_box(&b->nodes[at], i, c);
         if (c && c->count > 0) {
             b->nodes[at].child[i] = add_leaf(b, c);
@@ -602,6 +600,16 @@ static void collapse(Collapse *C, int ni, int at)
             collapse(C, kids[i], sub);
         }
     }
+}
+
+/* Fills nodes[at] from binary node ni, an inner node, by the plan. */
+static void collapse(Collapse *C, int ni, int at)
+{
+    const BvhNode *bin = C->bin;
+    int kids[BVH_WIDTH], nk = 0, k = C->plan[ni].wide_left;
+    gather(C, (int)bin[ni].first, k, kids, &nk);
+    gather(C, (int)bin[ni].first + 1, BVH_WIDTH - k, kids, &nk);
+    fill_node(C, kids, nk, at);
 }
 
 /* A copy of n bytes of *p in memory aligned to a cache line, in place of
@@ -630,16 +638,13 @@ static int build_wide(Bvh *b, const BvhNode *bin, int nbin)
         return -1;
     }
     b->nnodes = 1;
-    if (bin[0].count > 0) { /* a leaf root stays alone in slot 0 */
-        memset(&b->nodes[0], 0, sizeof(BvhWideNode));
-        for (int i = 0; i < BVH_WIDTH; i++)
-            slot_box(&b->nodes[0], i, i == 0 ? &bin[0] : NULL);
-        b->nodes[0].child[0] = add_leaf(b, &bin[0]);
-    } else {
-        plan_collapse(bin, nbin, plan);
-        Collapse C = {b, bin, plan};
+    plan_collapse(bin, nbin, plan);
+    Collapse C = {b, bin, plan};
+    const int root = 0;
+    if (bin[0].count > 0)
+        fill_node(&C, &root, 1, 0); /* a leaf root stays alone in slot 0 */
+    else
         collapse(&C, 0, 0);
-    }
     free(plan);
     for (int a = 0; a < 3; a++) {
         b->lo[a] = bin[0].lo[a];
