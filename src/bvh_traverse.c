@@ -411,36 +411,40 @@ static int packet_pre(const Ray *r, int n, PacketPre *p)
 {
     if (n < 1)
         return 0;
-    float inv[3][BVH_PACKET];
-    for (int k = 0; k < BVH_PACKET; k++) {
-        const Ray *rk = &r[k < n ? k : 0];
-        if (rk->o.x != r->o.x || rk->o.y != r->o.y || rk->o.z != r->o.z)
-            return 0;
-        float v[4];
-        inverse_dir(rk, v); /* as ray_pre divides */
-        for (int a = 0; a < 3; a++) {
-            /* every lane finite, non-zero and of ray 0's sign: a NaN would
-             * slip past the min and max below */
-            if (!(fabsf(v[a]) <= FLT_MAX) || v[a] == 0.0f || (k > 0 && (v[a] < 0.0f) != (inv[a][0] < 0.0f)))
-                return 0;
-            inv[a][k] = v[a];
-        }
-    }
-    const float o[3] = {r->o.x, r->o.y, r->o.z};
+    /* lane k: ray k (ray 0 past n), gathered field by field */
+    int at[BVH_PACKET];
+    for (int k = 0; k < BVH_PACKET; k++)
+        at[k] = (k < n ? k : 0) * (int)(sizeof(Ray) / sizeof(float));
+    const __m256i idx = _mm256_loadu_si256((const __m256i *)at);
+    const float *o[3] = {&r->o.x, &r->o.y, &r->o.z}, *d[3] = {&r->d.x, &r->d.y, &r->d.z};
+    const __m256 zero = _mm256_setzero_ps(), fmax = _mm256_set1_ps(FLT_MAX), one = _mm256_set1_ps(1.0f);
+    const __m256 pad = _mm256_set1_ps(BVH_SLAB_PAD);
     for (int a = 0; a < 3; a++) {
-        float lo = inv[a][0], hi = inv[a][0];
-        for (int k = 1; k < BVH_PACKET; k++) {
-            lo = inv[a][k] < lo ? inv[a][k] : lo;
-            hi = inv[a][k] > hi ? inv[a][k] : hi;
-        }
-        slab_planes(a, hi < 0.0f, &p->near[a], &p->far[a]);
-        p->o8[a] = _mm256_set1_ps(o[a]);
-        p->imin8[a] = _mm256_set1_ps(lo);
-        p->imax8[a] = _mm256_set1_ps(hi);
-        p->inv8[a] = _mm256_loadu_ps(inv[a]);
-        p->pmin8[a] = _mm256_set1_ps(lo * BVH_SLAB_PAD);
-        p->pmax8[a] = _mm256_set1_ps(hi * BVH_SLAB_PAD);
-        p->ipad8[a] = _mm256_mul_ps(p->inv8[a], _mm256_set1_ps(BVH_SLAB_PAD));
+        p->o8[a] = _mm256_set1_ps(*o[a]);
+        if (_mm256_movemask_ps(_mm256_cmp_ps(_mm256_i32gather_ps(o[a], idx, 4), p->o8[a], _CMP_EQ_OQ)) != 0xff)
+            return 0;
+        /* as ray_pre divides (lane by lane); every lane finite, non-zero
+         * and of ray 0's sign: a NaN would slip past the min and max below */
+        __m256 inv = _mm256_div_ps(one, _mm256_i32gather_ps(d[a], idx, 4));
+        __m256 bad = _mm256_or_ps(_mm256_cmp_ps(_mm256_andnot_ps(_mm256_set1_ps(-0.0f), inv), fmax, _CMP_NLE_UQ),
+                                  _mm256_cmp_ps(inv, zero, _CMP_EQ_OQ));
+        int neg = _mm256_movemask_ps(_mm256_cmp_ps(inv, zero, _CMP_LT_OQ));
+        if (_mm256_movemask_ps(bad) || (neg != 0 && neg != 0xff))
+            return 0;
+        /* the least and greatest lane, in every lane */
+        __m256 lo = _mm256_min_ps(inv, _mm256_permute2f128_ps(inv, inv, 1));
+        __m256 hi = _mm256_max_ps(inv, _mm256_permute2f128_ps(inv, inv, 1));
+        lo = _mm256_min_ps(lo, _mm256_permute_ps(lo, 0x4e));
+        hi = _mm256_max_ps(hi, _mm256_permute_ps(hi, 0x4e));
+        lo = _mm256_min_ps(lo, _mm256_permute_ps(lo, 0xb1));
+        hi = _mm256_max_ps(hi, _mm256_permute_ps(hi, 0xb1));
+        slab_planes(a, neg != 0, &p->near[a], &p->far[a]);
+        p->imin8[a] = lo;
+        p->imax8[a] = hi;
+        p->inv8[a] = inv;
+        p->pmin8[a] = _mm256_mul_ps(lo, pad);
+        p->pmax8[a] = _mm256_mul_ps(hi, pad);
+        p->ipad8[a] = _mm256_mul_ps(inv, pad);
     }
     return 1;
 }

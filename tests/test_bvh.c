@@ -418,8 +418,9 @@ static void test_closed_mesh_has_no_leaks(void **state)
  * bvh_closest disagree (primitive or hit, bit for bit). Packets of 1 to
  * BVH_PACKET rays from one origin, narrow and wide cones (traced together
  * unless their directions' signs differ), and rays that must go one by
- * one: from two origins, with a NaN or a zero in a direction. Aims at
- * target(p, k) when given, else into the cube [-10, 10]^3. */
+ * one: from two origins, with a NaN, an infinity or a zero in a
+ * direction. Aims at target(p, k) when given, else into the cube
+ * [-10, 10]^3. */
 static int packet_disagreements(const Bvh *b, const Prim *p, int packets, Vec3 (*target)(const Prim *, int))
 {
     unsigned long long tests = 0;
@@ -440,6 +441,8 @@ static int packet_disagreements(const Bvh *b, const Prim *p, int packets, Vec3 (
             r[n - 1].d.x = NAN;
         if (n > 1 && odd == 7)
             r[n - 1].d.y = 0.0f;
+        if (n > 1 && odd == 4)
+            r[n - 1].d.z = -INFINITY;
         PrimHit h[BVH_PACKET], w;
         int got[BVH_PACKET];
         bvh_closest_packet(b, r, n, h, got, &tests);
