@@ -428,6 +428,17 @@ static void test_box(void **state)
     assert_false(box_hit(&cube, &r, &t, &face));
 }
 
+static void test_box_pad_covers_the_roundings(void **state)
+{
+    (void)state;
+    /* prim.h's bound, with u = 2^-53: the pad is at least (1 + u)^3 /
+     * (1 - u)^4 = 1 + 7u + 31u^2 + ..., which is below 1 + 7u (1 + 2^-40).
+     * PRIM_BOX_PAD - 1 is exact in double. (1 + 2 gamma(3), about 1 + 6u,
+     * failed it.) */
+    const double u = 0x1p-53;
+    assert_true(PRIM_BOX_PAD - 1.0 >= 7.0 * u * (1.0 + 0x1p-40));
+}
+
 /* ---- oriented box ---- */
 
 static void test_obox_init(void **state)
@@ -557,6 +568,7 @@ int main(void)
         cmocka_unit_test(test_triangle),
         cmocka_unit_test(test_smooth_triangle_normal),
         cmocka_unit_test(test_box),
+        cmocka_unit_test(test_box_pad_covers_the_roundings),
         cmocka_unit_test(test_obox_init),
         cmocka_unit_test(test_obox),
         cmocka_unit_test(test_smooth_normal_flips_on_its_own),
