@@ -628,10 +628,13 @@ static int shrink(void **p, size_t n)
 /* Builds b->nodes and b->leaves from the binary tree of nbin nodes. */
 static int build_wide(Bvh *b, const BvhNode *bin, int nbin)
 {
-    /* never more wide nodes or leaves than binary nodes: collapsed into
-     * that much, then copied into exactly what is used */
-    b->nodes = malloc(sizeof(BvhWideNode) * (size_t)nbin);
-    b->leaves = malloc(sizeof(BvhLeaf) * (size_t)nbin);
+    /* The binary tree has (nbin + 1) / 2 leaves, each a leaf here, and
+     * one inner node fewer; each wide node takes at least one of those (a
+     * leaf root makes one of its own). Collapsed into that much, then
+     * copied into exactly what is used. */
+    const size_t half = (size_t)nbin / 2 + 1;
+    b->nodes = malloc(sizeof(BvhWideNode) * half);
+    b->leaves = malloc(sizeof(BvhLeaf) * half);
     Plan *plan = malloc(sizeof(Plan) * (size_t)nbin);
     if (!b->nodes || !b->leaves || !plan) {
         free(plan);
