@@ -530,11 +530,11 @@ int prim_box_hit_robust(const Box *b, const Ray *r, PrimHit *h)
     /* Williams' slab test in double on the float inputs, made conservative
      * after Ize: each slab distance (bound - o) * (1/d) is within gamma(3)
      * of exact, so growing every far distance by PRIM_BOX_PAD (prim.h)
-     * keeps every true hit. In double, 1/d cannot overflow for any float d (subnormal
-     * directions included). The near plane is picked by the sign of 1/d,
-     * never by comparing distances, so the NaN of 0 * inf (an origin on a
-     * slab plane, parallel to it) is ignored: such a ray lies in the closed
-     * slab. */
+     * keeps every true hit. In double, 1/d cannot overflow for any float d
+     * (subnormal directions included). The near plane is picked by the sign
+     * of 1/d, never by comparing distances, so the NaN of 0 * inf (an origin
+     * on a slab plane, parallel to it) is ignored: such a ray lies in the
+     * closed slab. */
     const double pad = PRIM_BOX_PAD;
     const Vec3 bounds[2] = {b->lo, b->hi};
     double tnear = -INFINITY, tfar = INFINITY, texit = INFINITY;

@@ -432,7 +432,7 @@ static void test_box_pad_covers_the_roundings(void **state)
 {
     (void)state;
     /* prim.h's bound, with u = 2^-53: the pad is at least (1 + u)^3 /
-     * (1 - u)^4 = 1 + 7u + 31u^2 + ..., which is below 1 + 7u (1 + 2^-40).
+     * (1 - u)^4 = 1 + 7u + 25u^2 + ..., which is below 1 + 7u (1 + 2^-40).
      * PRIM_BOX_PAD - 1 is exact in double. (1 + 2 gamma(3), about 1 + 6u,
      * failed it.) */
     const double u = 0x1p-53;
