@@ -42,7 +42,7 @@
  * distance (plane - o) * ((1 / d) * BVH_SLAB_PAD) carries four, so it is at
  * least (1 - u)^4 BVH_SLAB_PAD times the exact one. A ray that touches a box
  * (exact near <= exact far) keeps it when BVH_SLAB_PAD >= (1 + u)^3 / (1 -
- * u)^4, about 1 + 7u: 1 + 8u, which is 1 + 2 gamma(4). (Ize's 1 + 2 gamma(3)
+ * u)^4, about 1 + 7u: 1 + 8u, 1 + 2 gamma(4) rounded. (Ize's 1 + 2 gamma(3)
  * is short by one rounding for a ray through a box's edge: found by
  * review.) */
 #define BVH_SLAB_PAD (1.0f + 0x1p-21f)

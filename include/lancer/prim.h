@@ -187,14 +187,14 @@ int prim_tri4_lane_hit(const PrimTri4 *t, int lane, const PrimTriRay *p, const R
  * conservative after Ize, "Robust BVH Ray Traversal", JCGT 2(2), 2013: the
  * far distance grows by PRIM_BOX_PAD, so no hit is lost; an origin on a
  * slab plane with a zero direction component cannot make NaN decide the
- * verdict. Band: rays missing the box by a relative 2 gamma(4) in t may be
- * reported as hits. */
+ * verdict. Band: rays missing the box by a relative 2 gamma(8) in t (the
+ * pad's 8u and the roundings' 7u) may be reported as hits. */
 int prim_box_hit_robust(const Box *b, const Ray *r, PrimHit *h);
 /* With u = 2^-53, as BVH_SLAB_PAD (bvh.h) in float: a near distance
  * (bound - o) * (1 / d) carries three roundings, a far one times the pad
  * four, so the pad must be at least (1 + u)^3 / (1 - u)^4, about 1 + 7u;
- * 1 + 8u is 1 + 2 gamma(4). (Ize's 1 + 2 gamma(3) is one rounding short
- * where the subtraction rounds.) */
+ * 1 + 8u is 1 + 2 gamma(4) rounded to double. (Ize's 1 + 2 gamma(3) is one
+ * rounding short where the subtraction rounds.) */
 #define PRIM_BOX_PAD (1.0 + 0x1p-50)
 /* Oriented box: the six face planes in world space, in double, each slab
  * widened by its rounding bound. Band: as for the box, relative 1e-12. */
