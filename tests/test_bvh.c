@@ -426,7 +426,7 @@ static int packet_disagreements(const Bvh *b, const Prim *p, int packets, Vec3 (
     unsigned long long tests = 0;
     int bad = 0;
     for (int k = 0; k < packets; k++) {
-        int n = 1 + k % BVH_PACKET, odd = k / BVH_PACKET % 8;
+        int n = 1 + k % BVH_PACKET, odd = k / BVH_PACKET % 9;
         float spread = k % 3 == 0 ? 0.01f : k % 3 == 1 ? 0.3f : 3.0f;
         Vec3 o = target ? test_rvec(&rng, -0.9f, 0.9f) : test_rvec(&rng, -14, 14);
         Vec3 aim = target ? o : test_rvec(&rng, -10, 10);
@@ -441,7 +441,7 @@ static int packet_disagreements(const Bvh *b, const Prim *p, int packets, Vec3 (
             r[n - 1].d.x = NAN;
         if (n > 1 && odd == 7)
             r[n - 1].d.y = 0.0f;
-        if (n > 1 && odd == 4)
+        if (n > 1 && odd == 8)
             r[n - 1].d.z = -INFINITY;
         PrimHit h[BVH_PACKET], w;
         int got[BVH_PACKET];
