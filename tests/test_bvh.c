@@ -274,6 +274,18 @@ static Triangle random_triangle(void)
     return t;
 }
 
+/* n random triangles (random_triangle), of kind PRIM_TRIANGLE. */
+static Prim *random_triangles(int n)
+{
+    Prim *p = calloc((size_t)n, sizeof(Prim));
+    assert_non_null(p);
+    for (int i = 0; i < n; i++) {
+        p[i].kind = PRIM_TRIANGLE;
+        p[i].g.tri = random_triangle();
+    }
+    return p;
+}
+
 static void test_padding_covers_the_roundings(void **state)
 {
     (void)state;
@@ -295,13 +307,10 @@ static void test_hits_just_before_tmax(void **state)
      * it. The tree must still find the hit (7% were lost before boxes were
      * entered up to a grown tmax). */
     const int n = 200, rays = 40000;
-    Prim *p = calloc(n, sizeof(Prim));
-    assert_non_null(p);
-    for (int i = 0; i < n; i++) {
-        Triangle t = random_triangle();
-        (&t.b.x)[i % 3] = (&t.c.x)[i % 3] = (&t.a.x)[i % 3]; /* in the plane of constant coordinate i % 3 */
-        p[i].kind = PRIM_TRIANGLE;
-        p[i].g.tri = t;
+    Prim *p = random_triangles(n);
+    for (int i = 0; i < n; i++) { /* in the plane of constant coordinate i % 3 */
+        Triangle *t = &p[i].g.tri;
+        (&t->b.x)[i % 3] = (&t->c.x)[i % 3] = (&t->a.x)[i % 3];
     }
     Bvh b;
     build_ok(&b, p, n, 1);
@@ -331,12 +340,9 @@ static void test_mesh_leaves_agree_with_brute_force(void **state)
     (void)state;
     /* triangles only: every leaf is one SIMD test */
     const int n = 400, rays = 200000;
-    Prim *p = calloc(n, sizeof(Prim));
-    assert_non_null(p);
-    for (int i = 0; i < n; i++) {
-        p[i].kind = i % 2 ? PRIM_TRIANGLE : PRIM_SMOOTH_TRIANGLE;
-        p[i].g.tri = random_triangle();
-    }
+    Prim *p = random_triangles(n);
+    for (int i = 0; i < n; i += 2)
+        p[i].kind = PRIM_SMOOTH_TRIANGLE;
     Bvh b;
     int hits;
     build_ok(&b, p, n, 1);
