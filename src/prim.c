@@ -368,6 +368,39 @@ static float edge_err(float xi, float yi, float exi, float eyi, float xj, float 
 
 static int watertight(const Vec3 v[3], const Ray *r, const PrimTriRay *p, PrimHit *h);
 
+/* The vertices translated to the ray origin and sheared as in
+ * watertight(), in double: X and Y carry the shear, Z is z / dz. */
+static void shear_double(const Vec3 v[3], const Ray *r, const PrimTriRay *p, double X[3], double Y[3], double Z[3])
+{
+    double dz = comp(r->d, p->kz), dsx = -(double)comp(r->d, p->kx) / dz, dsy = -(double)comp(r->d, p->ky) / dz;
+    for (int k = 0; k < 3; k++) {
+        double px = (double)comp(v[k], p->kx) - comp(r->o, p->kx), py = (double)comp(v[k], p->ky) - comp(r->o, p->ky);
+        double pz = (double)comp(v[k], p->kz) - comp(r->o, p->kz);
+        X[k] = px + dsx * pz;
+        Y[k] = py + dsy * pz;
+        Z[k] = pz / dz;
+    }
+}
+
+/* t, u and v of watertight() in double, for a t too close to 0 or tmax to
+ * trust in float; 0 if it is outside (0, tmax) all the same. */
+static int t_double(const Vec3 v[3], const Ray *r, const PrimTriRay *p, float *t, float *u, float *w)
+{
+    double X[3], Y[3], Z[3];
+    shear_double(v, r, p, X, Y, Z);
+    double e0 = X[1] * Y[2] - Y[1] * X[2], e1 = X[2] * Y[0] - Y[2] * X[0], e2 = X[0] * Y[1] - Y[0] * X[1];
+    double det = e0 + e1 + e2;
+    if (det == 0.0)
+        return 0;
+    float td = (float)((e0 * Z[0] + e1 * Z[1] + e2 * Z[2]) / det);
+    if (!(td > 0.0f && td < r->tmax))
+        return 0;
+    *t = td;
+    *u = (float)(e1 / det);
+    *w = (float)(e2 / det);
+    return 1;
+}
+
 int prim_triangle_hit_watertight(const Triangle *tr, const Ray *r, PrimHit *h)
 {
     const Vec3 v[3] = {tr->a, tr->b, tr->c};
@@ -437,14 +470,8 @@ static int watertight(const Vec3 v[3], const Ray *r, const PrimTriRay *p, PrimHi
     int u1 = fabsf(e1) <= edge_err(cx, cy, exc, eyc, ax, ay, exa, eya);
     int u2 = fabsf(e2) <= edge_err(ax, ay, exa, eya, bx, by, exb, eyb);
     if (u0 || u1 || u2) {
-        double dsx = -(double)comp(r->d, kx) / dz, dsy = -(double)comp(r->d, ky) / dz;
-        double X[3], Y[3];
-        for (int k = 0; k < 3; k++) {
-            double px = (double)comp(v[k], kx) - comp(r->o, kx), py = (double)comp(v[k], ky) - comp(r->o, ky);
-            double pz = (double)comp(v[k], kz) - comp(r->o, kz);
-            X[k] = px + dsx * pz;
-            Y[k] = py + dsy * pz;
-        }
+        double X[3], Y[3], Z[3];
+        shear_double(v, r, p, X, Y, Z);
         if (u0)
             e0 = (float)(X[1] * Y[2] - Y[1] * X[2]);
         if (u1)
@@ -466,8 +493,6 @@ static int watertight(const Vec3 v[3], const Ray *r, const PrimTriRay *p, PrimHi
     bz *= sz;
     cz *= sz;
     float tscaled = e0 * az + e1 * bz + e2 * cz;
-    if (det < 0.0f ? (tscaled >= 0.0f || tscaled < r->tmax * det) : (tscaled <= 0.0f || tscaled > r->tmax * det))
-        return 0;
     float inv = 1.0f / det, t = tscaled * inv;
     /* pbrt's bound on the error of t, from the errors of the sheared
      * coordinates (gamma(5) in x and y, gamma(3) in z) and of the edge
@@ -480,12 +505,21 @@ static int watertight(const Vec3 v[3], const Ray *r, const PrimTriRay *p, PrimHi
     float de = 2.0f * (gamma_f(2) * mx * my + dye * mx + dxe * my);
     float me = max3(fabsf(e0), fabsf(e1), fabsf(e2));
     float terr = 3.0f * (gamma_f(3) * me * mz + de * mz + dze * me) * fabsf(inv);
-    if (!(t > 0.0f) || !(t < r->tmax))
-        return 0;
+    float u = e1 * inv, w = e2 * inv;
+    int out = det < 0.0f ? (tscaled >= 0.0f || tscaled < r->tmax * det) : (tscaled <= 0.0f || tscaled > r->tmax * det);
+    if (out || !(t > 0.0f) || !(t < r->tmax)) {
+        /* Outside (0, tmax), but maybe only by t's rounding: a triangle
+         * seen almost edge-on has a t far less accurate than its edge
+         * signs, and if the shared edge went to it, dropping it would leak
+         * the ray between two triangles. Within terr, t is taken again in
+         * double; the signs stay as decided. */
+        if (!(t > -terr && t < r->tmax + terr) || !t_double(v, r, p, &t, &u, &w))
+            return 0;
+    }
     h->t = t;
     h->terr = prim_terr_up(terr, t); /* and the rounding of t itself */
-    h->u = e1 * inv;
-    h->v = e2 * inv;
+    h->u = u;
+    h->v = w;
     return 1;
 }
 

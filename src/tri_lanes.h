@@ -7,7 +7,8 @@
  *
  * prim.c's watertight() lane by lane, in the same operations and order, so
  * each lane decided here gets the same bits as the scalar routine. Lanes
- * with an edge function too close to 0 are left to the caller in *slow.
+ * with an edge function too close to 0, or a t too close to 0 or tmax,
+ * are left to the caller in *slow.
  */
 TRI_INLINE int TRI_LANES(const PrimTri4 *blk, int lanes, const PrimTriRay *p, const Ray *r, float *ht, float *hterr,
                          float *hu, float *hv, int *slow)
@@ -62,24 +63,28 @@ TRI_INLINE int TRI_LANES(const PrimTri4 *blk, int lanes, const PrimTriRay *p, co
     V neg = V_LT(det, zero);
     V out_neg = V_OR(V_GE(ts, zero), V_LT(ts, tmd));
     V out_pos = V_OR(V_LE(ts, zero), V_GT(ts, tmd));
-    V out = V_OR(V_AND(V_LT(emn, zero), V_GT(emx, zero)), V_EQ(det, zero));
-    out = V_OR(out, V_OR(V_AND(neg, out_neg), V_ANDNOT(neg, out_pos)));
+    V edges_out = V_OR(V_AND(V_LT(emn, zero), V_GT(emx, zero)), V_EQ(det, zero));
+    V t_out = V_OR(V_AND(neg, out_neg), V_ANDNOT(neg, out_pos));
     *slow = lanes & unsure;
-    int hit = lanes & ~unsure & ~V_MASK(out);
-    if (hit) { /* most leaves a ray reaches are missed by here: no division */
+    int inside = lanes & ~unsure & ~V_MASK(edges_out);
+    if (inside) { /* most leaves a ray reaches are missed by here: no division */
         V inv = V_DIV(V_SET1(1.0f), det), tv = V_MUL(ts, inv);
-        hit &= V_MASK(V_AND(V_GT(tv, zero), V_LT(tv, tmax)));
+        int hit = inside & ~V_MASK(t_out) & V_MASK(V_AND(V_GT(tv, zero), V_LT(tv, tmax)));
         V_STORE(ht, tv);
+        /* the rest of watertight() for the lanes inside, in its order (a
+         * lane with a finite t has no NaN, so MAXPS is max3 there; a NaN t
+         * is neither hit nor slow, as in watertight()) */
+        V mz = MAX3(azs, bzs, czs), me = MAX3(e0, e1, e2);
+        V dxe = V_MUL(g5, V_ADD(mx, mz_len)), dye = V_MUL(g5, V_ADD(my, mz_len));
+        V g3 = V_SET1(TRI4_GAMMA(3)), dze = V_MUL(g3, mz);
+        V de = V_ADD(V_MUL(V_MUL(V_SET1(TRI4_GAMMA(2)), mx), my), V_MUL(dye, mx));
+        de = V_MUL(V_SET1(2.0f), V_ADD(de, V_MUL(dxe, my)));
+        V te = V_ADD(V_MUL(V_MUL(g3, me), mz), V_MUL(de, mz));
+        te = V_MUL(V_MUL(V_SET1(3.0f), V_ADD(te, V_MUL(dze, me))), V_ABS(inv));
+        /* a t outside (0, tmax) by less than its error bound: watertight()
+         * takes it again in double */
+        *slow |= inside & ~hit & V_MASK(V_AND(V_GT(tv, V_SUB(zero, te)), V_LT(tv, V_ADD(tmax, te))));
         if (hit) {
-            /* the rest of watertight() for the lanes hit, in its order (a
-             * lane hit has no NaN, so MAXPS is max3 there) */
-            V mz = MAX3(azs, bzs, czs), me = MAX3(e0, e1, e2);
-            V dxe = V_MUL(g5, V_ADD(mx, mz_len)), dye = V_MUL(g5, V_ADD(my, mz_len));
-            V g3 = V_SET1(TRI4_GAMMA(3)), dze = V_MUL(g3, mz);
-            V de = V_ADD(V_MUL(V_MUL(V_SET1(TRI4_GAMMA(2)), mx), my), V_MUL(dye, mx));
-            de = V_MUL(V_SET1(2.0f), V_ADD(de, V_MUL(dxe, my)));
-            V te = V_ADD(V_MUL(V_MUL(g3, me), mz), V_MUL(de, mz));
-            te = V_MUL(V_MUL(V_SET1(3.0f), V_ADD(te, V_MUL(dze, me))), V_ABS(inv));
             V_STORE(hterr, te);
             V_STORE(hu, V_MUL(e1, inv));
             V_STORE(hv, V_MUL(e2, inv));
@@ -88,9 +93,10 @@ TRI_INLINE int TRI_LANES(const PrimTri4 *blk, int lanes, const PrimTriRay *p, co
                 hterr[i] = prim_terr_up(hterr[i], ht[i]);
             }
         }
+        return hit;
     }
 #undef MAX3
-    return hit;
+    return 0;
 }
 
 #undef TRI_LANES

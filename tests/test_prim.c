@@ -559,6 +559,96 @@ static void test_tri4_matches_scalar(void **state)
     assert_true(shared > 1000); /* rays through shared edges and the centre */
 }
 
+static void test_shared_edge_with_an_edge_on_triangle(void **state)
+{
+    (void)state;
+    /* Two rays that make stress found leaking through the edge shared by
+     * two triangles, one of them seen almost edge-on. The ray passes
+     * exactly through the edge (t = 1/16 and 256 exactly, from CGAL); the
+     * edge went to the edge-on triangle, whose float t came out negative
+     * and was dropped. Either triangle may report the hit, with its t
+     * within terr, in the scalar routine and in the lanes alike. */
+    static const struct {
+        float o[3], d[3], a[3], b[3], c[3], c1[3], t;
+    } cases[] = {
+        {{0x1.8d723cp+5f, 0x1.2106ap+5f, 0x1.ea05d8p+4f},
+         {0x1p-12f, 0x1.ap-9f, -0x1p-12f},
+         {0x1.8a3344p+5f, 0x1.1bcb28p+5f, 0x1.dd8588p+4f},
+         {0x1.865728p+5f, 0x1.0f8c04p+5f, 0x1.d1c0dp+4f},
+         {0x1.9250c4p+5f, 0x1.28e0d8p+5f, 0x1.fcc628p+4f},
+         {0x1.8f64f8p+5f, 0x1.0f1734p+5f, 0x1.eef51p+4f},
+         0x1p-4f},
+        {{-0x1.915e2p+29f, 0x1.414a2p+29f, 0x1.92506p+29f},
+         {8, -12, -10},
+         {-0x1.939eep+29f, 0x1.2be34p+29f, 0x1.7cb55p+29f},
+         {-0x1.7634bp+29f, 0x1.3e83bp+29f, 0x1.c9207p+29f},
+         {-0x1.8fad2p+29f, 0x1.5156ap+29f, 0x1.a2842p+29f},
+         {-0x1.67042p+29f, 0x1.674f1p+29f, 0x1.c170bp+29f},
+         0x1p+8f},
+    };
+    for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
+#define V3(x) vec3((x)[0], (x)[1], (x)[2])
+        Vec3 v[2][3] = {{V3(cases[k].a), V3(cases[k].b), V3(cases[k].c)},
+                        {V3(cases[k].a), V3(cases[k].c), V3(cases[k].c1)}};
+        Ray r = ray_make(V3(cases[k].o), V3(cases[k].d), INFINITY);
+#undef V3
+        PrimTri4 t4 = {0};
+        for (int l = 0; l < 2; l++)
+            for (int i = 0; i < 3; i++) {
+                t4.v[i][0][l] = v[l][i].x;
+                t4.v[i][1][l] = v[l][i].y;
+                t4.v[i][2][l] = v[l][i].z;
+            }
+        PrimTriRay p;
+        prim_triray_init(&p, &r);
+        PrimHit4 h4;
+        int lanes = prim_tri4_hit_watertight(&t4, 3, &p, &r, &h4), hits = 0;
+        for (int l = 0; l < 2; l++) {
+            PrimHit h;
+            int hit = prim_triangle_hit_watertight3(v[l], &r, &h);
+            assert_int_equal(lanes >> l & 1, hit);
+            if (hit) {
+                assert_true(fabsf(h.t - cases[k].t) <= h.terr);
+                assert_float_equal(h4.t[l], h.t, 0);
+            }
+            hits += hit;
+        }
+        assert_true(hits >= 1);
+    }
+}
+
+static void test_edge_on_triangle_hit_near_origin(void **state)
+{
+    (void)state;
+    /* A triangle seen almost edge-on (its plane 1e-7 of a radian from the
+     * ray), hit well inside its edges at t = 0.00934449300503299 (exact,
+     * from rationals). The float t is no more accurate than its bound
+     * terr, which is larger than t, and came out negative: the hit was
+     * dropped, by the scalar routine and by the lanes alike. */
+    Vec3 v[3] = {vec3(0x1.182252p+1f, 0x1.744ca4p+1f, -0x1.5f9834p+1f),
+                 vec3(0x1.51a14p+0f, 0x1.f73048p+0f, -0x1.c1304ap+1f),
+                 vec3(0x1.3a21c2p-1f, 0x1.395b98p+1f, -0x1.85757cp+1f)};
+    Ray r = ray_make(vec3(0x1.6e8248p+0f, 0x1.407ep+1f, -0x1.863794p+1f),
+                     vec3(-0x1.33eb4p-4f, -0x1.6f4e4p-2f, -0x1.3a631p-2f), INFINITY);
+    const double t = 0x1.323349ed5a464p-7;
+    PrimHit h;
+    assert_true(prim_triangle_hit_watertight3(v, &r, &h));
+    assert_true(fabs(h.t - t) <= h.terr);
+    PrimTri4 t4 = {0};
+    for (int l = 0; l < 4; l++)
+        for (int i = 0; i < 3; i++) {
+            t4.v[i][0][l] = v[i].x;
+            t4.v[i][1][l] = v[i].y;
+            t4.v[i][2][l] = v[i].z;
+        }
+    PrimTriRay p;
+    prim_triray_init(&p, &r);
+    PrimHit4 h4;
+    assert_int_equal(prim_tri4_hit_watertight(&t4, 15, &p, &r, &h4), 15);
+    for (int l = 0; l < 4; l++)
+        assert_float_equal(h4.t[l], h.t, 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -580,6 +670,8 @@ int main(void)
     };
     const struct CMUnitTest robust_only[] = {
         cmocka_unit_test(test_tri4_matches_scalar),
+        cmocka_unit_test(test_shared_edge_with_an_edge_on_triangle),
+        cmocka_unit_test(test_edge_on_triangle_hit_near_origin),
     };
     int failed = cmocka_run_group_tests_name("classic", tests, setup_classic, NULL);
     failed += cmocka_run_group_tests_name("robust", tests, setup_robust, NULL);

@@ -144,7 +144,10 @@ int prim_sphere_hit_robust(const Sphere *s, const Ray *r, PrimHit *h);
  * give exactly opposite edge functions, so no ray slips between them; an
  * edge function within its rounding bound of 0 is decided in double by the
  * same symmetric test in both triangles. terr is pbrt's bound, with the
- * shear errors taken in length units. Band: rays within a relative 2^-16 of
+ * shear errors taken in length units; a t outside (0, tmax) by less than
+ * terr is taken again in double, since the triangle that gets a shared
+ * edge may be seen almost edge-on, with a float t worse than its edge
+ * signs. Band: rays within a relative 2^-16 of
  * an edge may be reported by only one of the triangles sharing it (never by
  * none: the exact judge checks closed meshes and shared edges). */
 int prim_triangle_hit_watertight(const Triangle *tr, const Ray *r, PrimHit *h);
