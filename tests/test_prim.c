@@ -499,10 +499,11 @@ static void test_tri4_matches_scalar(void **state)
     /* A fan of four triangles around a shared vertex, so that lanes share
      * edges, and rays aimed at its vertices, at points of its edges and
      * inside it, with directions from tiny to huge (those take the rescaled
-     * scalar path) and finite or infinite tmax. Every lane must get the
-     * scalar routine's verdict and the same t, terr, u and v, bit for
-     * bit, and so must prim_tri4_lane_hit. */
-    int hits = 0, shared = 0;
+     * scalar path) and finite or infinite tmax; a fifth of them start
+     * next to a triangle's inside, where t can be within its error bound
+     * of 0. Every lane must get the scalar routine's verdict and the same
+     * t, terr, u and v, bit for bit, and so must prim_tri4_lane_hit. */
+    int hits = 0, shared = 0, near = 0;
     for (int n = 0; n < 200000; n++) {
         Vec3 c = test_rvec(&rng, -2, 2), rim[4], v[4][3];
         for (int i = 0; i < 4; i++)
@@ -523,9 +524,16 @@ static void test_tri4_matches_scalar(void **state)
         Vec3 target = kind == 0 ? rim[i] : kind == 1 ? vec_add(c, vec_scale(vec_sub(rim[i], c), s))
                     : kind == 2 ? vec_add(rim[i], vec_scale(vec_sub(rim[(i + 1) % 4], rim[i]), s))
                                 : vec_add(c, test_rvec(&rng, -1, 1));
-        Vec3 o = test_rvec(&rng, -6, 6);
+        Vec3 o = test_rvec(&rng, -6, 6), aim = vec_sub(target, o);
+        if (n % 5 == 4) { /* from next to a triangle's inside, any way: t near 0, its sign in doubt */
+            Vec3 e1 = vec_sub(rim[i], c), e2 = vec_sub(rim[(i + 1) % 4], c);
+            Vec3 in = vec_add(c, vec_add(vec_scale(e1, test_uniform(&rng, 0.1f, 0.45f)),
+                                         vec_scale(e2, test_uniform(&rng, 0.1f, 0.45f))));
+            o = vec_add(in, vec_scale(test_rvec(&rng, -1, 1), ldexpf(1.0f, -(n / 5 % 30))));
+            aim = test_rvec(&rng, -1, 1);
+        }
         const float scales[] = {1, 0x1p-70f, 0x1p-20f, 0x1p20f, 0x1p70f, 3};
-        Vec3 d = vec_scale(vec_sub(target, o), scales[n / 16 % 6]);
+        Vec3 d = vec_scale(aim, scales[n / 16 % 6]);
         float tmax = n % 3 ? INFINITY : test_uniform(&rng, 0.5f, 1.5f) / scales[n / 16 % 6];
         Ray r = ray_make(o, d, tmax);
         PrimTriRay p;
@@ -554,9 +562,11 @@ static void test_tri4_matches_scalar(void **state)
         }
         hits += nhit > 0;
         shared += nhit > 1;
+        near += nhit > 0 && n % 5 == 4;
     }
-    assert_true(hits > 50000);
+    assert_true(hits > 40000);
     assert_true(shared > 1000); /* rays through shared edges and the centre */
+    assert_true(near > 3000);
 }
 
 static void test_shared_edge_with_an_edge_on_triangle(void **state)
