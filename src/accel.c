@@ -57,9 +57,19 @@ static int closest_unbounded(const Accel *a, const Ray *r, int best, PrimHit *h,
     return best;
 }
 
-int accel_closest(const Accel *a, const Ray *r, PrimHit *h, RayStats *st)
+#ifdef __GNUC__
+__attribute__((noinline)) /* so that accel_closest stays a test and a jump */
+#endif
+static int closest_with_planes(const Accel *a, const Ray *r, PrimHit *h, RayStats *st)
 {
     return closest_unbounded(a, r, bvh_closest(&a->bvh, r, h, &st->isect_tests), h, st);
+}
+
+int accel_closest(const Accel *a, const Ray *r, PrimHit *h, RayStats *st)
+{
+    /* Without planes, a tail call: the frame of a call that returns to
+     * test for planes took 17 of a camera ray's 496 instructions. */
+    return a->nunbounded ? closest_with_planes(a, r, h, st) : bvh_closest(&a->bvh, r, h, &st->isect_tests);
 }
 
 void accel_closest_packet(const Accel *a, const Ray *r, int n, PrimHit *h, int *best, RayStats *st)
