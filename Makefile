@@ -73,7 +73,7 @@ $(BUILD)/test_%: $(BUILD)/obj/tests/test_%.o $(BUILD)/liblancer.a
 
 $(BUILD)/obj/bvh_traverse_avx2.o: src/bvh_traverse.c
 	@mkdir -p $(@D)
-	$(CC) $(CPPFLAGS) -DLANCER_AVX2_VARIANT -mavx2 $(ALLCFLAGS) -MMD -MP -c $< -o $@
+	$(CC) $(CPPFLAGS) -DLANCER_AVX2_VARIANT -mavx2 -mbmi $(ALLCFLAGS) -MMD -MP -c $< -o $@
 
 # The BVH and the four-lane triangle test without SIMD (scalar), and the
 # traversal with SSE only (no AVX2), run through the same tests as what

@@ -9,7 +9,7 @@
  *
  * This file is compiled up to three ways: with SSE (the baseline on
  * x86-64, or -DLANCER_NO_SIMD for a scalar loop), and on x86-64 once more
- * with -mavx2 -DLANCER_AVX2_VARIANT, which tests eight boxes in one
+ * with -mavx2 -mbmi -DLANCER_AVX2_VARIANT, which tests eight boxes in one
  * register. The baseline object picks the AVX2 one at run time when the
  * processor has it (not with -DLANCER_NO_AVX2). All give the same answers:
  * the same operations, lane by lane, with no FMA.
@@ -552,21 +552,24 @@ void bvh_closest_packet_avx2(const Bvh *b, const Ray *r, int n, PrimHit *h, int 
 #endif
 
 #ifdef BVH_DISPATCH
-/* The AVX2 object (bvh_traverse.c again, with -mavx2) when the processor
- * runs it. */
+/* The AVX2 object (bvh_traverse.c again, with -mavx2 -mbmi) when the
+ * processor runs it. Every AVX2 processor made has BMI1 too (TZCNT and
+ * BLSR for the masks), but it is checked all the same. */
+static inline int has_avx2(void) { return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("bmi"); }
+
 int bvh_closest(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *tests)
 {
-    return __builtin_cpu_supports("avx2") ? bvh_closest_avx2(b, r, h, tests) : closest_base(b, r, h, tests);
+    return has_avx2() ? bvh_closest_avx2(b, r, h, tests) : closest_base(b, r, h, tests);
 }
 
 int bvh_occluded(const Bvh *b, const Ray *r, unsigned long long *tests)
 {
-    return __builtin_cpu_supports("avx2") ? bvh_occluded_avx2(b, r, tests) : occluded_base(b, r, tests);
+    return has_avx2() ? bvh_occluded_avx2(b, r, tests) : occluded_base(b, r, tests);
 }
 
 void bvh_closest_packet(const Bvh *b, const Ray *r, int n, PrimHit *h, int *best, unsigned long long *tests)
 {
-    if (__builtin_cpu_supports("avx2")) {
+    if (has_avx2()) {
         for (int k = 0; k < n; k += BVH_PACKET) /* packets of at most BVH_PACKET */
             bvh_closest_packet_avx2(b, r + k, n - k < BVH_PACKET ? n - k : BVH_PACKET, h + k, best + k, tests);
         return;
