@@ -653,6 +653,7 @@ static int build_wide(Bvh *b, const BvhNode *bin, int nbin)
         b->lo[a] = bin[0].lo[a];
         b->hi[a] = bin[0].hi[a];
     }
+    b->lo[3] = b->hi[3] = 0.0f;
     fill_leaves(b);
     void *nodes = b->nodes, *leaves = b->leaves;
     int rc = shrink(&nodes, sizeof(BvhWideNode) * (size_t)b->nnodes) | shrink(&leaves, sizeof(BvhLeaf) * (size_t)b->nleaves);
@@ -773,8 +774,8 @@ int bvh_validate(const Bvh *b, char *err, size_t errlen)
         goto done;
     }
     stack[sp] = 0;
-    memcpy(box[sp][0], b->lo, sizeof b->lo);
-    memcpy(box[sp++][1], b->hi, sizeof b->hi);
+    memcpy(box[sp][0], b->lo, sizeof box[sp][0]);
+    memcpy(box[sp++][1], b->hi, sizeof box[sp][1]);
     while (sp > 0 && rc == 0) {
         int ni = stack[--sp];
         if (ni >= b->nnodes || ++visited > b->nnodes) {

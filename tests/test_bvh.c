@@ -335,6 +335,42 @@ static void test_hits_just_before_tmax(void **state)
     free(p);
 }
 
+static void test_rays_from_outside_touching_the_root_box(void **state)
+{
+    (void)state;
+    /* A tree of one triangle in an axis plane, so its root box is flat,
+     * and rays from outside aimed at the triangle's vertices and edges,
+     * which lie on the box's faces: a ray then enters the box and leaves
+     * it at the same t. The test of the root box that spares rays missing
+     * it their traversal must keep the slab test's padding, or it drops
+     * such rays where the triangle test finds a hit. */
+    const int trees = 2000, rays = 40;
+    int bad = 0, hits = 0;
+    unsigned long long tests = 0;
+    for (int i = 0; i < trees; i++) {
+        Prim *p = random_triangles(1);
+        Triangle *t = &p->g.tri;
+        (&t->b.x)[i % 3] = (&t->c.x)[i % 3] = (&t->a.x)[i % 3];
+        Bvh b;
+        build_ok(&b, p, 1, 1);
+        for (int k = 0; k < rays; k++) {
+            const Vec3 v[3] = {t->a, t->b, t->c};
+            float s = k % 2 ? 0.0f : test_uniform(&rng, 0, 1);
+            Vec3 target = vec_add(v[k % 3], vec_scale(vec_sub(v[(k + 1) % 3], v[k % 3]), s));
+            Vec3 o = test_rvec(&rng, -14, 14);
+            Ray r = ray_make(o, vec_sub(target, o), INFINITY);
+            PrimHit h, w = {0, 0, 0, 0, 0};
+            int want = brute_closest(p, 1, &r, &w), got = bvh_closest(&b, &r, &h, &tests);
+            bad += closest_differs(p, got, &h, want, &w) || bvh_occluded(&b, &r, &tests) != (want >= 0);
+            hits += want >= 0;
+        }
+        bvh_free(&b);
+        free(p);
+    }
+    assert_true(hits > trees * rays / 4);
+    assert_int_equal(bad, 0);
+}
+
 static void test_mesh_leaves_agree_with_brute_force(void **state)
 {
     (void)state;
@@ -501,6 +537,7 @@ int main(void)
         cmocka_unit_test(test_agrees_with_brute_force),
         cmocka_unit_test(test_padding_covers_the_roundings),
         cmocka_unit_test(test_hits_just_before_tmax),
+        cmocka_unit_test(test_rays_from_outside_touching_the_root_box),
         cmocka_unit_test(test_mesh_leaves_agree_with_brute_force),
         cmocka_unit_test(test_closed_mesh_has_no_leaks),
         cmocka_unit_test(test_packets_agree_with_single_rays),

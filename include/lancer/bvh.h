@@ -86,7 +86,7 @@ typedef struct {
     const Prim *prims; /* the caller's array */
     int *order;        /* order[i]: the caller's index of the i-th primitive in leaf order */
     int nprims;        /* bounded primitives: the length of order[] */
-    float lo[3], hi[3]; /* the root box */
+    float lo[4], hi[4]; /* the root box: x, y, z and a 0 (for SIMD loads) */
     PrimVariant variant;
 } Bvh;
 
