@@ -504,16 +504,19 @@ static int watertight(const Vec3 v[3], const Ray *r, const PrimTriRay *p, PrimHi
     float dxe = gamma_f(5) * (mx + mz_len), dye = gamma_f(5) * (my + mz_len), dze = gamma_f(3) * mz;
     float de = 2.0f * (gamma_f(2) * mx * my + dye * mx + dxe * my);
     float me = max3(fabsf(e0), fabsf(e1), fabsf(e2));
-    float terr = 3.0f * (gamma_f(3) * me * mz + de * mz + dze * me) * fabsf(inv);
+    float tserr = 3.0f * (gamma_f(3) * me * mz + de * mz + dze * me); /* terr times |det| */
+    float terr = tserr * fabsf(inv);
     float u = e1 * inv, w = e2 * inv;
     int out = det < 0.0f ? (tscaled >= 0.0f || tscaled < r->tmax * det) : (tscaled <= 0.0f || tscaled > r->tmax * det);
     if (out || !(t > 0.0f) || !(t < r->tmax)) {
         /* Outside (0, tmax), but maybe only by t's rounding: a triangle
          * seen almost edge-on has a t far less accurate than its edge
          * signs, and if the shared edge went to it, dropping it would leak
-         * the ray between two triangles. Within terr, t is taken again in
-         * double; the signs stay as decided. */
-        if (!(t > -terr && t < r->tmax + terr) || !t_double(v, r, p, &t, &u, &w))
+         * the ray between two triangles. Within terr (compared times |det|,
+         * so that the lanes need no division), t is taken again in double;
+         * the signs stay as decided. */
+        float ts = det < 0.0f ? -tscaled : tscaled, reach = r->tmax * fabsf(det) + tserr;
+        if (!(ts > -tserr && ts < reach) || !t_double(v, r, p, &t, &u, &w))
             return 0;
     }
     h->t = t;

@@ -67,36 +67,40 @@ TRI_INLINE int TRI_LANES(const PrimTri4 *blk, int lanes, const PrimTriRay *p, co
     V t_out = V_OR(V_AND(neg, out_neg), V_ANDNOT(neg, out_pos));
     *slow = lanes & unsure;
     int inside = lanes & ~unsure & ~V_MASK(edges_out);
-    if (inside) { /* most leaves a ray reaches are missed by here: no division */
+    if (!inside) /* most leaves a ray reaches are missed by here */
+        return 0;
+    /* the rest of watertight() for the lanes inside, in its order (a lane
+     * with a finite ts has no NaN, so MAXPS is max3 there; a NaN ts is
+     * neither hit nor slow, as in watertight()) */
+    /* max |z sz| is max|z| |sz| rounded, and max |e| is the larger of
+     * |min e| and |max e|: rounding and abs are monotone */
+    V mz = V_MUL(mz_len, V_ABS(sz)), me = V_MAX(V_ABS(emn), V_ABS(emx));
+    V dxe = V_MUL(g5, V_ADD(mx, mz_len)), dye = V_MUL(g5, V_ADD(my, mz_len));
+    V g3 = V_SET1(TRI4_GAMMA(3)), dze = V_MUL(g3, mz);
+    V de = V_ADD(V_MUL(V_MUL(V_SET1(TRI4_GAMMA(2)), mx), my), V_MUL(dye, mx));
+    de = V_MUL(V_SET1(2.0f), V_ADD(de, V_MUL(dxe, my)));
+    V tserr = V_ADD(V_MUL(V_MUL(g3, me), mz), V_MUL(de, mz));
+    tserr = V_MUL(V_SET1(3.0f), V_ADD(tserr, V_MUL(dze, me)));
+    /* a t outside (0, tmax) by less than its error bound (times |det|):
+     * watertight() takes it again in double */
+    V tsd = V_OR(V_AND(neg, V_SUB(zero, ts)), V_ANDNOT(neg, ts));
+    int near = V_MASK(V_AND(V_GT(tsd, V_SUB(zero, tserr)), V_LT(tsd, V_ADD(V_ABS(tmd), tserr))));
+    int hit = inside & ~V_MASK(t_out);
+    if (hit) { /* only then the division */
         V inv = V_DIV(V_SET1(1.0f), det), tv = V_MUL(ts, inv);
-        int hit = inside & ~V_MASK(t_out) & V_MASK(V_AND(V_GT(tv, zero), V_LT(tv, tmax)));
+        hit &= V_MASK(V_AND(V_GT(tv, zero), V_LT(tv, tmax)));
         V_STORE(ht, tv);
-        /* the rest of watertight() for the lanes inside, in its order (a
-         * lane with a finite t has no NaN, so MAXPS is max3 there; a NaN t
-         * is neither hit nor slow, as in watertight()) */
-        V mz = MAX3(azs, bzs, czs), me = MAX3(e0, e1, e2);
-        V dxe = V_MUL(g5, V_ADD(mx, mz_len)), dye = V_MUL(g5, V_ADD(my, mz_len));
-        V g3 = V_SET1(TRI4_GAMMA(3)), dze = V_MUL(g3, mz);
-        V de = V_ADD(V_MUL(V_MUL(V_SET1(TRI4_GAMMA(2)), mx), my), V_MUL(dye, mx));
-        de = V_MUL(V_SET1(2.0f), V_ADD(de, V_MUL(dxe, my)));
-        V te = V_ADD(V_MUL(V_MUL(g3, me), mz), V_MUL(de, mz));
-        te = V_MUL(V_MUL(V_SET1(3.0f), V_ADD(te, V_MUL(dze, me))), V_ABS(inv));
-        /* a t outside (0, tmax) by less than its error bound: watertight()
-         * takes it again in double */
-        *slow |= inside & ~hit & V_MASK(V_AND(V_GT(tv, V_SUB(zero, te)), V_LT(tv, V_ADD(tmax, te))));
-        if (hit) {
-            V_STORE(hterr, te);
-            V_STORE(hu, V_MUL(e1, inv));
-            V_STORE(hv, V_MUL(e2, inv));
-            for (unsigned bits = (unsigned)hit; bits; bits &= bits - 1) {
-                int i = tri_low_bit(bits);
-                hterr[i] = prim_terr_up(hterr[i], ht[i]);
-            }
+        V_STORE(hterr, V_MUL(tserr, V_ABS(inv)));
+        V_STORE(hu, V_MUL(e1, inv));
+        V_STORE(hv, V_MUL(e2, inv));
+        for (unsigned bits = (unsigned)hit; bits; bits &= bits - 1) {
+            int i = tri_low_bit(bits);
+            hterr[i] = prim_terr_up(hterr[i], ht[i]);
         }
-        return hit;
     }
+    *slow |= inside & ~hit & near;
+    return hit;
 #undef MAX3
-    return 0;
 }
 
 #undef TRI_LANES
