@@ -584,7 +584,7 @@ void bvh_closest_packet(const Bvh *b, const Ray *r, int n, PrimHit *h, int *best
  * A ray from inside the box (shadow and secondary rays) is not tested. */
 static inline int misses_root(const Bvh *b, const Ray *r)
 {
-    float inv[4], reach = r->tmax * BVH_REACH;
+    float inv[4];
 #ifdef BVH_SSE
     /* lane 3 (d.x of the ray, the 0 of the box) is never looked at */
     const __m128 o = _mm_loadu_ps(&r->o.x), lo = _mm_loadu_ps(b->lo), hi = _mm_loadu_ps(b->hi);
@@ -598,7 +598,7 @@ static inline int misses_root(const Bvh *b, const Ray *r)
     const __m128 t1 = _mm_mul_ps(_mm_sub_ps(pf, o), _mm_mul_ps(iv, _mm_set1_ps(BVH_SLAB_PAD)));
     /* lanes 0 to 2 in slots_enter's order, each as the first operand: a
      * NaN leaves the bound as it was */
-    __m128 tn = _mm_max_ss(t0, _mm_setzero_ps()), tf = _mm_min_ss(t1, _mm_set_ss(reach));
+    __m128 tn = _mm_max_ss(t0, _mm_setzero_ps()), tf = _mm_min_ss(t1, _mm_set_ss(r->tmax * BVH_REACH));
     tn = _mm_max_ss(_mm_shuffle_ps(t0, t0, 1), tn);
     tf = _mm_min_ss(_mm_shuffle_ps(t1, t1, 1), tf);
     tn = _mm_max_ss(_mm_shuffle_ps(t0, t0, 2), tn);
@@ -610,7 +610,7 @@ static inline int misses_root(const Bvh *b, const Ray *r)
         o[2] <= b->hi[2])
         return 0;
     inverse_dir(r, inv);
-    float tn = 0.0f, tf = reach;
+    float tn = 0.0f, tf = r->tmax * BVH_REACH;
     for (int a = 0; a < 3; a++) {
         int neg = inv[a] < 0.0f;
         float t0 = ((neg ? b->hi[a] : b->lo[a]) - o[a]) * inv[a];
