@@ -71,9 +71,9 @@ TRI_INLINE int TRI_LANES(const PrimTri4 *blk, int lanes, const PrimTriRay *p, co
         return 0;
     /* the rest of watertight() for the lanes inside, in its order (a lane
      * with a finite ts has no NaN, so MAXPS is max3 there; a NaN ts is
-     * neither hit nor slow, as in watertight()) */
-    /* max |z sz| is max|z| |sz| rounded, and max |e| is the larger of
-     * |min e| and |max e|: rounding and abs are monotone */
+     * neither hit nor slow, as in watertight()). max |z sz| is max|z| |sz|
+     * rounded, and max |e| the larger of |min e| and |max e|: rounding
+     * and abs are monotone. */
     V mz = V_MUL(mz_len, V_ABS(sz)), me = V_MAX(V_ABS(emn), V_ABS(emx));
     V dxe = V_MUL(g5, V_ADD(mx, mz_len)), dye = V_MUL(g5, V_ADD(my, mz_len));
     V g3 = V_SET1(TRI4_GAMMA(3)), dze = V_MUL(g3, mz);
