@@ -346,10 +346,8 @@ int OCCLUDED(const Bvh *b, const Ray *r, unsigned long long *tests)
         return 0;
     RayPre p;
     ray_pre(r, &p);
-    TriPre tp; /* set up now, off the path to the first leaf: a shadow ray almost always
-                * reaches one (its own surface's) */
-    prim_triray_init(&tp.tri, r);
-    tp.ready = 1;
+    TriPre tp;
+    tp.ready = 0;
     int32_t stack[BVH_ENTRIES]; /* any hit will do: no distances, no order */
     const float reach = r->tmax * BVH_REACH;
     int sp = 0, hit = 0;
