@@ -137,8 +137,8 @@ exact: deps-test exact-judge
 stress: deps-test exact-judge
 	$(EXACT_DIR)/judge $(STRESS_RAYS)
 
-# Benchmarks (not tests): the routines' speed, and lancer against Embree on
-# ray files of three CGAL meshes. scripts/bench.sh installs what it needs.
+# Benchmarks (not tests): the routines' speed, lancer against Embree on ray
+# files of three CGAL meshes, and the bunny frame against POV-Ray.
 $(BUILD)/prim_bench: tests/bench/prim_bench.c $(BUILD)/liblancer.a
 	$(CC) $(CPPFLAGS) $(ALLCFLAGS) $^ $(LDLIBS) -o $@
 
@@ -150,6 +150,7 @@ bench:
 	sh scripts/cgal-data.sh build/cgal-data
 	$(MAKE) all $(BUILD)/prim_bench $(BUILD)/embree_bench
 	sh scripts/bench.sh
+	sh scripts/bench-frame.sh $(BUILD)/lancer
 
 exact-judge: cgal-data
 	$(MAKE) -j2 BUILD=build SAN=0 $(EXACT_DIR)/judge

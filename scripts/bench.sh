@@ -6,6 +6,12 @@
 set -eu
 passes=${1:-11}
 data=build/cgal-data/meshes
+# The figures depend on the processor (Embree picks its code by the ISA), so
+# every run names it.
+echo "Processor: $(sed -n 's/^model name[^:]*: //p' /proc/cpuinfo | head -n 1), $(nproc) cores;" \
+    "AVX2: $(grep -qw avx2 /proc/cpuinfo && echo yes || echo no)," \
+    "AVX-512: $(grep -qw avx512f /proc/cpuinfo && echo yes || echo no)"
+echo
 echo "## Intersection routines (Mrays/s, one thread, medians of 9 alternating rounds)"
 echo
 build/prim_bench
