@@ -118,9 +118,9 @@ static inline void ray_pre(const Ray *r, RayPre *p)
  * by the child's kind mispredicted its exit. */
 static inline void prefetch_child(const Bvh *b, int32_t c)
 {
-    const char *node = (const char *)b->nodes + (ptrdiff_t)c * (ptrdiff_t)sizeof(BvhWideNode);
-    const char *leaf = (const char *)b->leaves + (ptrdiff_t)(-1 - c) * (ptrdiff_t)sizeof(BvhLeaf);
-    const char *m = c >= 0 ? node : leaf;
+    const char *base = c >= 0 ? (const char *)b->nodes : (const char *)b->leaves;
+    size_t at = c >= 0 ? (size_t)c * sizeof(BvhWideNode) : (size_t)(-1 - c) * sizeof(BvhLeaf);
+    const char *m = base + at; /* (the next node's first line is one past a node: still a valid pointer) */
     for (int k = 0; k < 5; k++)
         _mm_prefetch(m + 64 * k, _MM_HINT_T0);
 }
