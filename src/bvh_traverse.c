@@ -118,10 +118,8 @@ static inline void ray_pre(const Ray *r, RayPre *p)
  * by the child's kind mispredicted its exit. */
 static inline void prefetch_child(const Bvh *b, int32_t c)
 {
-    const char *base = c >= 0 ? (const char *)b->nodes : (const char *)b->leaves;
-    size_t at = c >= 0 ? (size_t)c * sizeof(BvhWideNode) : (size_t)(-1 - c) * sizeof(BvhLeaf);
-    const char *m = base + at; /* (the next node's first line is one past a node: still a valid pointer) */
-    for (int k = 0; k < 5; k++)
+    const char *m = c >= 0 ? (const char *)&b->nodes[c] : (const char *)&b->leaves[-1 - c];
+    for (int k = 0; k < 5; k++) /* (a node's fifth line starts one past it: still a valid pointer) */
         _mm_prefetch(m + 64 * k, _MM_HINT_T0);
 }
 typedef char prefetch_covers_a_child[sizeof(BvhLeaf) <= 5 * 64 && sizeof(BvhWideNode) <= 5 * 64 ? 1 : -1];
