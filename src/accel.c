@@ -89,3 +89,32 @@ int accel_occluded(const Accel *a, const Ray *r, RayStats *st)
     }
     return bvh_occluded(&a->bvh, r, &st->isect_tests);
 }
+
+unsigned accel_occluded_packet(const Accel *a, const Ray *r, int n, RayStats *st)
+{
+    /* the planes first, ray by ray, as accel_occluded; the rest together */
+    unsigned hit = 0;
+    for (int k = 0; k < n; k++) {
+        PrimHit cur;
+        for (int j = 0; j < a->nunbounded; j++) {
+            st->isect_tests++;
+            if (prim_intersect(&a->prims[a->unbounded[j]], &r[k], a->variant, &cur)) {
+                hit |= 1u << k;
+                break;
+            }
+        }
+    }
+    if (!hit) /* the common case: no copies */
+        return bvh_occluded_packet(&a->bvh, r, n, &st->isect_tests);
+    Ray rest[BVH_PACKET];
+    int who[BVH_PACKET], m = 0;
+    for (int k = 0; k < n; k++)
+        if (!(hit >> k & 1)) {
+            rest[m] = r[k];
+            who[m++] = k;
+        }
+    unsigned in_bvh = m ? bvh_occluded_packet(&a->bvh, rest, m, &st->isect_tests) : 0;
+    for (int j = 0; j < m; j++)
+        hit |= (in_bvh >> j & 1u) << who[j];
+    return hit;
+}

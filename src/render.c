@@ -52,12 +52,13 @@ static void trace_packet(const Job *job, const float *sx, const float *sy, const
     camera_rays(&job->cam, sx, sy, n, r);
     accel_closest_packet(job->a, r, n, h, best, st);
     prefetch_prims(job->a, best, n);
+    Vec3 c[BVH_PACKET];
+    shade_traced_packet(job->s, job->a, r, n, best, h, &job->in, st, c);
     for (int m = 0; m < n; m++) {
-        Vec3 c = shade_traced(job->s, job->a, &r[m], best[m], &h[m], &job->in, st);
         float *p = row + 3 * px[m];
-        p[0] += c.x;
-        p[1] += c.y;
-        p[2] += c.z;
+        p[0] += c[m].x;
+        p[1] += c[m].y;
+        p[2] += c[m].z;
     }
 }
 

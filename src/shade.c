@@ -134,39 +134,55 @@ static Vec3 light_visibility(const Ctx *c, const Light *l, const Surface *sf, Ve
     return vis;
 }
 
+/* Light l's share at sf short of its visibility: 0 when it adds nothing,
+ * and no shadow ray is needed; else 1, with the unit direction *L and
+ * distance *dist to the light, the surface's *term and the light's colour
+ * *lc, to be scaled by the visibility unless the light is shadowless. */
+static int light_term(const Material *m, float opacity, const Surface *sf, Vec3 refl, Vec3 view, const Light *l,
+                      Vec3 *L, float *dist, Vec3 *term, Vec3 *lc)
+{
+    Vec3 n = sf->ns;
+    *dist = toward(sf->p, l->pos, L);
+    if (!(*dist > 0.0f))
+        return 0;
+    float nl = vec_dot(n, *L);
+    if (nl < LIGHT_EPSILON)
+        return 0; /* light behind the surface: no diffuse, highlight or shadow ray */
+    Vec3 t = vec_scale(m->color, m->diffuse * opacity * nl);
+    if (!l->shadowless) { /* shadowless lights add no highlights */
+        float high = 0.0f;
+        float rl = vec_dot(refl, *L);
+        if (m->phong > 0.0f && rl > 0.0f)
+            high += m->phong * powf(rl, m->phong_size);
+        if (m->specular > 0.0f) {
+            float nh = vec_dot(n, vec_normalize(vec_add(*L, view)));
+            if (nh > 0.0f)
+                high += m->specular * powf(nh, 1.0f / m->roughness);
+        }
+        t = vec_add(t, vec3(high, high, high));
+    }
+    if (t.x <= 0.0f && t.y <= 0.0f && t.z <= 0.0f)
+        return 0; /* nothing to add: skip the shadow rays */
+    *term = t;
+    *lc = vec_scale(l->color, fade(l, *dist));
+    return 1;
+}
+
+/* 1 - filter - transmit: what scales ambient and diffuse. */
+static float opacity_of(const Material *m) { return 1.0f - m->filter - m->transmit; }
+
 /* Ambient and the lights: everything but the secondary rays. */
 static Vec3 direct(const Ctx *c, const Material *m, const Surface *sf, const Ray *r)
 {
-    float opacity = 1.0f - m->filter - m->transmit; /* scales ambient and diffuse only */
+    float opacity = opacity_of(m);
     Vec3 col = vec_scale(m->color, m->ambient * opacity);
-    Vec3 n = sf->ns;
-    Vec3 refl = vec_reflect(r->d, n);
-    Vec3 view = vec_neg(r->d);
+    Vec3 refl = vec_reflect(r->d, sf->ns), view = vec_neg(r->d);
     for (int i = 0; i < c->s->nlights; i++) {
         const Light *l = &c->s->lights[i];
-        Vec3 L;
-        float dist = toward(sf->p, l->pos, &L);
-        if (!(dist > 0.0f))
+        Vec3 L, term, lc;
+        float dist;
+        if (!light_term(m, opacity, sf, refl, view, l, &L, &dist, &term, &lc))
             continue;
-        float nl = vec_dot(n, L);
-        if (nl < LIGHT_EPSILON)
-            continue; /* light behind the surface: no diffuse, highlight or shadow ray */
-        Vec3 term = vec_scale(m->color, m->diffuse * opacity * nl);
-        if (!l->shadowless) { /* shadowless lights add no highlights */
-            float high = 0.0f;
-            float rl = vec_dot(refl, L);
-            if (m->phong > 0.0f && rl > 0.0f)
-                high += m->phong * powf(rl, m->phong_size);
-            if (m->specular > 0.0f) {
-                float nh = vec_dot(n, vec_normalize(vec_add(L, view)));
-                if (nh > 0.0f)
-                    high += m->specular * powf(nh, 1.0f / m->roughness);
-            }
-            term = vec_add(term, vec3(high, high, high));
-        }
-        if (term.x <= 0.0f && term.y <= 0.0f && term.z <= 0.0f)
-            continue; /* nothing to add: skip the shadow rays */
-        Vec3 lc = vec_scale(l->color, fade(l, dist));
         if (!l->shadowless)
             lc = vec_mul(lc, light_visibility(c, l, sf, L, dist));
         col = vec_add(col, vec_mul(lc, term));
@@ -238,6 +254,37 @@ static Vec3 trace(const Ctx *c, const Ray *r, int level, int continued, const In
     return shade(c, r, i, &h, level, in);
 }
 
+/* POV-Ray's test for a refracted ray, by the luminance of pass_factor. */
+static int refracts(Vec3 f) { return 0.297f * f.x + 0.589f * f.y + 0.114f * f.z > 0.0f; }
+
+/* The mirror ray of r at sf. */
+static Ray mirror_ray(const Ctx *c, const Ray *r, const Surface *sf)
+{
+    Vec3 d = vec_reflect(r->d, sf->ns);
+    c->st->reflection++;
+    return ray_make(prim_spawn_origin(sf, d), d, INFINITY);
+}
+
+/* The rest of shade() once the hit's direct light col is known: the
+ * secondary rays. */
+static Vec3 shade_rest(const Ctx *c, const Ray *r, int i, const Material *m, const Surface *sf, Vec3 col, int level,
+                       const Interiors *in)
+{
+    /* Any child ray of a hit at the last level returns black: skip them. */
+    if (level >= c->s->max_depth)
+        return col;
+    int tir = 0;
+    Vec3 f = pass_factor(m);
+    if (refracts(f))
+        tir = refract(c, i, m, f, sf, r, level, in, &col);
+    float w = tir ? 1.0f : m->reflection; /* total internal reflection: the mirror ray, unfiltered */
+    if (w > 0.0f) {
+        Ray rr = mirror_ray(c, r, sf);
+        col = vec_madd(col, trace(c, &rr, level, 0, in), w);
+    }
+    return col;
+}
+
 /* The colour of a ray at `level` whose closest hit is primitive i (h), or
  * the background when i < 0. */
 static Vec3 shade(const Ctx *c, const Ray *r, int i, const PrimHit *h, int level, const Interiors *in)
@@ -247,22 +294,7 @@ static Vec3 shade(const Ctx *c, const Ray *r, int i, const PrimHit *h, int level
     const Material *m = material_of(c, i);
     Surface sf;
     prim_surface(&c->a->prims[i], r, h, c->a->variant, &sf);
-    Vec3 col = direct(c, m, &sf, r);
-    /* Any child ray of a hit at the last level returns black: skip them. */
-    if (level >= c->s->max_depth)
-        return col;
-    int tir = 0;
-    Vec3 f = pass_factor(m);
-    if (0.297f * f.x + 0.589f * f.y + 0.114f * f.z > 0.0f) /* POV-Ray's test, by luminance */
-        tir = refract(c, i, m, f, &sf, r, level, in, &col);
-    float w = tir ? 1.0f : m->reflection; /* total internal reflection: the mirror ray, unfiltered */
-    if (w > 0.0f) {
-        Vec3 d = vec_reflect(r->d, sf.ns);
-        Ray rr = ray_make(prim_spawn_origin(&sf, d), d, INFINITY);
-        c->st->reflection++;
-        col = vec_madd(col, trace(c, &rr, level, 0, in), w);
-    }
-    return col;
+    return shade_rest(c, r, i, m, &sf, direct(c, m, &sf, r), level, in);
 }
 
 Vec3 shade_trace(const Scene *s, const Accel *a, const Ray *r, const Interiors *in, RayStats *st)
@@ -280,4 +312,95 @@ Vec3 shade_traced(const Scene *s, const Accel *a, const Ray *r, int i, const Pri
     Ctx c = {s, a, st};
     Interiors none = {0, {0}};
     return shade(&c, r, i, h, 1, in ? in : &none);
+}
+
+/* shade() at `level` for each of the n rays r (n <= BVH_PACKET), whose
+ * closest hits are best[k] (h[k]), into out[k]: light by light over all of
+ * them, so that the shadow rays towards a point light of an opaque scene go
+ * to accel_occluded_packet together, and their mirror rays' hits in turn.
+ * Each colour is shade()'s, operation for operation. */
+static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, const PrimHit *h, int level,
+                         const Interiors *in, Vec3 *out)
+{
+    const Scene *s = c->s;
+    const Material *m[BVH_PACKET];
+    Surface sf[BVH_PACKET];
+    Vec3 refl[BVH_PACKET], view[BVH_PACKET];
+    for (int k = 0; k < n; k++) {
+        if (best[k] < 0) {
+            out[k] = s->background;
+            continue;
+        }
+        m[k] = material_of(c, best[k]);
+        prim_surface(&c->a->prims[best[k]], &r[k], &h[k], c->a->variant, &sf[k]);
+        out[k] = vec_scale(m[k]->color, m[k]->ambient * opacity_of(m[k]));
+        refl[k] = vec_reflect(r[k].d, sf[k].ns);
+        view[k] = vec_neg(r[k].d);
+    }
+    for (int i = 0; i < s->nlights; i++) {
+        const Light *l = &s->lights[i];
+        const int together = !l->shadowless && l->area_n1 * l->area_n2 == 1 && !s->transparent;
+        Vec3 term[BVH_PACKET], lc[BVH_PACKET];
+        Ray sr[BVH_PACKET];
+        int lit[BVH_PACKET], who[BVH_PACKET], ns = 0;
+        for (int k = 0; k < n; k++) {
+            Vec3 L;
+            float dist;
+            lit[k] = best[k] >= 0 && light_term(m[k], opacity_of(m[k]), &sf[k], refl[k], view[k], l, &L, &dist,
+                                                &term[k], &lc[k]);
+            if (!lit[k] || l->shadowless)
+                continue;
+            if (together) { /* as transmittance() */
+                sr[ns] = ray_make(prim_spawn_origin(&sf[k], L), L, dist);
+                c->st->shadow++;
+                who[ns++] = k;
+            } else
+                lc[k] = vec_mul(lc[k], light_visibility(c, l, &sf[k], L, dist));
+        }
+        unsigned dark = ns ? accel_occluded_packet(c->a, sr, ns, c->st) : 0;
+        for (int j = 0; j < ns; j++)
+            lc[who[j]] = vec_mul(lc[who[j]], dark >> j & 1 ? vec3(0, 0, 0) : vec3(1, 1, 1));
+        for (int k = 0; k < n; k++)
+            if (lit[k])
+                out[k] = vec_add(out[k], vec_mul(lc[k], term[k]));
+    }
+    if (level >= s->max_depth) /* as shade_rest() */
+        return;
+    /* shade_rest() for a ray that refracts; the others' mirror rays,
+     * traced as trace() would, are shaded together one level deeper */
+    Ray rr[BVH_PACKET];
+    int who[BVH_PACKET], nr = 0;
+    for (int k = 0; k < n; k++) {
+        if (best[k] < 0)
+            continue;
+        if (refracts(pass_factor(m[k])))
+            out[k] = shade_rest(c, &r[k], best[k], m[k], &sf[k], out[k], level, in);
+        else if (m[k]->reflection > 0.0f) {
+            rr[nr] = mirror_ray(c, &r[k], &sf[k]);
+            who[nr++] = k;
+        }
+    }
+    if (nr == 0)
+        return;
+    int best2[BVH_PACKET];
+    PrimHit h2[BVH_PACKET];
+    Vec3 got[BVH_PACKET];
+    for (int j = 0; j < nr; j++)
+        best2[j] = accel_closest(c->a, &rr[j], &h2[j], c->st);
+    shade_packet(c, rr, nr, best2, h2, level + 1, in, got);
+    for (int j = 0; j < nr; j++)
+        out[who[j]] = vec_madd(out[who[j]], got[j], m[who[j]]->reflection);
+}
+
+void shade_traced_packet(const Scene *s, const Accel *a, const Ray *r, int n, const int *best, const PrimHit *h,
+                         const Interiors *in, RayStats *st, Vec3 *out)
+{
+    Ctx c = {s, a, st};
+    Interiors none = {0, {0}};
+    if (s->max_depth < 1) { /* as trace() at level 0 */
+        for (int k = 0; k < n; k++)
+            out[k] = vec3(0, 0, 0);
+        return;
+    }
+    shade_packet(&c, r, n, best, h, 1, in ? in : &none, out);
 }

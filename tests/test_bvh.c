@@ -496,6 +496,49 @@ static int packet_disagreements(const Bvh *b, const Prim *p, int packets, Vec3 (
     return bad;
 }
 
+/* Counts the rays of `packets` packets on which bvh_occluded_packet and
+ * bvh_occluded disagree. Shadow-like packets of 1 to BVH_PACKET rays from
+ * origins spread over a small or a large box towards one point (traced
+ * together unless their directions' signs differ), with tmax short of it
+ * or past it; and rays that must go one by one: with a NaN, an infinity or
+ * a zero in a direction, or an infinite origin. Aims at target(p, k) when
+ * given (points on the primitives' edges), else into the cube [-10, 10]^3. */
+static int occluded_packet_disagreements(const Bvh *b, const Prim *p, int packets, Vec3 (*target)(const Prim *, int))
+{
+    unsigned long long tests = 0;
+    int bad = 0;
+    for (int k = 0; k < packets; k++) {
+        int n = 1 + k % BVH_PACKET, odd = k / BVH_PACKET % 10;
+        float spread = k % 3 == 0 ? 0.01f : k % 3 == 1 ? 0.3f : 3.0f;
+        Vec3 c = target ? test_rvec(&rng, -0.9f, 0.9f) : test_rvec(&rng, -14, 14);
+        Vec3 light = target ? target(p, k) : test_rvec(&rng, -10, 10);
+        Ray r[BVH_PACKET];
+        for (int j = 0; j < n; j++) {
+            Vec3 o = vec_add(c, test_rvec(&rng, -spread, spread));
+            if (target && j % 2)
+                o = target(p, k + j); /* from an edge */
+            Vec3 d = vec_sub(light, o);
+            float len = vec_length(d);
+            r[j] = ray_make(o, vec_scale(d, 1.0f / len), j % 3 ? len : len * test_uniform(&rng, 0.2f, 1.5f));
+        }
+        if (n > 1 && odd == 5)
+            r[n - 1].o.x = INFINITY;
+        if (n > 1 && odd == 6)
+            r[n - 1].d.x = NAN;
+        if (n > 1 && odd == 7)
+            r[n - 1].d.y = 0.0f;
+        if (n > 1 && odd == 8)
+            r[n - 1].d.z = -INFINITY;
+        if (n > 1 && odd == 9)
+            r[n - 1].d = vec_neg(r[n - 1].d);
+        unsigned got = bvh_occluded_packet(b, r, n, &tests);
+        for (int j = 0; j < n; j++)
+            bad += (int)(got >> j & 1) != bvh_occluded(b, &r[j], &tests);
+        bad += got >> n != 0;
+    }
+    return bad;
+}
+
 /* A vertex, or a point on an edge, of triangle k % count of grid_cube's. */
 static Vec3 cube_edge_point(const Prim *p, int k)
 {
@@ -526,6 +569,29 @@ static void test_packets_agree_with_single_rays(void **state)
     free(p);
 }
 
+/* The same with bvh_occluded_packet and bvh_occluded: shadow rays between
+ * random points of random trees (many occluded, many not), and between
+ * points on a closed mesh's edges. */
+static void test_occluded_packets_agree_with_single_rays(void **state)
+{
+    (void)state;
+    for (int n = 60; n <= 3000; n *= 50) {
+        Prim *p = random_prims(n);
+        Bvh b;
+        build_ok(&b, p, n, 1);
+        assert_int_equal(occluded_packet_disagreements(&b, p, 50000, NULL), 0);
+        bvh_free(&b);
+        free(p);
+    }
+    Prim *p = calloc(12 * CUBE_G * CUBE_G, sizeof(Prim));
+    assert_non_null(p);
+    Bvh b;
+    build_ok(&b, p, grid_cube(p, CUBE_G), 1);
+    assert_int_equal(occluded_packet_disagreements(&b, p, 20000, cube_edge_point), 0);
+    bvh_free(&b);
+    free(p);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -541,6 +607,7 @@ int main(void)
         cmocka_unit_test(test_mesh_leaves_agree_with_brute_force),
         cmocka_unit_test(test_closed_mesh_has_no_leaks),
         cmocka_unit_test(test_packets_agree_with_single_rays),
+        cmocka_unit_test(test_occluded_packets_agree_with_single_rays),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

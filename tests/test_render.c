@@ -100,13 +100,15 @@ static void test_counts_and_progress(void **state)
 /* render_image traces camera rays in packets; each pixel must still be the
  * mean of shade_trace over its sub-pixel centres, one ray at a time, bit
  * for bit, with one sample or several, on a width that leaves a partial
- * packet at each row's end; on the default scene, and on glass spheres
- * (refraction, transparent shadows). */
+ * packet at each row's end; on the default scene (two point lights, whose
+ * shadow rays go in packets, and a mirror), on glass spheres (refraction,
+ * transparent shadows), and with an area light and a shadowless one. */
 static void test_pixels_are_single_rays(void **state)
 {
     (void)state;
-    const char *scenes[] = {"scenes/default.scn", "scenes/parity/glass.scn"};
-    for (int sc = 0; sc < 2; sc++)
+    const char *scenes[] = {"scenes/default.scn", "scenes/parity/glass.scn", "scenes/parity/area.scn",
+                            "scenes/parity/shadowless.scn"};
+    for (int sc = 0; sc < 4; sc++)
         for (int k = 1; k <= 2; k++) {
             Scene s;
             Accel a;
@@ -136,7 +138,7 @@ static void test_pixels_are_single_rays(void **state)
              * leaves in its own order) */
             assert_true(st.camera == st1.camera && st.shadow == st1.shadow && st.reflection == st1.reflection &&
                         st.refraction == st1.refraction);
-            assert_true(sc == 0 || st.refraction > 0);
+            assert_true(sc != 1 || st.refraction > 0);
             image_free(&img);
             accel_free(&a);
             scene_free(&s);

@@ -345,8 +345,8 @@ static void test_no_self_shadowing_on_spheres(void **state)
     }
 }
 
-/* shade_traced, given accel_closest_packet's hits, is shade_trace, bit for
- * bit: on a mirror floor (a plane, outside the BVH) reflecting spheres and
+/* shade_traced and shade_traced_packet, given accel_closest_packet's hits,
+ * are shade_trace, bit for bit: on a mirror floor (a plane, outside the BVH) reflecting spheres and
  * the background, at every depth limit, 0 included. */
 static void test_traced_is_trace(void **state)
 {
@@ -376,15 +376,64 @@ static void test_traced_is_trace(void **state)
         for (int k = 0; k < n; k++)
             r[k] = ray_make(EYE, vec_normalize(dirs[k]), INFINITY);
         accel_closest_packet(&a, r, n, h, best, &st);
+        Vec3 all[BVH_PACKET];
+        RayStats st2 = st;
+        shade_traced_packet(&s, &a, r, n, best, h, NULL, &st2, all);
         for (int k = 0; k < n; k++) {
             PrimHit w;
             assert_int_equal(best[k], accel_closest(&a, &r[k], &w, &st1));
             Vec3 got = shade_traced(&s, &a, &r[k], best[k], &h[k], NULL, &st);
             Vec3 want = shade_trace(&s, &a, &r[k], NULL, &st1);
             assert_memory_equal(&got, &want, sizeof got);
+            assert_memory_equal(&all[k], &want, sizeof want);
         }
         assert_true(st.shadow == st1.shadow && st.reflection == st1.reflection);
+        assert_true(st2.shadow == st1.shadow && st2.reflection == st1.reflection);
     }
+    accel_free(&a);
+    scene_free(&s);
+}
+
+/* accel_occluded_packet is accel_occluded ray by ray: shadow rays towards
+ * a point above a floor (a plane, outside the BVH) with spheres on it, from
+ * points above the floor (blocked by spheres or not) and below it (blocked
+ * by the plane), in packets of every size. */
+static void test_occluded_packet_is_occluded(void **state)
+{
+    (void)state;
+    Scene s;
+    load(&s, "sphere { center 0 1 0 radius 1 material m }\n"
+             "sphere { center 2.5 0.5 1 radius 0.5 material m }\n"
+             "sphere { center -2 0.7 -1 radius 0.7 material m }\n");
+    Accel a;
+    assert_int_equal(accel_build(&a, &s, 1), 0);
+    unsigned long long g = 12345;
+    const Vec3 light = vec3(0.5f, 6, -0.5f);
+    int blocked = 0, by_plane = 0, free_rays = 0;
+    for (int k = 0; k < 4000; k++) {
+        int n = 1 + k % BVH_PACKET;
+        Vec3 c = test_rvec(&g, -4, 4);
+        Ray r[BVH_PACKET];
+        for (int j = 0; j < n; j++) {
+            Vec3 o = vec_add(c, test_rvec(&g, -0.5f, 0.5f));
+            o.y = k % 5 == 0 && j == 0 ? -0.5f : fabsf(o.y) * 0.3f + 1e-3f;
+            Vec3 d = vec_sub(light, o);
+            float len = vec_length(d);
+            r[j] = ray_make(o, vec_scale(d, 1.0f / len), len);
+        }
+        RayStats st = {0, 0, 0, 0, 0};
+        unsigned got = accel_occluded_packet(&a, r, n, &st);
+        assert_true(got >> n == 0);
+        for (int j = 0; j < n; j++) {
+            int want = accel_occluded(&a, &r[j], &st);
+            assert_int_equal((int)(got >> j & 1), want);
+            blocked += want;
+            by_plane += want && r[j].o.y < 0.0f;
+            free_rays += !want;
+        }
+    }
+    /* every kind of verdict was met */
+    assert_true(blocked > 1000 && by_plane > 100 && free_rays > 1000);
     accel_free(&a);
     scene_free(&s);
 }
@@ -400,7 +449,7 @@ int main(void)
         cmocka_unit_test(test_area_light_penumbra), cmocka_unit_test(test_transparent_surface),
         cmocka_unit_test(test_shadow_through_glass), cmocka_unit_test(test_refraction_through_slab),
         cmocka_unit_test(test_total_internal_reflection), cmocka_unit_test(test_no_self_shadowing_on_spheres),
-        cmocka_unit_test(test_traced_is_trace),
+        cmocka_unit_test(test_traced_is_trace),      cmocka_unit_test(test_occluded_packet_is_occluded),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

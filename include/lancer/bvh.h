@@ -122,6 +122,12 @@ void bvh_closest_packet(const Bvh *b, const Ray *r, int n, PrimHit *h, int *best
 /* 1 when any primitive is hit in (0, r->tmax): stops at the first found. */
 int bvh_occluded(const Bvh *b, const Ray *r, unsigned long long *tests);
 
+/* bvh_occluded for each of r[0 .. n-1], n <= 32: bit k of the result for
+ * ray k, the same verdicts. BVH_PACKET at a time, rays whose directions
+ * share their signs (neighbouring shadow rays, from any origins) are traced
+ * as a packet, one box test for all (with AVX2); any others one by one. */
+unsigned bvh_occluded_packet(const Bvh *b, const Ray *r, int n, unsigned long long *tests);
+
 /* The primitive's bounds, rounded outwards; 0 for an unbounded one. */
 int bvh_prim_bounds(const Prim *p, float lo[3], float hi[3]);
 

@@ -8,7 +8,9 @@
  * Rows are handed out to threads one at a time; every pixel is computed on
  * its own from the same inputs, so the image is bit-identical for any thread
  * count. A row's camera rays are traced eight at a time
- * (accel_closest_packet), which changes no pixel: each is shade_trace's.
+ * (accel_closest_packet) and shaded together (shade_traced_packet, which
+ * traces their shadow rays together), which changes no pixel: each is
+ * shade_trace's.
  * The progress callback, when set, is called after each finished row with
  * the number of rows done, from whichever thread finished it, one call at a
  * time (it must not call back into the renderer).

@@ -50,6 +50,12 @@ Vec3 shade_trace(const Scene *s, const Accel *a, const Ray *r, const Interiors *
 Vec3 shade_traced(const Scene *s, const Accel *a, const Ray *r, int i, const PrimHit *h, const Interiors *in,
                   RayStats *st);
 
+/* shade_traced for each of r[0 .. n-1], n <= BVH_PACKET, into out[k]: the
+ * same colours. The shadow rays of the rays' hits towards each point light
+ * are traced together (accel_occluded_packet). */
+void shade_traced_packet(const Scene *s, const Accel *a, const Ray *r, int n, const int *best, const PrimHit *h,
+                         const Interiors *in, RayStats *st, Vec3 *out);
+
 /* POV-Ray's area-light weights along one axis of n samples (n <= 64): the
  * leaves of its recursive halving of the grid, which is a plain mean only
  * when n is a power of two. Writes n weights summing to 1. */
