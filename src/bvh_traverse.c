@@ -400,8 +400,9 @@ int OCCLUDED(const Bvh *b, const Ray *r, unsigned long long *tests)
  * upper end the near end (omin). So the packet's entry distance is at most
  * each ray's own, its exit at least each ray's, and the packet enters every
  * box that any of its rays would (with the same padding); with one origin
- * (camera rays) both ends are it. Leaves are then tested ray by ray with
- * the single-ray slab test, lanes for rays. */
+ * (camera rays) both ends are it. Leaves (and, for shadow rays, every slot)
+ * are then tested ray by ray with the single-ray slab test, lanes for
+ * rays. */
 typedef struct {
     __m256 on8[3], of8[3];     /* the origins' ends for the near and the far planes */
     __m256 o8[3];              /* lane k: ray k's origin */
@@ -423,10 +424,9 @@ static inline void lane_range(__m256 v, __m256 *lo, __m256 *hi)
 }
 
 /* 0 when the rays do not share a direction's sign on some axis, or one is
- * parallel to an axis plane or not a number, or (one_origin) they do not
- * share an origin, or an origin is not finite (or there are none): those
- * go one by one. */
-static int packet_pre(const Ray *r, int n, int one_origin, PacketPre *p)
+ * parallel to an axis plane or not a number, or an origin is not finite
+ * (or there are none): those go one by one. */
+static int packet_pre(const Ray *r, int n, PacketPre *p)
 {
     if (n < 1)
         return 0;
@@ -440,9 +440,6 @@ static int packet_pre(const Ray *r, int n, int one_origin, PacketPre *p)
     const __m256 pad = _mm256_set1_ps(BVH_SLAB_PAD), abs = _mm256_set1_ps(-0.0f);
     for (int a = 0; a < 3; a++) {
         __m256 oa = _mm256_i32gather_ps(o[a], idx, 4), omin, omax;
-        if (one_origin &&
-            _mm256_movemask_ps(_mm256_cmp_ps(oa, _mm256_set1_ps(*o[a]), _CMP_EQ_OQ)) != 0xff)
-            return 0;
         if (_mm256_movemask_ps(_mm256_cmp_ps(_mm256_andnot_ps(abs, oa), fmax, _CMP_NLE_UQ)))
             return 0;
         lane_range(oa, &omin, &omax);
@@ -512,7 +509,7 @@ typedef struct {
 void bvh_closest_packet_avx2(const Bvh *b, const Ray *r, int n, PrimHit *h, int *best, unsigned long long *tests)
 {
     PacketPre p;
-    if (b->nnodes == 0 || !packet_pre(r, n, 1, &p)) {
+    if (b->nnodes == 0 || !packet_pre(r, n, &p)) {
         for (int k = 0; k < n; k++)
             best[k] = bvh_closest_avx2(b, &r[k], &h[k], tests);
         return;
@@ -583,7 +580,7 @@ unsigned bvh_occluded_packet_avx2(const Bvh *b, const Ray *r, int n, unsigned lo
 {
     PacketPre p;
     unsigned hit = 0;
-    if (b->nnodes == 0 || !packet_pre(r, n, 0, &p)) {
+    if (b->nnodes == 0 || !packet_pre(r, n, &p)) {
         for (int k = 0; k < n; k++)
             hit |= (unsigned)bvh_occluded_avx2(b, &r[k], tests) << k;
         return hit;

@@ -385,8 +385,7 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
     int best2[BVH_PACKET];
     PrimHit h2[BVH_PACKET];
     Vec3 got[BVH_PACKET];
-    for (int j = 0; j < nr; j++)
-        best2[j] = accel_closest(c->a, &rr[j], &h2[j], c->st);
+    accel_closest_packet(c->a, rr, nr, h2, best2, c->st);
     shade_packet(c, rr, nr, best2, h2, level + 1, in, got);
     for (int j = 0; j < nr; j++)
         out[who[j]] = vec_madd(out[who[j]], got[j], m[who[j]]->reflection);

@@ -459,10 +459,10 @@ static void test_closed_mesh_has_no_leaks(void **state)
 /* Counts the rays of `packets` packets on which bvh_closest_packet and
  * bvh_closest disagree (primitive or hit, bit for bit). Packets of 1 to
  * BVH_PACKET rays from one origin, narrow and wide cones (traced together
- * unless their directions' signs differ), and rays that must go one by
- * one: from two origins, with a NaN, an infinity or a zero in a
- * direction. Aims at target(p, k) when given, else into the cube
- * [-10, 10]^3. */
+ * unless their directions' signs differ), from two origins, or from
+ * origins spread as mirror rays' are, and rays that must go one by one:
+ * with a NaN, an infinity or a zero in a direction. Aims at target(p, k)
+ * when given, else into the cube [-10, 10]^3. */
 static int packet_disagreements(const Bvh *b, const Prim *p, int packets, Vec3 (*target)(const Prim *, int))
 {
     unsigned long long tests = 0;
@@ -479,6 +479,8 @@ static int packet_disagreements(const Bvh *b, const Prim *p, int packets, Vec3 (
         }
         if (n > 1 && odd == 5)
             r[n - 1].o.z += 1e-3f;
+        for (int j = 1; j < n && odd == 4; j++)
+            r[j].o = vec_add(r[j].o, test_rvec(&rng, -spread, spread));
         if (n > 1 && odd == 6)
             r[n - 1].d.x = NAN;
         if (n > 1 && odd == 7)

@@ -35,9 +35,9 @@ void accel_free(Accel *a);
 /* The primitive with the nearest hit in (0, r->tmax) and its PrimHit, or -1. */
 int accel_closest(const Accel *a, const Ray *r, PrimHit *h, RayStats *st);
 
-/* accel_closest for each of r[0 .. n-1]: best[k] and h[k]. Rays from one
- * point, such as neighbouring camera rays, are traced through the BVH
- * together (bvh_closest_packet). */
+/* accel_closest for each of r[0 .. n-1]: best[k] and h[k]. Neighbouring
+ * rays, such as camera rays and their mirror rays, are traced through the
+ * BVH together (bvh_closest_packet). */
 void accel_closest_packet(const Accel *a, const Ray *r, int n, PrimHit *h, int *best, RayStats *st);
 
 /* 1 when anything is hit in (0, r->tmax): stops at the first hit found. */

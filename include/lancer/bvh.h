@@ -114,9 +114,9 @@ int bvh_closest(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *test
 #define BVH_PACKET 8
 
 /* bvh_closest for each of r[0 .. n-1]: best[k] and h[k], the same answers.
- * BVH_PACKET at a time, rays from one origin (camera rays) with directions
- * of the same signs are traced as a packet, one box test for all (with
- * AVX2); any others one by one. */
+ * BVH_PACKET at a time, rays whose directions share their signs
+ * (neighbouring camera rays, or their mirror rays) are traced as a packet,
+ * one box test for all (with AVX2); any others one by one. */
 void bvh_closest_packet(const Bvh *b, const Ray *r, int n, PrimHit *h, int *best, unsigned long long *tests);
 
 /* 1 when any primitive is hit in (0, r->tmax): stops at the first found. */
