@@ -456,6 +456,18 @@ static void test_closed_mesh_has_no_leaks(void **state)
     free(p);
 }
 
+/* For odd 6, 7 and 8, a direction of the last of n > 1 rays that sends it
+ * one by one: a NaN, a zero or an infinity in it. */
+static void spoil_last(Ray *r, int n, int odd)
+{
+    if (n > 1 && odd == 6)
+        r[n - 1].d.x = NAN;
+    if (n > 1 && odd == 7)
+        r[n - 1].d.y = 0.0f;
+    if (n > 1 && odd == 8)
+        r[n - 1].d.z = -INFINITY;
+}
+
 /* Counts the rays of `packets` packets on which bvh_closest_packet and
  * bvh_closest disagree (primitive or hit, bit for bit). Packets of 1 to
  * BVH_PACKET rays from one origin, narrow and wide cones (traced together
@@ -481,12 +493,7 @@ static int packet_disagreements(const Bvh *b, const Prim *p, int packets, Vec3 (
             r[n - 1].o.z += 1e-3f;
         for (int j = 1; j < n && odd == 4; j++)
             r[j].o = vec_add(r[j].o, test_rvec(&rng, -spread, spread));
-        if (n > 1 && odd == 6)
-            r[n - 1].d.x = NAN;
-        if (n > 1 && odd == 7)
-            r[n - 1].d.y = 0.0f;
-        if (n > 1 && odd == 8)
-            r[n - 1].d.z = -INFINITY;
+        spoil_last(r, n, odd);
         PrimHit h[BVH_PACKET], w;
         int got[BVH_PACKET];
         bvh_closest_packet(b, r, n, h, got, &tests);
@@ -525,12 +532,7 @@ static int occluded_packet_disagreements(const Bvh *b, const Prim *p, int packet
         }
         if (n > 1 && odd == 5)
             r[n - 1].o.x = INFINITY;
-        if (n > 1 && odd == 6)
-            r[n - 1].d.x = NAN;
-        if (n > 1 && odd == 7)
-            r[n - 1].d.y = 0.0f;
-        if (n > 1 && odd == 8)
-            r[n - 1].d.z = -INFINITY;
+        spoil_last(r, n, odd);
         if (n > 1 && odd == 9)
             r[n - 1].d = vec_neg(r[n - 1].d);
         unsigned got = bvh_occluded_packet(b, r, n, &tests);
@@ -548,27 +550,35 @@ static Vec3 cube_edge_point(const Prim *p, int k)
     return k % 2 ? tr->a : vec_add(tr->b, vec_scale(vec_sub(tr->c, tr->b), 0.5f));
 }
 
-static void test_packets_agree_with_single_rays(void **state)
+/* A packet check: the rays of `packets` packets on which a packet query
+ * and its rays one by one disagree (below). */
+typedef int (*PacketCheck)(const Bvh *b, const Prim *p, int packets, Vec3 (*target)(const Prim *, int));
+
+/* Runs check on random trees, one of a single node and one deep enough for
+ * the stack and culling, and through a closed mesh's shared edges (ties). */
+static void packets_agree(PacketCheck check)
 {
-    (void)state;
-    /* a tree of one node, and one deep enough for the stack and culling */
     for (int n = 60; n <= 3000; n *= 50) {
         Prim *p = random_prims(n);
         Bvh b;
         build_ok(&b, p, n, 1);
-        assert_int_equal(packet_disagreements(&b, p, 50000, NULL), 0);
+        assert_int_equal(check(&b, p, 50000, NULL), 0);
         bvh_free(&b);
         free(p);
     }
-    Prim *p;
-    Bvh b;
-    /* ties: rays from inside a closed mesh through its shared edges */
-    p = calloc(12 * CUBE_G * CUBE_G, sizeof(Prim));
+    Prim *p = calloc(12 * CUBE_G * CUBE_G, sizeof(Prim));
     assert_non_null(p);
+    Bvh b;
     build_ok(&b, p, grid_cube(p, CUBE_G), 1);
-    assert_int_equal(packet_disagreements(&b, p, 20000, cube_edge_point), 0);
+    assert_int_equal(check(&b, p, 20000, cube_edge_point), 0);
     bvh_free(&b);
     free(p);
+}
+
+static void test_packets_agree_with_single_rays(void **state)
+{
+    (void)state;
+    packets_agree(packet_disagreements);
 }
 
 /* The same with bvh_occluded_packet and bvh_occluded: shadow rays between
@@ -577,21 +587,7 @@ static void test_packets_agree_with_single_rays(void **state)
 static void test_occluded_packets_agree_with_single_rays(void **state)
 {
     (void)state;
-    for (int n = 60; n <= 3000; n *= 50) {
-        Prim *p = random_prims(n);
-        Bvh b;
-        build_ok(&b, p, n, 1);
-        assert_int_equal(occluded_packet_disagreements(&b, p, 50000, NULL), 0);
-        bvh_free(&b);
-        free(p);
-    }
-    Prim *p = calloc(12 * CUBE_G * CUBE_G, sizeof(Prim));
-    assert_non_null(p);
-    Bvh b;
-    build_ok(&b, p, grid_cube(p, CUBE_G), 1);
-    assert_int_equal(occluded_packet_disagreements(&b, p, 20000, cube_edge_point), 0);
-    bvh_free(&b);
-    free(p);
+    packets_agree(occluded_packet_disagreements);
 }
 
 int main(void)
