@@ -92,6 +92,9 @@ int accel_occluded(const Accel *a, const Ray *r, RayStats *st)
 
 unsigned accel_occluded_packet(const Accel *a, const Ray *r, int n, RayStats *st)
 {
+    if (n > BVH_PACKET) /* at most BVH_PACKET at a time */
+        return accel_occluded_packet(a, r, BVH_PACKET, st) |
+               accel_occluded_packet(a, r + BVH_PACKET, n - BVH_PACKET, st) << BVH_PACKET;
     /* the planes first, ray by ray, as accel_occluded; the rest together */
     unsigned hit = 0;
     for (int k = 0; k < n; k++) {

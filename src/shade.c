@@ -396,10 +396,12 @@ void shade_traced_packet(const Scene *s, const Accel *a, const Ray *r, int n, co
 {
     Ctx c = {s, a, st};
     Interiors none = {0, {0}};
-    if (s->max_depth < 1) { /* as trace() at level 0 */
-        for (int k = 0; k < n; k++)
-            out[k] = vec3(0, 0, 0);
-        return;
+    for (int k = 0; k < n; k += BVH_PACKET) {
+        int m = n - k < BVH_PACKET ? n - k : BVH_PACKET;
+        if (s->max_depth < 1) /* as trace() at level 0 */
+            for (int j = 0; j < m; j++)
+                out[k + j] = vec3(0, 0, 0);
+        else
+            shade_packet(&c, r + k, m, best + k, h + k, 1, in ? in : &none, out + k);
     }
-    shade_packet(&c, r, n, best, h, 1, in ? in : &none, out);
 }

@@ -366,30 +366,32 @@ static void test_traced_is_trace(void **state)
     /* one sign per axis, so that they go through the BVH as one packet */
     const Vec3 dirs[] = {vec3(3, -4, 0.05f), vec3(3, -4, 3), vec3(3.4f, -3.6f, 0.4f), vec3(3, -3.9f, 0.1f),
                          vec3(2, -0.5f, 0.2f)};
-    const int n = (int)(sizeof dirs / sizeof dirs[0]);
-    for (int depth = 0; depth <= 3; depth++) {
-        s.max_depth = depth;
-        Ray r[BVH_PACKET];
-        PrimHit h[BVH_PACKET];
-        int best[BVH_PACKET];
-        RayStats st = {0, 0, 0, 0, 0}, st1 = st;
-        for (int k = 0; k < n; k++)
-            r[k] = ray_make(EYE, vec_normalize(dirs[k]), INFINITY);
-        accel_closest_packet(&a, r, n, h, best, &st);
-        Vec3 all[BVH_PACKET];
-        RayStats st2 = st;
-        shade_traced_packet(&s, &a, r, n, best, h, NULL, &st2, all);
-        for (int k = 0; k < n; k++) {
-            PrimHit w;
-            assert_int_equal(best[k], accel_closest(&a, &r[k], &w, &st1));
-            Vec3 got = shade_traced(&s, &a, &r[k], best[k], &h[k], NULL, &st);
-            Vec3 want = shade_trace(&s, &a, &r[k], NULL, &st1);
-            assert_memory_equal(&got, &want, sizeof got);
-            assert_memory_equal(&all[k], &want, sizeof want);
+    /* five rays, and twelve (more than a packet: shade_traced_packet takes
+     * them BVH_PACKET at a time) */
+    for (int depth = 0; depth <= 3; depth++)
+        for (int n = 5; n <= 12; n += 7) {
+            s.max_depth = depth;
+            Ray r[2 * BVH_PACKET];
+            PrimHit h[2 * BVH_PACKET];
+            int best[2 * BVH_PACKET];
+            RayStats st = {0, 0, 0, 0, 0}, st1 = st;
+            for (int k = 0; k < n; k++)
+                r[k] = ray_make(EYE, vec_normalize(vec_add(dirs[k % 5], vec3(0, 0, 0.01f * (float)(k / 5)))), INFINITY);
+            accel_closest_packet(&a, r, n, h, best, &st);
+            Vec3 all[2 * BVH_PACKET];
+            RayStats st2 = st;
+            shade_traced_packet(&s, &a, r, n, best, h, NULL, &st2, all);
+            for (int k = 0; k < n; k++) {
+                PrimHit w;
+                assert_int_equal(best[k], accel_closest(&a, &r[k], &w, &st1));
+                Vec3 got = shade_traced(&s, &a, &r[k], best[k], &h[k], NULL, &st);
+                Vec3 want = shade_trace(&s, &a, &r[k], NULL, &st1);
+                assert_memory_equal(&got, &want, sizeof got);
+                assert_memory_equal(&all[k], &want, sizeof want);
+            }
+            assert_true(st.shadow == st1.shadow && st.reflection == st1.reflection);
+            assert_true(st2.shadow == st1.shadow && st2.reflection == st1.reflection);
         }
-        assert_true(st.shadow == st1.shadow && st.reflection == st1.reflection);
-        assert_true(st2.shadow == st1.shadow && st2.reflection == st1.reflection);
-    }
     accel_free(&a);
     scene_free(&s);
 }
@@ -397,7 +399,7 @@ static void test_traced_is_trace(void **state)
 /* accel_occluded_packet is accel_occluded ray by ray: shadow rays towards
  * a point above a floor (a plane, outside the BVH) with spheres on it, from
  * points above the floor (blocked by spheres or not) and below it (blocked
- * by the plane), in packets of every size. */
+ * by the plane), in packets of every size and in more than one. */
 static void test_occluded_packet_is_occluded(void **state)
 {
     (void)state;
@@ -411,9 +413,9 @@ static void test_occluded_packet_is_occluded(void **state)
     const Vec3 light = vec3(0.5f, 6, -0.5f);
     int blocked = 0, by_plane = 0, free_rays = 0;
     for (int k = 0; k < 4000; k++) {
-        int n = 1 + k % BVH_PACKET;
+        int n = 1 + k % (2 * BVH_PACKET + 3); /* more than a packet too */
         Vec3 c = test_rvec(&g, -4, 4);
-        Ray r[BVH_PACKET];
+        Ray r[2 * BVH_PACKET + 3];
         for (int j = 0; j < n; j++) {
             Vec3 o = vec_add(c, test_rvec(&g, -0.5f, 0.5f));
             o.y = k % 5 == 0 && j == 0 ? -0.5f : fabsf(o.y) * 0.3f + 1e-3f;

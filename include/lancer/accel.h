@@ -43,8 +43,8 @@ void accel_closest_packet(const Accel *a, const Ray *r, int n, PrimHit *h, int *
 /* 1 when anything is hit in (0, r->tmax): stops at the first hit found. */
 int accel_occluded(const Accel *a, const Ray *r, RayStats *st);
 
-/* accel_occluded for each of r[0 .. n-1], n <= BVH_PACKET: bit k of the
- * result for ray k. Neighbouring shadow rays go through the BVH together
+/* accel_occluded for each of r[0 .. n-1], n <= 32: bit k of the result
+ * for ray k. Neighbouring shadow rays go through the BVH together
  * (bvh_occluded_packet). */
 unsigned accel_occluded_packet(const Accel *a, const Ray *r, int n, RayStats *st);
 

@@ -50,8 +50,8 @@ Vec3 shade_trace(const Scene *s, const Accel *a, const Ray *r, const Interiors *
 Vec3 shade_traced(const Scene *s, const Accel *a, const Ray *r, int i, const PrimHit *h, const Interiors *in,
                   RayStats *st);
 
-/* shade_traced for each of r[0 .. n-1], n <= BVH_PACKET, into out[k]: the
- * same colours. The shadow rays of the rays' hits towards each point light
+/* shade_traced for each of r[0 .. n-1] into out[k], BVH_PACKET at a time:
+ * the same colours. The shadow rays of the rays' hits towards each point light
  * are traced together (accel_occluded_packet), and so are their mirror
  * rays (accel_closest_packet), whose hits are shaded the same way. */
 void shade_traced_packet(const Scene *s, const Accel *a, const Ray *r, int n, const int *best, const PrimHit *h,
