@@ -79,7 +79,8 @@ void accel_closest_packet(const Accel *a, const Ray *r, int n, PrimHit *h, int *
         best[k] = closest_unbounded(a, &r[k], best[k], &h[k], st);
 }
 
-int accel_occluded(const Accel *a, const Ray *r, RayStats *st)
+/* 1 when a plane blocks r (any hit will do). */
+static inline int unbounded_blocks(const Accel *a, const Ray *r, RayStats *st)
 {
     PrimHit cur;
     for (int k = 0; k < a->nunbounded; k++) {
@@ -87,7 +88,12 @@ int accel_occluded(const Accel *a, const Ray *r, RayStats *st)
         if (prim_intersect(&a->prims[a->unbounded[k]], r, a->variant, &cur))
             return 1;
     }
-    return bvh_occluded(&a->bvh, r, &st->isect_tests);
+    return 0;
+}
+
+int accel_occluded(const Accel *a, const Ray *r, RayStats *st)
+{
+    return unbounded_blocks(a, r, st) || bvh_occluded(&a->bvh, r, &st->isect_tests);
 }
 
 unsigned accel_occluded_packet(const Accel *a, const Ray *r, int n, RayStats *st)
@@ -97,16 +103,8 @@ unsigned accel_occluded_packet(const Accel *a, const Ray *r, int n, RayStats *st
                accel_occluded_packet(a, r + BVH_PACKET, n - BVH_PACKET, st) << BVH_PACKET;
     /* the planes first, ray by ray, as accel_occluded; the rest together */
     unsigned hit = 0;
-    for (int k = 0; k < n; k++) {
-        PrimHit cur;
-        for (int j = 0; j < a->nunbounded; j++) {
-            st->isect_tests++;
-            if (prim_intersect(&a->prims[a->unbounded[j]], &r[k], a->variant, &cur)) {
-                hit |= 1u << k;
-                break;
-            }
-        }
-    }
+    for (int k = 0; k < n; k++)
+        hit |= (unsigned)unbounded_blocks(a, &r[k], st) << k;
     if (!hit) /* the common case: no copies */
         return bvh_occluded_packet(&a->bvh, r, n, &st->isect_tests);
     Ray rest[BVH_PACKET];

@@ -340,6 +340,20 @@ int CLOSEST(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *tests)
     return best;
 }
 
+/* 1 when ray r hits a primitive of leaf L: its triangles' lanes, then the
+ * primitives that are not triangles (most leaves have none). */
+TRI_INLINE int leaf_any(const Bvh *b, const BvhLeaf *L, TriPre *tp, const Ray *r)
+{
+    LeafHits lh;
+    int hit = L->tris && leaf_tris(L, tp, r, &lh);
+    unsigned others = ((1u << L->count) - 1) & ~(unsigned)L->tris;
+    for (; others && !hit; others &= others - 1) {
+        PrimHit cur;
+        hit = prim_intersect(&b->prims[b->order[L->first + tri_low_bit(others)]], r, b->variant, &cur);
+    }
+    return hit;
+}
+
 #ifndef BVH_AVX
 static
 #endif
@@ -360,15 +374,8 @@ int OCCLUDED(const Bvh *b, const Ray *r, unsigned long long *tests)
         int32_t code = stack[--sp];
         if (code < 0) {
             const BvhLeaf *L = &b->leaves[-1 - code];
-            LeafHits lh;
             nt += L->count;
-            hit = L->tris && leaf_tris(L, &tp, r, &lh);
-            /* the primitives that are not triangles: most leaves have none */
-            unsigned others = ((1u << L->count) - 1) & ~(unsigned)L->tris;
-            for (; others && !hit; others &= others - 1) {
-                PrimHit cur;
-                hit = prim_intersect(&b->prims[b->order[L->first + tri_low_bit(others)]], r, b->variant, &cur);
-            }
+            hit = leaf_any(b, L, &tp, r);
             continue;
         }
         const BvhWideNode *n = &b->nodes[code];
@@ -613,15 +620,8 @@ unsigned bvh_occluded_packet_avx2(const Bvh *b, const Ray *r, int n, unsigned lo
             const BvhLeaf *L = &b->leaves[-1 - code];
             for (unsigned m = rays; m; m &= m - 1) {
                 int k = tri_low_bit(m);
-                LeafHits lh;
                 nt += L->count;
-                int h = L->tris && leaf_tris(L, &tp[k], &r[k], &lh);
-                unsigned others = ((1u << L->count) - 1) & ~(unsigned)L->tris;
-                for (; others && !h; others &= others - 1) {
-                    PrimHit cur;
-                    h = prim_intersect(&b->prims[b->order[L->first + tri_low_bit(others)]], &r[k], b->variant, &cur);
-                }
-                hit |= (unsigned)h << k;
+                hit |= (unsigned)leaf_any(b, L, &tp[k], &r[k]) << k;
             }
             continue;
         }
@@ -646,44 +646,6 @@ unsigned bvh_occluded_packet_avx2(const Bvh *b, const Ray *r, int n, unsigned lo
  * processor runs it. Every AVX2 processor made has BMI1 too (TZCNT and
  * BLSR for the masks), but it is checked all the same. */
 static inline int has_avx2(void) { return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("bmi"); }
-
-void bvh_closest_packet(const Bvh *b, const Ray *r, int n, PrimHit *h, int *best, unsigned long long *tests)
-{
-    if (has_avx2()) {
-        for (int k = 0; k < n; k += BVH_PACKET) /* packets of at most BVH_PACKET */
-            bvh_closest_packet_avx2(b, r + k, n - k < BVH_PACKET ? n - k : BVH_PACKET, h + k, best + k, tests);
-        return;
-    }
-    for (int k = 0; k < n; k++)
-        best[k] = closest_base(b, &r[k], &h[k], tests);
-}
-
-unsigned bvh_occluded_packet(const Bvh *b, const Ray *r, int n, unsigned long long *tests)
-{
-    unsigned hit = 0;
-    if (has_avx2()) {
-        for (int k = 0; k < n; k += BVH_PACKET)
-            hit |= bvh_occluded_packet_avx2(b, r + k, n - k < BVH_PACKET ? n - k : BVH_PACKET, tests) << k;
-        return hit;
-    }
-    for (int k = 0; k < n; k++)
-        hit |= (unsigned)bvh_occluded(b, &r[k], tests) << k;
-    return hit;
-}
-#elif !defined(BVH_AVX)
-void bvh_closest_packet(const Bvh *b, const Ray *r, int n, PrimHit *h, int *best, unsigned long long *tests)
-{
-    for (int k = 0; k < n; k++)
-        best[k] = bvh_closest(b, &r[k], &h[k], tests);
-}
-
-unsigned bvh_occluded_packet(const Bvh *b, const Ray *r, int n, unsigned long long *tests)
-{
-    unsigned hit = 0;
-    for (int k = 0; k < n; k++)
-        hit |= (unsigned)bvh_occluded(b, &r[k], tests) << k;
-    return hit;
-}
 #endif
 
 #ifndef BVH_AVX
@@ -755,5 +717,34 @@ int bvh_occluded(const Bvh *b, const Ray *r, unsigned long long *tests)
 #else
     return occluded_one(b, r, tests);
 #endif
+}
+
+/* Packets of at most BVH_PACKET with AVX2; else ray by ray. */
+void bvh_closest_packet(const Bvh *b, const Ray *r, int n, PrimHit *h, int *best, unsigned long long *tests)
+{
+#ifdef BVH_DISPATCH
+    if (has_avx2()) {
+        for (int k = 0; k < n; k += BVH_PACKET)
+            bvh_closest_packet_avx2(b, r + k, n - k < BVH_PACKET ? n - k : BVH_PACKET, h + k, best + k, tests);
+        return;
+    }
+#endif
+    for (int k = 0; k < n; k++)
+        best[k] = bvh_closest(b, &r[k], &h[k], tests);
+}
+
+unsigned bvh_occluded_packet(const Bvh *b, const Ray *r, int n, unsigned long long *tests)
+{
+    unsigned hit = 0;
+#ifdef BVH_DISPATCH
+    if (has_avx2()) {
+        for (int k = 0; k < n; k += BVH_PACKET)
+            hit |= bvh_occluded_packet_avx2(b, r + k, n - k < BVH_PACKET ? n - k : BVH_PACKET, tests) << k;
+        return hit;
+    }
+#endif
+    for (int k = 0; k < n; k++)
+        hit |= (unsigned)bvh_occluded(b, &r[k], tests) << k;
+    return hit;
 }
 #endif
