@@ -112,7 +112,7 @@ static Vec3 transmittance(const Ctx *c, const Surface *from, Vec3 q, Vec3 d, flo
 }
 
 /* The visible fraction of light l from p, per channel; L and dist: the
- * unit direction and distance from p to l->pos, which direct() has. */
+ * unit direction and distance from p to l->pos, which light_term() has. */
 static Vec3 light_visibility(const Ctx *c, const Light *l, const Surface *sf, Vec3 L, float dist)
 {
     if (l->area_n1 * l->area_n2 == 1)
@@ -134,12 +134,16 @@ static Vec3 light_visibility(const Ctx *c, const Light *l, const Surface *sf, Ve
     return vis;
 }
 
-/* Light l's share at sf short of its visibility: 0 when it adds nothing,
- * and no shadow ray is needed; else 1, with the unit direction *L and
- * distance *dist to the light, the surface's *term and the light's colour
- * *lc, to be scaled by the visibility unless the light is shadowless. */
-static int light_term(const Material *m, float opacity, const Surface *sf, Vec3 refl, Vec3 view, const Light *l,
-                      Vec3 *L, float *dist, Vec3 *term, Vec3 *lc)
+/* 1 - filter - transmit: what scales ambient and diffuse. */
+static float opacity_of(const Material *m) { return 1.0f - m->filter - m->transmit; }
+
+/* Light l's share at sf, hit by ray r, short of its visibility: 0 when it
+ * adds nothing, and no shadow ray is needed; else 1, with the unit
+ * direction *L and distance *dist to the light, the surface's *term and the
+ * light's colour *lc, to be scaled by the visibility unless the light is
+ * shadowless. Inline: the call cost 3% of bunny.scn's render. */
+static inline int light_term(const Material *m, const Surface *sf, const Ray *r, const Light *l, Vec3 *L, float *dist,
+                             Vec3 *term, Vec3 *lc)
 {
     Vec3 n = sf->ns;
     *dist = toward(sf->p, l->pos, L);
@@ -148,14 +152,14 @@ static int light_term(const Material *m, float opacity, const Surface *sf, Vec3 
     float nl = vec_dot(n, *L);
     if (nl < LIGHT_EPSILON)
         return 0; /* light behind the surface: no diffuse, highlight or shadow ray */
-    Vec3 t = vec_scale(m->color, m->diffuse * opacity * nl);
+    Vec3 t = vec_scale(m->color, m->diffuse * opacity_of(m) * nl);
     if (!l->shadowless) { /* shadowless lights add no highlights */
         float high = 0.0f;
-        float rl = vec_dot(refl, *L);
+        float rl = vec_dot(vec_reflect(r->d, n), *L);
         if (m->phong > 0.0f && rl > 0.0f)
             high += m->phong * powf(rl, m->phong_size);
         if (m->specular > 0.0f) {
-            float nh = vec_dot(n, vec_normalize(vec_add(*L, view)));
+            float nh = vec_dot(n, vec_normalize(vec_add(*L, vec_neg(r->d))));
             if (nh > 0.0f)
                 high += m->specular * powf(nh, 1.0f / m->roughness);
         }
@@ -168,30 +172,9 @@ static int light_term(const Material *m, float opacity, const Surface *sf, Vec3 
     return 1;
 }
 
-/* 1 - filter - transmit: what scales ambient and diffuse. */
-static float opacity_of(const Material *m) { return 1.0f - m->filter - m->transmit; }
-
-/* Ambient and the lights: everything but the secondary rays. */
-static Vec3 direct(const Ctx *c, const Material *m, const Surface *sf, const Ray *r)
-{
-    float opacity = opacity_of(m);
-    Vec3 col = vec_scale(m->color, m->ambient * opacity);
-    Vec3 refl = vec_reflect(r->d, sf->ns), view = vec_neg(r->d);
-    for (int i = 0; i < c->s->nlights; i++) {
-        const Light *l = &c->s->lights[i];
-        Vec3 L, term, lc;
-        float dist;
-        if (!light_term(m, opacity, sf, refl, view, l, &L, &dist, &term, &lc))
-            continue;
-        if (!l->shadowless)
-            lc = vec_mul(lc, light_visibility(c, l, sf, L, dist));
-        col = vec_add(col, vec_mul(lc, term));
-    }
-    return col;
-}
-
 static Vec3 trace(const Ctx *c, const Ray *r, int level, int continued, const Interiors *in);
-static Vec3 shade(const Ctx *c, const Ray *r, int i, const PrimHit *h, int level, const Interiors *in);
+static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, const PrimHit *h, int level,
+                         const Interiors *in, Vec3 *out);
 
 /* The ray refracted into or out of primitive `prim` (POV-Ray's trace.cpp
  * ComputeRefraction: the ratio of indices comes from the ray's list of
@@ -251,7 +234,9 @@ static Vec3 trace(const Ctx *c, const Ray *r, int level, int continued, const In
         level++;
     PrimHit h;
     int i = accel_closest(c->a, r, &h, c->st);
-    return shade(c, r, i, &h, level, in);
+    Vec3 col;
+    shade_packet(c, r, 1, &i, &h, level, in, &col);
+    return col;
 }
 
 /* POV-Ray's test for a refracted ray, by the luminance of pass_factor. */
@@ -265,8 +250,8 @@ static Ray mirror_ray(const Ctx *c, const Ray *r, const Surface *sf)
     return ray_make(prim_spawn_origin(sf, d), d, INFINITY);
 }
 
-/* The rest of shade() once the hit's direct light col is known: the
- * secondary rays. */
+/* The secondary rays of a hit whose direct light col is known, one ray on
+ * its own (shade_packet's, for a ray that refracts). */
 static Vec3 shade_rest(const Ctx *c, const Ray *r, int i, const Material *m, const Surface *sf, Vec3 col, int level,
                        const Interiors *in)
 {
@@ -285,18 +270,6 @@ static Vec3 shade_rest(const Ctx *c, const Ray *r, int i, const Material *m, con
     return col;
 }
 
-/* The colour of a ray at `level` whose closest hit is primitive i (h), or
- * the background when i < 0. */
-static Vec3 shade(const Ctx *c, const Ray *r, int i, const PrimHit *h, int level, const Interiors *in)
-{
-    if (i < 0)
-        return c->s->background;
-    const Material *m = material_of(c, i);
-    Surface sf;
-    prim_surface(&c->a->prims[i], r, h, c->a->variant, &sf);
-    return shade_rest(c, r, i, m, &sf, direct(c, m, &sf, r), level, in);
-}
-
 Vec3 shade_trace(const Scene *s, const Accel *a, const Ray *r, const Interiors *in, RayStats *st)
 {
     Ctx c = {s, a, st};
@@ -307,25 +280,24 @@ Vec3 shade_trace(const Scene *s, const Accel *a, const Ray *r, const Interiors *
 Vec3 shade_traced(const Scene *s, const Accel *a, const Ray *r, int i, const PrimHit *h, const Interiors *in,
                   RayStats *st)
 {
-    if (s->max_depth < 1) /* as trace() at level 0 */
-        return vec3(0, 0, 0);
-    Ctx c = {s, a, st};
-    Interiors none = {0, {0}};
-    return shade(&c, r, i, h, 1, in ? in : &none);
+    Vec3 col;
+    shade_traced_packet(s, a, r, 1, &i, h, in, st, &col);
+    return col;
 }
 
-/* shade() at `level` for each of the n rays r (n <= BVH_PACKET), whose
- * closest hits are best[k] (h[k]), into out[k]: light by light over all of
- * them, so that the shadow rays towards a point light of an opaque scene go
- * to accel_occluded_packet together, and their mirror rays' hits in turn.
- * Each colour is shade()'s, operation for operation. */
+/* The colours of the n rays r (n <= BVH_PACKET) at `level`, whose closest
+ * hits are best[k] (h[k]), or the background where best[k] < 0, into
+ * out[k]: ambient and the lights, light by light over all of them, so that
+ * the shadow rays towards a point light of an opaque scene go to
+ * accel_occluded_packet together; then the secondary rays, the mirror rays
+ * together, their hits shaded the same way one level deeper. Each colour is
+ * the same whatever the rays it is shaded with. */
 static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, const PrimHit *h, int level,
                          const Interiors *in, Vec3 *out)
 {
     const Scene *s = c->s;
     const Material *m[BVH_PACKET];
     Surface sf[BVH_PACKET];
-    Vec3 refl[BVH_PACKET], view[BVH_PACKET];
     for (int k = 0; k < n; k++) {
         if (best[k] < 0) {
             out[k] = s->background;
@@ -334,8 +306,6 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
         m[k] = material_of(c, best[k]);
         prim_surface(&c->a->prims[best[k]], &r[k], &h[k], c->a->variant, &sf[k]);
         out[k] = vec_scale(m[k]->color, m[k]->ambient * opacity_of(m[k]));
-        refl[k] = vec_reflect(r[k].d, sf[k].ns);
-        view[k] = vec_neg(r[k].d);
     }
     for (int i = 0; i < s->nlights; i++) {
         const Light *l = &s->lights[i];
@@ -346,8 +316,7 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
         for (int k = 0; k < n; k++) {
             Vec3 L;
             float dist;
-            lit[k] = best[k] >= 0 && light_term(m[k], opacity_of(m[k]), &sf[k], refl[k], view[k], l, &L, &dist,
-                                                &term[k], &lc[k]);
+            lit[k] = best[k] >= 0 && light_term(m[k], &sf[k], &r[k], l, &L, &dist, &term[k], &lc[k]);
             if (!lit[k] || l->shadowless)
                 continue;
             if (together) { /* as transmittance() */
@@ -364,7 +333,7 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
             if (lit[k])
                 out[k] = vec_add(out[k], vec_mul(lc[k], term[k]));
     }
-    if (level >= s->max_depth) /* as shade_rest() */
+    if (level >= s->max_depth) /* any child ray of a hit at the last level returns black */
         return;
     /* shade_rest() for a ray that refracts; the others' mirror rays,
      * traced as trace() would, are shaded together one level deeper */
