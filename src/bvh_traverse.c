@@ -363,8 +363,13 @@ int OCCLUDED(const Bvh *b, const Ray *r, unsigned long long *tests)
         return 0;
     RayPre p;
     ray_pre(r, &p);
+    /* The triangle test's set-up now, not at the first leaf as for closest
+     * hits: nearly every shadow ray reaches a leaf (its own surface's), and
+     * its divisions leave the first leaf's path. Shadow rays 2.6 to 4.6%
+     * faster; closest-hit camera rays were 10% slower so. */
     TriPre tp;
-    tp.ready = 0;
+    prim_triray_init(&tp.tri, r);
+    tp.ready = 1;
     int32_t stack[BVH_ENTRIES]; /* any hit will do: no distances, no order */
     const float reach = r->tmax * BVH_REACH;
     int sp = 0, hit = 0;
