@@ -96,7 +96,16 @@ $(BUILD)/test_bvh_sse: $(BUILD)/obj/tests/test_bvh.o $(BUILD)/obj/bvh_traverse_s
                        $(filter-out $(BUILD)/obj/bvh_traverse.o $(BUILD)/obj/bvh_traverse_avx2.o,$(LIB_OBJ))
 	$(CC) $(LDFLAGS) $^ $(LDLIBS) -lcmocka -o $@
 
-tests: $(BUILD)/lancer $(TEST_BIN) $(BUILD)/test_bvh_scalar $(BUILD)/test_bvh_sse
+# test_prim once more with -mavx2, for the AVX2 forms in src/tri4.h that
+# the traversal inlines (it skips itself on a processor without AVX2).
+ifeq ($(shell uname -m),x86_64)
+TEST_AVX2 := $(BUILD)/test_prim_avx2
+endif
+$(BUILD)/obj/tests/test_prim_avx2.o: tests/test_prim.c
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) -mavx2 -mbmi $(ALLCFLAGS) -MMD -MP -c $< -o $@
+
+tests: $(BUILD)/lancer $(TEST_BIN) $(BUILD)/test_bvh_scalar $(BUILD)/test_bvh_sse $(TEST_AVX2)
 
 # The exact judge (tests/exact): C++17 + CGAL, linked against the release
 # library build/liblancer.a, so it measures the very object code lancer runs

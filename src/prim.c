@@ -410,7 +410,7 @@ int prim_triangle_hit_watertight(const Triangle *tr, const Ray *r, PrimHit *h)
 /* A direction whose largest component m is this short or long is scaled
  * by a power of two before the shear (1/dz could overflow); the SIMD lanes
  * leave such rays to the scalar routine. */
-static int dir_needs_rescale(float m) { return m < 0x1p-60f || m > 0x1p60f; }
+static int dir_needs_rescale(float m) { return m < TRI_RESCALE_MIN || m > TRI_RESCALE_MAX; }
 
 int prim_triangle_hit_watertight3(const Vec3 v[3], const Ray *r, PrimHit *h)
 {
@@ -526,31 +526,7 @@ static int watertight(const Vec3 v[3], const Ray *r, const PrimTriRay *p, PrimHi
     return 1;
 }
 
-void prim_triray_init(PrimTriRay *p, const Ray *r)
-{
-    /* The axes and shear of the watertight test, for watertight() and the
-     * four-lane test alike. */
-    const float d[3] = {r->d.x, r->d.y, r->d.z};
-    /* kz = |d0| > |d1| ? (|d0| > |d2| ? 0 : 2) : (|d1| > |d2| ? 1 : 2), by
-     * arithmetic: a random ray's branch here was mispredicted once a ray
-     * (callgrind's model, bunny00's diffuse rays). */
-    int a = fabsf(d[0]) > fabsf(d[1]), b = fabsf(d[0]) > fabsf(d[2]), c = fabsf(d[1]) > fabsf(d[2]);
-    int kz = 2 - 2 * (a & b) - ((1 - a) & c);
-    static const int next[3] = {1, 2, 0};
-    int kx = next[kz], ky = next[kx];
-    float m = fabsf(d[kz]);
-    p->kx = kx;
-    p->ky = ky;
-    p->kz = kz;
-    p->o[0] = r->o.x;
-    p->o[1] = r->o.y;
-    p->o[2] = r->o.z;
-    /* Directions that prim_triangle_hit_watertight3 rescales go through it. */
-    p->simd = !dir_needs_rescale(m) && vec_is_finite(r->d);
-    p->sx = -d[kx] / d[kz];
-    p->sy = -d[ky] / d[kz];
-    p->sz = 1.0f / d[kz];
-}
+void prim_triray_init(PrimTriRay *p, const Ray *r) { tri_ray_init(p, r); }
 
 int prim_tri4_lane_hit(const PrimTri4 *t, int lane, const PrimTriRay *p, const Ray *r, PrimHit *h)
 {

@@ -10,6 +10,8 @@
 #define LANCER_TRI4_H
 
 #include <float.h>
+#include <math.h>
+#include <stdint.h>
 
 #include "lancer/prim.h"
 
@@ -112,6 +114,63 @@ static inline int tri_scalar_lanes(const PrimTri4 *blk, int lanes, const PrimTri
 #define TRI_LANES tri8_lanes
 #include "tri_lanes.h"
 #endif
+
+/* Directions whose largest component is shorter or longer than these are
+ * scaled by a power of two before the watertight test's shear (1/dz could
+ * overflow), and the SIMD lanes leave them to the scalar routine. */
+#define TRI_RESCALE_MIN 0x1p-60f
+#define TRI_RESCALE_MAX 0x1p60f
+
+/* prim_triray_init (prim.h), which calls this; inline, so that any-hit
+ * traversal sets its ray up without a call. kz is the axis of the largest
+ * |d|, from a = |dx| > |dy|, b = |dx| > |dz| and c = |dy| > |dz|: kz = a & b
+ * ? 0 : !a & c ? 1 : 2 (a NaN, false in every comparison, gives 2), and kx,
+ * ky the next two, keeping the winding; by table, without branches (a
+ * random ray's were mispredicted). */
+TRI_INLINE void tri_ray_init(PrimTriRay *p, const Ray *r)
+{
+    static const uint8_t axes[8] = {0x24, 0x24, 0x12, 0x24, 0x24, 0x09, 0x12, 0x09}; /* kx | ky << 2 | kz << 4 */
+    const float d[3] = {r->d.x, r->d.y, r->d.z};
+#ifdef TRI4_AVX
+    /* In the AVX2 build, the comparisons four lanes at once and the three
+     * divisions in one (each lane rounds as alone): shadow rays 0.7 to
+     * 3.2% faster than with a call to the scalar form, which inline was
+     * not faster. (Built for SSE2 alone, this form takes more instructions
+     * than the scalar one: 84 against 74.) */
+    const __m128 ad = _mm_andnot_ps(_mm_set1_ps(-0.0f), _mm_setr_ps(d[0], d[1], d[2], 0.0f));
+    int ac = _mm_movemask_ps(_mm_cmpgt_ps(ad, _mm_shuffle_ps(ad, ad, _MM_SHUFFLE(3, 2, 2, 1)))) & 3;
+    int b = _mm_movemask_ps(_mm_cmpgt_ps(ad, _mm_shuffle_ps(ad, ad, _MM_SHUFFLE(3, 2, 2, 2)))) & 1;
+    int k = axes[ac | b << 2];
+    /* the largest |d| within the bounds and every |d| finite: every |d| <=
+     * the upper one (false for inf and NaN), and one >= the lower */
+    int below = _mm_movemask_ps(_mm_cmple_ps(ad, _mm_set1_ps(TRI_RESCALE_MAX))) & 7;
+    int above = _mm_movemask_ps(_mm_cmpge_ps(ad, _mm_set1_ps(TRI_RESCALE_MIN))) & 7;
+    p->simd = below == 7 && above != 0;
+#else
+    int a = fabsf(d[0]) > fabsf(d[1]), b = fabsf(d[0]) > fabsf(d[2]), c = fabsf(d[1]) > fabsf(d[2]);
+    int k = axes[a | c << 1 | b << 2];
+    float m = fabsf(d[k >> 4]);
+    p->simd = m >= TRI_RESCALE_MIN && m <= TRI_RESCALE_MAX && isfinite(d[0]) && isfinite(d[1]) && isfinite(d[2]);
+#endif
+    int kx = k & 3, ky = k >> 2 & 3, kz = k >> 4;
+    p->kx = kx;
+    p->ky = ky;
+    p->kz = kz;
+    p->o[0] = r->o.x;
+    p->o[1] = r->o.y;
+    p->o[2] = r->o.z;
+#ifdef TRI4_AVX
+    float q[4];
+    _mm_storeu_ps(q, _mm_div_ps(_mm_setr_ps(-d[kx], -d[ky], 1.0f, 1.0f), _mm_setr_ps(d[kz], d[kz], d[kz], 1.0f)));
+    p->sx = q[0];
+    p->sy = q[1];
+    p->sz = q[2];
+#else
+    p->sx = -d[kx] / d[kz];
+    p->sy = -d[ky] / d[kz];
+    p->sz = 1.0f / d[kz];
+#endif
+}
 
 /* The lanes of one block (bit i of lanes for lane i), each judged exactly
  * as the scalar routine judges it; hits into the arrays at their lane. */

@@ -2,15 +2,18 @@
  * inside, objects behind the ray, and rays parallel to planes and faces.
  * Every test runs twice: on the classic routines and on the robust ones. */
 #include <stdarg.h>
+#include <stdio.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <setjmp.h>
 #include <math.h>
+#include <string.h>
 #include <cmocka.h>
 
 #include "testutil.h"
 
 #include "lancer/prim.h"
+#include "../src/tri4.h" /* tri_ray_init: in test_prim_avx2, its AVX2 form */
 
 static Ray ray(float ox, float oy, float oz, float dx, float dy, float dz)
 {
@@ -659,8 +662,62 @@ static void test_edge_on_triangle_hit_near_origin(void **state)
         assert_float_equal(h4.t[l], h.t, 0);
 }
 
+/* prim_triray_init as first written, branch by branch: the reference. */
+static void triray_reference(PrimTriRay *p, const Ray *r)
+{
+    const float d[3] = {r->d.x, r->d.y, r->d.z};
+    int kz = fabsf(d[0]) > fabsf(d[1]) ? (fabsf(d[0]) > fabsf(d[2]) ? 0 : 2) : (fabsf(d[1]) > fabsf(d[2]) ? 1 : 2);
+    int kx = kz == 2 ? 0 : kz + 1, ky = kx == 2 ? 0 : kx + 1;
+    float m = fabsf(d[kz]);
+    p->kx = kx;
+    p->ky = ky;
+    p->kz = kz;
+    p->o[0] = r->o.x;
+    p->o[1] = r->o.y;
+    p->o[2] = r->o.z;
+    p->simd = !(m < 0x1p-60f || m > 0x1p60f) && isfinite(d[0]) && isfinite(d[1]) && isfinite(d[2]);
+    p->sx = -d[kx] / d[kz];
+    p->sy = -d[ky] / d[kz];
+    p->sz = 1.0f / d[kz];
+}
+
+/* tri_ray_init (tri4.h: in test_prim_avx2, built with -mavx2, its AVX2
+ * form; here the scalar one, which prim_triray_init is) sets up what the
+ * reference does, bit for bit: on ties of magnitude, zeros of both signs,
+ * the rescaling bounds and just past them, infinities, NaN and random
+ * directions. */
+static void test_triray_init(void **state)
+{
+    (void)state;
+    const float c[] = {0.0f, -0.0f, 1.0f, -1.0f, 0.5f, -3.0f, 0x1p-60f, -0x1p-60f, 0x1p-61f, 0x1p60f,
+                       -0x1p60f, 0x1.000002p60f, INFINITY, -INFINITY, NAN, 1e-30f};
+    const int nc = (int)(sizeof c / sizeof c[0]);
+    unsigned long long seed = 11;
+    for (int n = 0; n < nc * nc * nc + 100000; n++) {
+        Vec3 d = n < nc * nc * nc ? vec3(c[n % nc], c[n / nc % nc], c[n / (nc * nc)]) : test_rvec(&seed, -1, 1);
+        if (n >= nc * nc * nc && n % 3 == 0)
+            d.y = n % 2 ? d.x : -d.x;
+        Ray r = ray_make(test_rvec(&seed, -5, 5), d, INFINITY);
+        PrimTriRay want, got, lib;
+        memset(&want, 0xa5, sizeof want);
+        memset(&got, 0x5a, sizeof got);
+        memset(&lib, 0x3c, sizeof lib);
+        triray_reference(&want, &r);
+        tri_ray_init(&got, &r);
+        prim_triray_init(&lib, &r);
+        assert_memory_equal(&got, &want, sizeof want);
+        assert_memory_equal(&lib, &want, sizeof want);
+    }
+}
+
 int main(void)
 {
+#if defined(__AVX2__) && defined(__GNUC__)
+    if (!__builtin_cpu_supports("avx2")) { /* test_prim_avx2 on a processor without AVX2 */
+        puts("test_prim_avx2: skipped, no AVX2");
+        return 0;
+    }
+#endif
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_sphere),
         cmocka_unit_test(test_sphere_tangent_and_inside),
@@ -682,6 +739,7 @@ int main(void)
         cmocka_unit_test(test_tri4_matches_scalar),
         cmocka_unit_test(test_shared_edge_with_an_edge_on_triangle),
         cmocka_unit_test(test_edge_on_triangle_hit_near_origin),
+        cmocka_unit_test(test_triray_init),
     };
     int failed = cmocka_run_group_tests_name("classic", tests, setup_classic, NULL);
     failed += cmocka_run_group_tests_name("robust", tests, setup_robust, NULL);
