@@ -91,9 +91,19 @@ static inline int unbounded_blocks(const Accel *a, const Ray *r, RayStats *st)
     return 0;
 }
 
-int accel_occluded(const Accel *a, const Ray *r, RayStats *st)
+#ifdef __GNUC__
+__attribute__((noinline)) /* so that accel_occluded stays a test and a jump */
+#endif
+static int occluded_with_planes(const Accel *a, const Ray *r, RayStats *st)
 {
     return unbounded_blocks(a, r, st) || bvh_occluded(&a->bvh, r, &st->isect_tests);
+}
+
+int accel_occluded(const Accel *a, const Ray *r, RayStats *st)
+{
+    /* Without planes, a tail call, as accel_closest: the frame for the
+     * planes' loop took 22 of a shadow ray's 1209 instructions. */
+    return a->nunbounded ? occluded_with_planes(a, r, st) : bvh_occluded(&a->bvh, r, &st->isect_tests);
 }
 
 unsigned accel_occluded_packet(const Accel *a, const Ray *r, int n, RayStats *st)
