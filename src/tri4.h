@@ -125,13 +125,13 @@ static inline int tri_scalar_lanes(const PrimTri4 *blk, int lanes, const PrimTri
  * traversal sets its ray up without a call. kz is the axis of the largest
  * |d|, from a = |dx| > |dy|, b = |dx| > |dz| and c = |dy| > |dz|: kz = a & b
  * ? 0 : !a & c ? 1 : 2 (a NaN, false in every comparison, gives 2), and kx,
- * ky the next two, keeping the winding; by table, without branches (a
- * random ray's were mispredicted). */
+ * ky the next two, keeping the winding; without branches (a random ray's
+ * were mispredicted). */
 TRI_INLINE void tri_ray_init(PrimTriRay *p, const Ray *r)
 {
-    static const uint8_t axes[8] = {0x24, 0x24, 0x12, 0x24, 0x24, 0x09, 0x12, 0x09}; /* kx | ky << 2 | kz << 4 */
     const float d[3] = {r->d.x, r->d.y, r->d.z};
 #ifdef TRI4_AVX
+    static const uint8_t axes[8] = {0x24, 0x24, 0x12, 0x24, 0x24, 0x09, 0x12, 0x09}; /* kx | ky << 2 | kz << 4 */
     /* In the AVX2 build, the comparisons four lanes at once and the three
      * divisions in one (each lane rounds as alone): shadow rays 0.7 to
      * 3.2% faster than with a call to the scalar form, which inline was
@@ -145,20 +145,27 @@ TRI_INLINE void tri_ray_init(PrimTriRay *p, const Ray *r)
      * the upper one (false for inf and NaN), and one >= the lower */
     int below = _mm_movemask_ps(_mm_cmple_ps(ad, _mm_set1_ps(TRI_RESCALE_MAX))) & 7;
     int above = _mm_movemask_ps(_mm_cmpge_ps(ad, _mm_set1_ps(TRI_RESCALE_MIN))) & 7;
-    p->simd = below == 7 && above != 0;
-#else
-    int a = fabsf(d[0]) > fabsf(d[1]), b = fabsf(d[0]) > fabsf(d[2]), c = fabsf(d[1]) > fabsf(d[2]);
-    int k = axes[a | c << 1 | b << 2];
-    float m = fabsf(d[k >> 4]);
-    p->simd = m >= TRI_RESCALE_MIN && m <= TRI_RESCALE_MAX && isfinite(d[0]) && isfinite(d[1]) && isfinite(d[2]);
-#endif
+    int simd = below == 7 && above != 0;
     int kx = k & 3, ky = k >> 2 & 3, kz = k >> 4;
+#else
+    /* (by arithmetic here: 10 instructions fewer than by table) */
+    int a = fabsf(d[0]) > fabsf(d[1]), b = fabsf(d[0]) > fabsf(d[2]), c = fabsf(d[1]) > fabsf(d[2]);
+    int kz = 2 - 2 * (a & b) - ((1 - a) & c);
+    static const int next[3] = {1, 2, 0};
+    int kx = next[kz], ky = next[kx];
+    float m = fabsf(d[kz]);
+#endif
     p->kx = kx;
     p->ky = ky;
     p->kz = kz;
     p->o[0] = r->o.x;
     p->o[1] = r->o.y;
     p->o[2] = r->o.z;
+#ifdef TRI4_AVX
+    p->simd = simd;
+#else
+    p->simd = !(m < TRI_RESCALE_MIN || m > TRI_RESCALE_MAX) && isfinite(r->d.x) && isfinite(r->d.y) && isfinite(r->d.z);
+#endif
 #ifdef TRI4_AVX
     float q[4];
     _mm_storeu_ps(q, _mm_div_ps(_mm_setr_ps(-d[kx], -d[ky], 1.0f, 1.0f), _mm_setr_ps(d[kz], d[kz], d[kz], 1.0f)));
