@@ -26,6 +26,9 @@
 /* prim.c's gamma_f(n), as a constant */
 #define TRI4_GAMMA(n) ((float)((n) * (0.5 * (double)FLT_EPSILON) / (1.0 - (n) * (0.5 * (double)FLT_EPSILON))))
 
+/* prim.c's gamma_d(1), as a constant */
+#define TRI4_GAMMA_D1 ((0.5 * DBL_EPSILON) / (1.0 - 0.5 * DBL_EPSILON))
+
 /* The lowest set bit of a non-zero mask. */
 static inline int tri_low_bit(unsigned m)
 {
@@ -82,6 +85,24 @@ static inline int tri_scalar_lanes(const PrimTri4 *blk, int lanes, const PrimTri
 #define V_GE _mm_cmpge_ps
 #define V_EQ _mm_cmpeq_ps
 #define V_MASK _mm_movemask_ps
+#define V_TERR_UP terr_up4
+/* prim_terr_up for four lanes, the same operations lane by lane (for
+ * terr, t >= 0): x = terr + gamma_d(1) t in double, f = x rounded, and f
+ * when it is >= x, else one ulp more as float_up takes it (f (1 + 2^-23),
+ * or the next float's bits for f below FLT_MIN). */
+static inline __m128 terr_up4(__m128 terr, __m128 t)
+{
+    const __m128d g = _mm_set1_pd(TRI4_GAMMA_D1);
+    const __m128d xl = _mm_add_pd(_mm_cvtps_pd(terr), _mm_mul_pd(g, _mm_cvtps_pd(t)));
+    const __m128d xh = _mm_add_pd(_mm_cvtps_pd(_mm_movehl_ps(terr, terr)), _mm_mul_pd(g, _mm_cvtps_pd(_mm_movehl_ps(t, t))));
+    const __m128 f = _mm_movelh_ps(_mm_cvtpd_ps(xl), _mm_cvtpd_ps(xh));
+    const __m128d kl = _mm_cmpge_pd(_mm_cvtps_pd(f), xl), kh = _mm_cmpge_pd(_mm_cvtps_pd(_mm_movehl_ps(f, f)), xh);
+    const __m128 keep = _mm_shuffle_ps(_mm_castpd_ps(kl), _mm_castpd_ps(kh), _MM_SHUFFLE(2, 0, 2, 0));
+    const __m128 sub = _mm_cmplt_ps(f, _mm_set1_ps(FLT_MIN));
+    const __m128 next = _mm_castsi128_ps(_mm_add_epi32(_mm_castps_si128(f), _mm_set1_epi32(1)));
+    const __m128 up = _mm_or_ps(_mm_and_ps(sub, next), _mm_andnot_ps(sub, _mm_mul_ps(f, _mm_set1_ps(1.0f + FLT_EPSILON))));
+    return _mm_or_ps(_mm_and_ps(keep, f), _mm_andnot_ps(keep, up));
+}
 #define TRI_LANES tri4_lanes
 #include "tri_lanes.h"
 #endif
@@ -111,6 +132,28 @@ static inline int tri_scalar_lanes(const PrimTri4 *blk, int lanes, const PrimTri
 #define V_GE(a, b) _mm256_cmp_ps(a, b, _CMP_GE_OS)
 #define V_EQ(a, b) _mm256_cmp_ps(a, b, _CMP_EQ_OQ)
 #define V_MASK _mm256_movemask_ps
+#define V_TERR_UP terr_up8
+/* terr_up4, eight lanes wide. */
+static inline __m256 terr_up8(__m256 terr, __m256 t)
+{
+    const __m256d g = _mm256_set1_pd(TRI4_GAMMA_D1);
+    const __m256d xl = _mm256_add_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(terr)),
+                                     _mm256_mul_pd(g, _mm256_cvtps_pd(_mm256_castps256_ps128(t))));
+    const __m256d xh = _mm256_add_pd(_mm256_cvtps_pd(_mm256_extractf128_ps(terr, 1)),
+                                     _mm256_mul_pd(g, _mm256_cvtps_pd(_mm256_extractf128_ps(t, 1))));
+    const __m128 fl = _mm256_cvtpd_ps(xl), fh = _mm256_cvtpd_ps(xh);
+    const __m256 f = _mm256_set_m128(fh, fl);
+    const __m256d kl = _mm256_cmp_pd(_mm256_cvtps_pd(fl), xl, _CMP_GE_OQ);
+    const __m256d kh = _mm256_cmp_pd(_mm256_cvtps_pd(fh), xh, _CMP_GE_OQ);
+    /* each 64-bit mask's low word, lanes 0 to 3 from kl and 4 to 7 from kh */
+    const __m256i low = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
+    const __m256 keep = _mm256_set_m128(_mm256_castps256_ps128(_mm256_permutevar8x32_ps(_mm256_castpd_ps(kh), low)),
+                                        _mm256_castps256_ps128(_mm256_permutevar8x32_ps(_mm256_castpd_ps(kl), low)));
+    const __m256 next = _mm256_castsi256_ps(_mm256_add_epi32(_mm256_castps_si256(f), _mm256_set1_epi32(1)));
+    const __m256 up = _mm256_blendv_ps(_mm256_mul_ps(f, _mm256_set1_ps(1.0f + FLT_EPSILON)), next,
+                                       _mm256_cmp_ps(f, _mm256_set1_ps(FLT_MIN), _CMP_LT_OQ));
+    return _mm256_blendv_ps(up, f, keep);
+}
 #define TRI_LANES tri8_lanes
 #include "tri_lanes.h"
 #endif

@@ -90,13 +90,9 @@ TRI_INLINE int TRI_LANES(const PrimTri4 *blk, int lanes, const PrimTriRay *p, co
         V inv = V_DIV(V_SET1(1.0f), det), tv = V_MUL(ts, inv);
         hit &= V_MASK(V_AND(V_GT(tv, zero), V_LT(tv, tmax)));
         V_STORE(ht, tv);
-        V_STORE(hterr, V_MUL(tserr, V_ABS(inv)));
+        V_STORE(hterr, V_TERR_UP(V_MUL(tserr, V_ABS(inv)), tv)); /* prim_terr_up, every lane */
         V_STORE(hu, V_MUL(e1, inv));
         V_STORE(hv, V_MUL(e2, inv));
-        for (unsigned bits = (unsigned)hit; bits; bits &= bits - 1) {
-            int i = tri_low_bit(bits);
-            hterr[i] = prim_terr_up(hterr[i], ht[i]);
-        }
     }
     *slow |= inside & ~hit & near;
     return hit;
@@ -124,3 +120,4 @@ TRI_INLINE int TRI_LANES(const PrimTri4 *blk, int lanes, const PrimTriRay *p, co
 #undef V_GE
 #undef V_EQ
 #undef V_MASK
+#undef V_TERR_UP
