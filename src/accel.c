@@ -102,7 +102,7 @@ static int occluded_with_planes(const Accel *a, const Ray *r, RayStats *st)
 int accel_occluded(const Accel *a, const Ray *r, RayStats *st)
 {
     /* Without planes, a tail call, as accel_closest: the frame for the
-     * planes' loop took 22 of a shadow ray's 1209 instructions. */
+     * planes' loop took 20 of a shadow ray's 1209 instructions. */
     return a->nunbounded ? occluded_with_planes(a, r, st) : bvh_occluded(&a->bvh, r, &st->isect_tests);
 }
 

@@ -2,9 +2,10 @@
  * tri4.h - the SIMD watertight triangle test (prim_tri4_hit_watertight in
  * prim.h), inline so that the BVH traversal compiles it into its loop: no
  * call there, and in the AVX2 build of bvh_traverse.c, VEX code and eight
- * lanes. Only prim.c and bvh_traverse.c include it. The same operations in
- * the same order at every width and in every build: the lanes' bits never
- * depend on it.
+ * lanes. Only prim.c, bvh_traverse.c and test_prim.c include it. The
+ * same operations in the same order at every width and in every build:
+ * the lanes' bits never depend on it. It also holds the ray's set-up for
+ * the test (tri_ray_init), which prim_triray_init is.
  */
 #ifndef LANCER_TRI4_H
 #define LANCER_TRI4_H
@@ -86,10 +87,11 @@ static inline int tri_scalar_lanes(const PrimTri4 *blk, int lanes, const PrimTri
 #define V_EQ _mm_cmpeq_ps
 #define V_MASK _mm_movemask_ps
 #define V_TERR_UP terr_up4
-/* prim_terr_up for four lanes, the same operations lane by lane (for
- * terr, t >= 0): x = terr + gamma_d(1) t in double, f = x rounded, and f
- * when it is >= x, else one ulp more as float_up takes it (f (1 + 2^-23),
- * or the next float's bits for f below FLT_MIN). */
+/* prim_terr_up for four lanes, the same operations lane by lane (for a
+ * hit's terr, t >= 0; the other lanes' results are not read): x = terr +
+ * gamma_d(1) t in double, f = x rounded, and f when it is >= x, else one
+ * ulp more as float_up takes it (f (1 + 2^-23), or the next float's bits
+ * for f below FLT_MIN). */
 static inline __m128 terr_up4(__m128 terr, __m128 t)
 {
     const __m128d g = _mm_set1_pd(TRI4_GAMMA_D1);
@@ -206,16 +208,13 @@ TRI_INLINE void tri_ray_init(PrimTriRay *p, const Ray *r)
     p->o[2] = r->o.z;
 #ifdef TRI4_AVX
     p->simd = simd;
-#else
-    p->simd = !(m < TRI_RESCALE_MIN || m > TRI_RESCALE_MAX) && isfinite(r->d.x) && isfinite(r->d.y) && isfinite(r->d.z);
-#endif
-#ifdef TRI4_AVX
     float q[4];
     _mm_storeu_ps(q, _mm_div_ps(_mm_setr_ps(-d[kx], -d[ky], 1.0f, 1.0f), _mm_setr_ps(d[kz], d[kz], d[kz], 1.0f)));
     p->sx = q[0];
     p->sy = q[1];
     p->sz = q[2];
 #else
+    p->simd = !(m < TRI_RESCALE_MIN || m > TRI_RESCALE_MAX) && isfinite(r->d.x) && isfinite(r->d.y) && isfinite(r->d.z);
     p->sx = -d[kx] / d[kz];
     p->sy = -d[ky] / d[kz];
     p->sz = 1.0f / d[kz];
