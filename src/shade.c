@@ -328,7 +328,8 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
         }
         unsigned dark = ns ? accel_occluded_packet(c->a, sr, ns, c->st) : 0;
         for (int j = 0; j < ns; j++)
-            lc[who[j]] = vec_mul(lc[who[j]], dark >> j & 1 ? vec3(0, 0, 0) : vec3(1, 1, 1));
+            if (dark >> j & 1) /* times a visibility of 0, as light_visibility's */
+                lc[who[j]] = vec_mul(lc[who[j]], vec3(0, 0, 0));
         for (int k = 0; k < n; k++)
             if (lit[k])
                 out[k] = vec_add(out[k], vec_mul(lc[k], term[k]));
