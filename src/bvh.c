@@ -635,8 +635,8 @@ static int build_wide(Bvh *b, const BvhNode *bin, int nbin)
     Collapse C = {b, bin, plan};
     /* Every binary leaf is a leaf here; the wide nodes are counted first,
      * so that both arrays are allocated once at their size, aligned to
-     * cache lines (a copy into exact arrays afterwards wrote 4.3 MB more
-     * on bunny00, into fresh pages, each a fault). */
+     * cache lines (a copy into exact arrays afterwards wrote 4 MB more on
+     * bunny00, into fresh pages, a page fault each). */
     const int root = 0, nwide = bin[0].count > 0 ? 1 : count_wide(&C, 0);
     void *nodes = NULL, *leaves = NULL;
     if (posix_memalign(&nodes, 64, sizeof(BvhWideNode) * (size_t)nwide) != 0 ||
