@@ -157,7 +157,7 @@ int main(int argc, char **argv)
     printf("build (ms, median of %d, one thread): lancer %.1f, Embree %.1f, Embree robust %.1f; "
            "lancer / Embree = %.2f\n",
            passes, median(lb, passes), median(ed, passes), median(er, passes), median(lb, passes) / median(ed, passes));
-    printf("page faults per build (median): lancer %.0f, Embree %.0f (default and robust, each)\n", median(lf, passes),
+    printf("page faults per build (median): lancer %.0f, Embree %.0f (the mean of its default and robust builds)\n", median(lf, passes),
            median(ef, passes));
     printf("lancer BVH memory: %.1f bytes per triangle (%d-wide nodes, leaves with their triangles' vertices, "
            "leaf order)\n",
