@@ -602,13 +602,20 @@ static void fill_node(Collapse *C, const int *kids, int nk, int at)
     }
 }
 
+/* The binary nodes in the slots of inner node ni's wide node, by the
+ * plan, into kids; returns how many. */
+static int wide_kids(const Collapse *C, int ni, int *kids)
+{
+    int nk = 0, k = C->plan[ni].wide_left;
+    gather(C, (int)C->bin[ni].first, k, kids, &nk);
+    gather(C, (int)C->bin[ni].first + 1, BVH_WIDTH - k, kids, &nk);
+    return nk;
+}
+
 /* Fills nodes[at] from binary node ni, an inner node, by the plan. */
 static void collapse(Collapse *C, int ni, int at)
 {
-    const BvhNode *bin = C->bin;
-    int kids[BVH_WIDTH], nk = 0, k = C->plan[ni].wide_left;
-    gather(C, (int)bin[ni].first, k, kids, &nk);
-    gather(C, (int)bin[ni].first + 1, BVH_WIDTH - k, kids, &nk);
+    int kids[BVH_WIDTH], nk = wide_kids(C, ni, kids);
     fill_node(C, kids, nk, at);
 }
 
@@ -616,9 +623,7 @@ static void collapse(Collapse *C, int ni, int at)
  * those of the inner nodes in its slots, as collapse() will make them. */
 static int count_wide(const Collapse *C, int ni)
 {
-    int kids[BVH_WIDTH], nk = 0, k = C->plan[ni].wide_left, n = 1;
-    gather(C, (int)C->bin[ni].first, k, kids, &nk);
-    gather(C, (int)C->bin[ni].first + 1, BVH_WIDTH - k, kids, &nk);
+    int kids[BVH_WIDTH], nk = wide_kids(C, ni, kids), n = 1;
     for (int i = 0; i < nk; i++)
         if (C->bin[kids[i]].count == 0)
             n += count_wide(C, kids[i]);
