@@ -86,10 +86,10 @@ $(BUILD)/obj/%_sse.o: src/%.c
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) -DLANCER_NO_AVX2 $(ALLCFLAGS) -MMD -MP -c $< -o $@
 
-BVH_OBJ := $(BUILD)/obj/bvh.o $(BUILD)/obj/bvh_traverse.o $(BUILD)/obj/bvh_traverse_avx2.o $(BUILD)/obj/prim.o
+BVH_OBJ := $(BUILD)/obj/bvh.o $(BUILD)/obj/bvh_traverse.o $(BUILD)/obj/bvh_traverse_avx2.o
 
 $(BUILD)/test_bvh_scalar: $(BUILD)/obj/tests/test_bvh.o $(BUILD)/obj/bvh_scalar.o $(BUILD)/obj/bvh_traverse_scalar.o \
-                          $(BUILD)/obj/prim_scalar.o $(filter-out $(BVH_OBJ),$(LIB_OBJ))
+                          $(filter-out $(BVH_OBJ),$(LIB_OBJ))
 	$(CC) $(LDFLAGS) $^ $(LDLIBS) -lcmocka -o $@
 
 $(BUILD)/test_bvh_sse: $(BUILD)/obj/tests/test_bvh.o $(BUILD)/obj/bvh_traverse_sse.o \

@@ -1,61 +1,21 @@
 /*
- * prim.c - ray/primitive intersection: the classic routines as the
- * literature gives them, and robust variants beside them (see prim.h for
- * the contract each keeps).
+ * prim.c - ray/primitive intersection for planes, spheres, boxes and
+ * oriented boxes: the classic routines as the literature gives them, and
+ * robust variants beside them (see prim.h for the contract each keeps);
+ * triangles are in tri.c. Also the hit point, normals and spawn origins of
+ * every primitive.
  *
- * Error analysis follows Higham's gamma(n) = n u / (1 - n u), u the unit
- * roundoff (2^-24 for float, 2^-53 for double), as pbrt-v4 does: a sum or
- * product chain of n roundings has relative error at most gamma(n). The
- * robust routines work in double on float inputs (a product of two floats
- * is exact in double), round the answer to float, and report a bound that
- * covers both.
+ * The robust routines work in double on float inputs (a product of two
+ * floats is exact in double), round the answer to float, and report a
+ * bound that covers both, by Higham's gamma(n) (rounding.h).
  */
 #include "lancer/prim.h"
-#include "tri4.h"
 
 #include <float.h>
 #include <stdint.h>
 #include <string.h>
 
-#define UNIT_F (0.5 * (double)FLT_EPSILON)
-#define UNIT_D (0.5 * DBL_EPSILON)
-
-static double gamma_d(int n) { return n * UNIT_D / (1.0 - n * UNIT_D); }
-static float gamma_f(int n) { return (float)(n * UNIT_F / (1.0 - n * UNIT_F)); }
-
-/* nextafterf(x, up ? INFINITY : -INFINITY), without the call: a finite
- * non-zero float's neighbours are one step away in its bits. */
-static float float_next(float x, int up)
-{
-    if (!isfinite(x))
-        return nextafterf(x, up ? INFINITY : -INFINITY);
-    if (x == 0.0f)
-        return up ? 0x1p-149f : -0x1p-149f;
-    uint32_t b;
-    memcpy(&b, &x, sizeof b);
-    b = (x > 0.0f) == (up != 0) ? b + 1 : b - 1;
-    memcpy(&x, &b, sizeof x);
-    return x;
-}
-
-/* A float >= x, for x >= 0: x rounded, and one ulp more when that rounded
- * down (f * (1 + 2^-23) is at least the next float for a normal f, and
- * avoids float_next's branches on this hot path). Both are computed and
- * one is picked by a mask: whether x rounded down is a coin toss, and a
- * branch on it is mispredicted half the time. (The branch left, on a
- * normal f, goes the same way almost always.) */
-static float float_up(double x)
-{
-    float f = (float)x;
-    float g = f >= FLT_MIN ? f * (1.0f + FLT_EPSILON) : float_next(f, 1);
-    /* (double)f >= x ? f : g, by a mask: compilers branch on the ?: */
-    uint32_t bf, bg, keep = -(uint32_t)((double)f >= x);
-    memcpy(&bf, &f, sizeof bf);
-    memcpy(&bg, &g, sizeof bg);
-    bf = (bf & keep) | (bg & ~keep);
-    memcpy(&f, &bf, sizeof f);
-    return f;
-}
+#include "rounding.h"
 
 /* t as a float, and a float bound covering both err (a bound on |t - exact|)
  * and the rounding of t itself. */
@@ -100,37 +60,7 @@ int prim_sphere_hit(const Sphere *s, const Ray *r, PrimHit *h)
     return 1;
 }
 
-int prim_triangle_hit(const Triangle *tr, const Ray *r, PrimHit *h)
-{
-    Vec3 e1 = vec_sub(tr->b, tr->a);
-    Vec3 e2 = vec_sub(tr->c, tr->a);
-    Vec3 pvec = vec_cross(r->d, e2);
-    float det = vec_dot(e1, pvec);
-    /* The paper rejects |det| < 1e-6; that epsilon depends on the scene's
-     * scale, so only the exactly parallel case is rejected here. */
-    if (det == 0.0f)
-        return 0;
-    float inv_det = 1.0f / det;
-    Vec3 tvec = vec_sub(r->o, tr->a);
-    float uu = vec_dot(tvec, pvec) * inv_det;
-    if (uu < 0.0f || uu > 1.0f)
-        return 0;
-    Vec3 qvec = vec_cross(tvec, e1);
-    float vv = vec_dot(r->d, qvec) * inv_det;
-    if (vv < 0.0f || uu + vv > 1.0f)
-        return 0;
-    float th = vec_dot(e2, qvec) * inv_det;
-    if (!(th > 0.0f && th < r->tmax))
-        return 0;
-    h->t = th;
-    h->terr = 0.0f;
-    h->u = uu;
-    h->v = vv;
-    return 1;
-}
 
-
-static float comp(Vec3 v, int i) { return i == 0 ? v.x : i == 1 ? v.y : v.z; }
 
 int prim_box_hit(const Box *b, const Ray *r, PrimHit *h)
 {
@@ -140,11 +70,11 @@ int prim_box_hit(const Box *b, const Ray *r, PrimHit *h)
     float tnear = -INFINITY, tfar = INFINITY;
     int near_axis = 0, far_axis = 0;
     for (int i = 0; i < 3; i++) {
-        float inv = 1.0f / comp(r->d, i);
+        float inv = 1.0f / vec_comp(r->d, i);
         int sign = inv < 0.0f;
-        float o = comp(r->o, i);
-        float t0 = (comp(bounds[sign], i) - o) * inv;
-        float t1 = (comp(bounds[1 - sign], i) - o) * inv;
+        float o = vec_comp(r->o, i);
+        float t0 = (vec_comp(bounds[sign], i) - o) * inv;
+        float t1 = (vec_comp(bounds[1 - sign], i) - o) * inv;
         if (tnear > t1 || t0 > tfar)
             return 0;
         if (t0 > tnear) {
@@ -351,198 +281,6 @@ int prim_sphere_hit_robust(const Sphere *s, const Ray *r, PrimHit *h)
     return 1;
 }
 
-/* fmaxf(a, fmaxf(b, c)), NaN handling included, without the libm call
- * that -O2 leaves for fmaxf. */
-static float max2(float a, float b) { return b > a || a != a ? b : a; }
-static float max3(float a, float b, float c) { return max2(a, max2(b, c)); }
-
-/* A bound on the rounding of the edge function xi yj - yi xj when each
- * coordinate is off by its e: the products' own rounding, and first and
- * second order terms of the coordinate errors. Symmetric in (i, j). */
-static float edge_err(float xi, float yi, float exi, float eyi, float xj, float yj, float exj, float eyj)
-{
-    float m = fabsf(xi * yj) + fabsf(yi * xj);
-    float d = exi * fabsf(yj) + eyj * fabsf(xi) + eyi * fabsf(xj) + exj * fabsf(yi) + exi * eyj + eyi * exj;
-    return gamma_f(3) * m + d * (1.0f + gamma_f(3));
-}
-
-static int watertight(const Vec3 v[3], const Ray *r, const PrimTriRay *p, PrimHit *h);
-
-/* The vertices translated to the ray origin and sheared as in
- * watertight(), in double: X and Y carry the shear, Z is z / dz. */
-static void shear_double(const Vec3 v[3], const Ray *r, const PrimTriRay *p, double X[3], double Y[3], double Z[3])
-{
-    double dz = comp(r->d, p->kz), dsx = -(double)comp(r->d, p->kx) / dz, dsy = -(double)comp(r->d, p->ky) / dz;
-    for (int k = 0; k < 3; k++) {
-        double px = (double)comp(v[k], p->kx) - comp(r->o, p->kx), py = (double)comp(v[k], p->ky) - comp(r->o, p->ky);
-        double pz = (double)comp(v[k], p->kz) - comp(r->o, p->kz);
-        X[k] = px + dsx * pz;
-        Y[k] = py + dsy * pz;
-        Z[k] = pz / dz;
-    }
-}
-
-/* t, u and v of watertight() in double, for a t too close to 0 or tmax to
- * trust in float; 0 if it is outside (0, tmax) all the same. */
-static int t_double(const Vec3 v[3], const Ray *r, const PrimTriRay *p, float *t, float *u, float *w)
-{
-    double X[3], Y[3], Z[3];
-    shear_double(v, r, p, X, Y, Z);
-    double e0 = X[1] * Y[2] - Y[1] * X[2], e1 = X[2] * Y[0] - Y[2] * X[0], e2 = X[0] * Y[1] - Y[0] * X[1];
-    double det = e0 + e1 + e2;
-    if (det == 0.0)
-        return 0;
-    float td = (float)((e0 * Z[0] + e1 * Z[1] + e2 * Z[2]) / det);
-    if (!(td > 0.0f && td < r->tmax))
-        return 0;
-    *t = td;
-    *u = (float)(e1 / det);
-    *w = (float)(e2 / det);
-    return 1;
-}
-
-int prim_triangle_hit_watertight(const Triangle *tr, const Ray *r, PrimHit *h)
-{
-    const Vec3 v[3] = {tr->a, tr->b, tr->c};
-    return prim_triangle_hit_watertight3(v, r, h);
-}
-
-/* A direction whose largest component m is this short or long is scaled
- * by a power of two before the shear (1/dz could overflow); the SIMD lanes
- * leave such rays to the scalar routine. */
-static int dir_needs_rescale(float m) { return m < TRI_RESCALE_MIN || m > TRI_RESCALE_MAX; }
-
-int prim_triangle_hit_watertight3(const Vec3 v[3], const Ray *r, PrimHit *h)
-{
-    /* The float shear divides by the largest direction component: scale a
-     * very short or very long direction by a power of two first (exact),
-     * so that 1/dz cannot overflow, and scale t back. */
-    float m = max3(fabsf(r->d.x), fabsf(r->d.y), fabsf(r->d.z));
-    PrimTriRay p;
-    if (!dir_needs_rescale(m)) {
-        prim_triray_init(&p, r);
-        return watertight(v, r, &p, h);
-    }
-    int e;
-    frexpf(m, &e);
-    double k = ldexp(1.0, -e); /* d' = k d, so t = k t'; in double, since k may exceed FLT_MAX */
-    Vec3 d = vec3((float)(r->d.x * k), (float)(r->d.y * k), (float)(r->d.z * k));
-    Ray q = ray_make(r->o, d, float_up(r->tmax / k)); /* rounded up: no hit lost */
-    prim_triray_init(&p, &q);
-    if (!watertight(v, &q, &p, h))
-        return 0;
-    h->t = (float)(h->t * k);
-    h->terr = float_up(h->terr * k);
-    return h->t < r->tmax && h->t > 0.0f;
-}
-
-static int watertight(const Vec3 v[3], const Ray *r, const PrimTriRay *p, PrimHit *h)
-{
-    /* Woop et al.: translate to the ray origin, make the largest direction
-     * component z (keeping the winding), and shear so the ray runs along
-     * +z (prim_triray_init). Written as in pbrt-v3/v4, whose error analysis
-     * bounds t below. */
-    int kx = p->kx, ky = p->ky, kz = p->kz;
-    float dz = comp(r->d, kz);
-    if (dz == 0.0f)
-        return 0; /* a zero direction */
-    float sx = p->sx, sy = p->sy, sz = p->sz;
-    Vec3 A = vec_sub(v[0], r->o), B = vec_sub(v[1], r->o), C = vec_sub(v[2], r->o);
-    float az = comp(A, kz), bz = comp(B, kz), cz = comp(C, kz);
-    float ax = comp(A, kx) + sx * az, ay = comp(A, ky) + sy * az;
-    float bx = comp(B, kx) + sx * bz, by = comp(B, ky) + sy * bz;
-    float cx = comp(C, kx) + sx * cz, cy = comp(C, ky) + sy * cz;
-    /* Edge functions: a shared edge gives exactly opposite values in its two
-     * triangles (the same products, subtracted the other way round), which
-     * is what makes meshes watertight; -ffp-contract=off keeps it so. */
-    float e0 = bx * cy - by * cx, e1 = cx * ay - cy * ax, e2 = ax * by - ay * bx;
-    /* An edge function within its rounding bound of 0 has an uncertain
-     * sign: it is decided again in double, from coordinates sheared in
-     * double. The bound of an edge depends only on its two vertices, and is
-     * the same whichever way round the edge is taken, so the two triangles
-     * sharing an edge always decide it by the same computation and still
-     * get exactly opposite signs. */
-    float g5 = gamma_f(5);
-    float exa = g5 * (fabsf(comp(A, kx)) + fabsf(comp(A, kz))), eya = g5 * (fabsf(comp(A, ky)) + fabsf(comp(A, kz)));
-    float exb = g5 * (fabsf(comp(B, kx)) + fabsf(comp(B, kz))), eyb = g5 * (fabsf(comp(B, ky)) + fabsf(comp(B, kz)));
-    float exc = g5 * (fabsf(comp(C, kx)) + fabsf(comp(C, kz))), eyc = g5 * (fabsf(comp(C, ky)) + fabsf(comp(C, kz)));
-    int u0 = fabsf(e0) <= edge_err(bx, by, exb, eyb, cx, cy, exc, eyc);
-    int u1 = fabsf(e1) <= edge_err(cx, cy, exc, eyc, ax, ay, exa, eya);
-    int u2 = fabsf(e2) <= edge_err(ax, ay, exa, eya, bx, by, exb, eyb);
-    if (u0 || u1 || u2) {
-        double X[3], Y[3], Z[3];
-        shear_double(v, r, p, X, Y, Z);
-        if (u0)
-            e0 = (float)(X[1] * Y[2] - Y[1] * X[2]);
-        if (u1)
-            e1 = (float)(X[2] * Y[0] - Y[2] * X[0]);
-        if (u2)
-            e2 = (float)(X[0] * Y[1] - Y[0] * X[1]);
-    }
-    if ((e0 < 0.0f || e1 < 0.0f || e2 < 0.0f) && (e0 > 0.0f || e1 > 0.0f || e2 > 0.0f))
-        return 0;
-    float det = e0 + e1 + e2;
-    if (det == 0.0f)
-        return 0;
-    /* The shear errors are in length units: they take the z extent before
-     * it is scaled by 1/dz (pbrt takes it after, which is wrong whenever
-     * |d| is not 1: too large a bound for short directions, too small for
-     * long ones). */
-    float mz_len = max3(fabsf(az), fabsf(bz), fabsf(cz));
-    az *= sz;
-    bz *= sz;
-    cz *= sz;
-    float tscaled = e0 * az + e1 * bz + e2 * cz;
-    float inv = 1.0f / det, t = tscaled * inv;
-    /* pbrt's bound on the error of t, from the errors of the sheared
-     * coordinates (gamma(5) in x and y, gamma(3) in z) and of the edge
-     * functions. A t within it of 0 is kept, as in the other routines: the
-     * exit of a closed mesh close to the origin is a real hit, and spawned
-     * rays are kept off their surface by their offset, not by rejecting. */
-    float mz = max3(fabsf(az), fabsf(bz), fabsf(cz));
-    float mx = max3(fabsf(ax), fabsf(bx), fabsf(cx)), my = max3(fabsf(ay), fabsf(by), fabsf(cy));
-    float dxe = gamma_f(5) * (mx + mz_len), dye = gamma_f(5) * (my + mz_len), dze = gamma_f(3) * mz;
-    float de = 2.0f * (gamma_f(2) * mx * my + dye * mx + dxe * my);
-    float me = max3(fabsf(e0), fabsf(e1), fabsf(e2));
-    float tserr = 3.0f * (gamma_f(3) * me * mz + de * mz + dze * me); /* terr times |det| */
-    float terr = tserr * fabsf(inv);
-    float u = e1 * inv, w = e2 * inv;
-    int out = det < 0.0f ? (tscaled >= 0.0f || tscaled < r->tmax * det) : (tscaled <= 0.0f || tscaled > r->tmax * det);
-    if (out || !(t > 0.0f) || !(t < r->tmax)) {
-        /* Outside (0, tmax), but maybe only by t's rounding: a triangle
-         * seen almost edge-on has a t far less accurate than its edge
-         * signs, and if the shared edge went to it, dropping it would leak
-         * the ray between two triangles. Within terr (compared times |det|,
-         * so that the lanes need no division), t is taken again in double;
-         * the signs stay as decided. */
-        float ts = det < 0.0f ? -tscaled : tscaled, reach = r->tmax * fabsf(det) + tserr;
-        if (!(ts > -tserr && ts < reach) || !t_double(v, r, p, &t, &u, &w))
-            return 0;
-    }
-    h->t = t;
-    h->terr = prim_terr_up(terr, t); /* and the rounding of t itself */
-    h->u = u;
-    h->v = w;
-    return 1;
-}
-
-void prim_triray_init(PrimTriRay *p, const Ray *r) { tri_ray_init(p, r); }
-
-int prim_tri4_lane_hit(const PrimTri4 *t, int lane, const PrimTriRay *p, const Ray *r, PrimHit *h)
-{
-    Vec3 v[3];
-    for (int k = 0; k < 3; k++)
-        v[k] = vec3(t->v[k][0][lane], t->v[k][1][lane], t->v[k][2][lane]);
-    return p->simd ? watertight(v, r, p, h) : prim_triangle_hit_watertight3(v, r, h);
-}
-
-int prim_tri4_hit_watertight(const PrimTri4 *t, int lanes, const PrimTriRay *p, const Ray *r, PrimHit4 *h)
-{
-    return tri4_hit_watertight(t, lanes, p, r, h->t, h->terr, h->u, h->v);
-}
-
-float prim_terr_up(float terr, float t) { return float_up((double)terr + gamma_d(1) * t); }
-
 int prim_box_hit_robust(const Box *b, const Ray *r, PrimHit *h)
 {
     /* Williams' slab test in double on the float inputs, made conservative
@@ -558,11 +296,11 @@ int prim_box_hit_robust(const Box *b, const Ray *r, PrimHit *h)
     double tnear = -INFINITY, tfar = INFINITY, texit = INFINITY;
     int near_face = 0, far_face = 0;
     for (int i = 0; i < 3; i++) {
-        double inv = 1.0 / (double)comp(r->d, i);
+        double inv = 1.0 / (double)vec_comp(r->d, i);
         int neg = inv < 0.0;
-        double o = comp(r->o, i);
-        double t0 = ((double)comp(bounds[neg], i) - o) * inv;
-        double t1 = ((double)comp(bounds[1 - neg], i) - o) * inv;
+        double o = vec_comp(r->o, i);
+        double t0 = ((double)vec_comp(bounds[neg], i) - o) * inv;
+        double t1 = ((double)vec_comp(bounds[1 - neg], i) - o) * inv;
         if (t0 > tnear) {
             tnear = t0;
             near_face = i + 3 * neg; /* entering through hi when d < 0 */
@@ -594,7 +332,7 @@ int prim_obox_hit_robust(const OBox *b, const Ray *r, PrimHit *h)
     const Vec3 ax[3] = {b->u, b->v, b->w};
     double oc[3], dd[3] = {r->d.x, r->d.y, r->d.z};
     for (int i = 0; i < 3; i++)
-        oc[i] = (double)comp(r->o, i) - comp(b->c, i);
+        oc[i] = (double)vec_comp(r->o, i) - vec_comp(b->c, i);
     /* Per slab: the interval [t0, t1] and its error bounds. The verdict
      * uses each slab widened by its own bounds; a nearly parallel slab has
      * a huge bound and so constrains nothing, as it should. */
@@ -609,10 +347,10 @@ int prim_obox_hit_robust(const OBox *b, const Ray *r, PrimHit *h)
                        (double)P.x * Q.y - (double)P.y * Q.x}; /* exact products, one rounding */
         double det = 0.0, so = 0.0, sd = 0.0, m_det = 0.0, m_so = 0.0, m_sd = 0.0;
         for (int j = 0; j < 3; j++) {
-            det += comp(ax[i], j) * n[j];
+            det += vec_comp(ax[i], j) * n[j];
             so += oc[j] * n[j];
             sd += dd[j] * n[j];
-            m_det += fabs(comp(ax[i], j) * n[j]);
+            m_det += fabs(vec_comp(ax[i], j) * n[j]);
             m_so += fabs(oc[j] * n[j]);
             m_sd += fabs(dd[j] * n[j]);
         }
@@ -690,7 +428,7 @@ static Vec3 ray_point(const Ray *r, float t, float terr, Vec3 *err)
 {
     float p[3], e[3];
     for (int i = 0; i < 3; i++) {
-        double o = comp(r->o, i), d = comp(r->d, i);
+        double o = vec_comp(r->o, i), d = vec_comp(r->d, i);
         double x = o + (double)t * d;
         p[i] = (float)x;
         e[i] = float_up((double)terr * fabs(d) + gamma_d(2) * (fabs(o) + fabs(t * d)) + UNIT_F * fabs(x));
@@ -720,15 +458,15 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
         if (robust) {
             double q[3], len = 0.0;
             for (int i = 0; i < 3; i++) {
-                q[i] = ((double)comp(r->o, i) - comp(sp->c, i)) + (double)h->t * comp(r->d, i);
+                q[i] = ((double)vec_comp(r->o, i) - vec_comp(sp->c, i)) + (double)h->t * vec_comp(r->d, i);
                 len += q[i] * q[i];
             }
             len = sqrt(len);
             float pp[3] = {0, 0, 0}, e[3] = {0, 0, 0};
             for (int i = 0; i < 3; i++) {
-                double x = comp(sp->c, i) + sp->r * (q[i] / len);
+                double x = vec_comp(sp->c, i) + sp->r * (q[i] / len);
                 pp[i] = (float)x;
-                e[i] = float_up(gamma_d(8) * (fabs(comp(sp->c, i)) + sp->r) + UNIT_F * fabs(x));
+                e[i] = float_up(gamma_d(8) * (fabs(vec_comp(sp->c, i)) + sp->r) + UNIT_F * fabs(x));
             }
             ng = vec3((float)(q[0] / len), (float)(q[1] / len), (float)(q[2] / len));
             s->p = vec3(pp[0], pp[1], pp[2]);
@@ -766,7 +504,7 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
             ng = vec_neg(ng); /* outward, for the edge normal below */
         if (robust) { /* on a face, one coordinate is exactly the bound */
             const Box *b = &p->g.box;
-            float bound = h->face >= 3 ? comp(b->hi, f) : comp(b->lo, f);
+            float bound = h->face >= 3 ? vec_comp(b->hi, f) : vec_comp(b->lo, f);
             float c[3] = {s->p.x, s->p.y, s->p.z}, e[3] = {s->perr.x, s->perr.y, s->perr.z};
             float out[3] = {0, 0, 0}; /* the outward normals of every face p lies on */
             c[f] = bound;
@@ -775,8 +513,8 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
             for (int j = 0; j < 3; j++) {
                 if (j == f)
                     continue;
-                if (c[j] == comp(b->lo, j) || c[j] == comp(b->hi, j)) {
-                    out[j] = c[j] == comp(b->lo, j) ? -1.0f : 1.0f;
+                if (c[j] == vec_comp(b->lo, j) || c[j] == vec_comp(b->hi, j)) {
+                    out[j] = c[j] == vec_comp(b->lo, j) ? -1.0f : 1.0f;
                     edge = 1;
                 }
             }

@@ -1,11 +1,10 @@
 /*
- * tri4.h - the SIMD watertight triangle test (prim_tri4_hit_watertight in
- * prim.h), inline so that the BVH traversal compiles it into its loop: no
- * call there, and in the AVX2 build of bvh_traverse.c, VEX code and eight
- * lanes. Only prim.c, bvh_traverse.c and test_prim.c include it. The
- * same operations in the same order at every width and in every build:
- * the lanes' bits never depend on it. It also holds the ray's set-up for
- * the test (tri_ray_init), which prim_triray_init is.
+ * tri4.h - the SIMD watertight triangle test, inline so that the BVH
+ * traversal compiles it into its loop: no call there, and in the AVX2 build
+ * of bvh_traverse.c, VEX code and eight lanes. The same operations in the
+ * same order at every width and in every build: the lanes' bits never
+ * depend on it. Lanes it cannot decide go to the scalar routine (tri.c,
+ * prim_tri4_lane_hit). Included by bvh_traverse.c and test_prim.c.
  */
 #ifndef LANCER_TRI4_H
 #define LANCER_TRI4_H
@@ -15,20 +14,8 @@
 #include <stdint.h>
 
 #include "lancer/prim.h"
-
-/* Inline even where GCC would call: in the traversal's loops a call
- * costs the registers it saves, and the leaf test is the innermost work. */
-#ifdef __GNUC__
-#define TRI_INLINE static inline __attribute__((always_inline))
-#else
-#define TRI_INLINE static inline
-#endif
-
-/* prim.c's gamma_f(n), as a constant */
-#define TRI4_GAMMA(n) ((float)((n) * (0.5 * (double)FLT_EPSILON) / (1.0 - (n) * (0.5 * (double)FLT_EPSILON))))
-
-/* prim.c's gamma_d(1), as a constant */
-#define TRI4_GAMMA_D1 ((0.5 * DBL_EPSILON) / (1.0 - 0.5 * DBL_EPSILON))
+#include "rounding.h"
+#include "tri_ray.h"
 
 /* The lowest set bit of a non-zero mask. */
 static inline int tri_low_bit(unsigned m)
@@ -94,7 +81,7 @@ static inline int tri_scalar_lanes(const PrimTri4 *blk, int lanes, const PrimTri
  * for f below FLT_MIN). */
 static inline __m128 terr_up4(__m128 terr, __m128 t)
 {
-    const __m128d g = _mm_set1_pd(TRI4_GAMMA_D1);
+    const __m128d g = _mm_set1_pd(GAMMA_D(1));
     const __m128d xl = _mm_add_pd(_mm_cvtps_pd(terr), _mm_mul_pd(g, _mm_cvtps_pd(t)));
     const __m128d xh = _mm_add_pd(_mm_cvtps_pd(_mm_movehl_ps(terr, terr)), _mm_mul_pd(g, _mm_cvtps_pd(_mm_movehl_ps(t, t))));
     const __m128 f = _mm_movelh_ps(_mm_cvtpd_ps(xl), _mm_cvtpd_ps(xh));
@@ -138,7 +125,7 @@ static inline __m128 terr_up4(__m128 terr, __m128 t)
 /* terr_up4, eight lanes wide. */
 static inline __m256 terr_up8(__m256 terr, __m256 t)
 {
-    const __m256d g = _mm256_set1_pd(TRI4_GAMMA_D1);
+    const __m256d g = _mm256_set1_pd(GAMMA_D(1));
     const __m256d xl = _mm256_add_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(terr)),
                                      _mm256_mul_pd(g, _mm256_cvtps_pd(_mm256_castps256_ps128(t))));
     const __m256d xh = _mm256_add_pd(_mm256_cvtps_pd(_mm256_extractf128_ps(terr, 1)),
@@ -159,67 +146,6 @@ static inline __m256 terr_up8(__m256 terr, __m256 t)
 #define TRI_LANES tri8_lanes
 #include "tri_lanes.h"
 #endif
-
-/* Directions whose largest component is shorter or longer than these are
- * scaled by a power of two before the watertight test's shear (1/dz could
- * overflow), and the SIMD lanes leave them to the scalar routine. */
-#define TRI_RESCALE_MIN 0x1p-60f
-#define TRI_RESCALE_MAX 0x1p60f
-
-/* prim_triray_init (prim.h), which calls this; inline, so that any-hit
- * traversal sets its ray up without a call. kz is the axis of the largest
- * |d|, from a = |dx| > |dy|, b = |dx| > |dz| and c = |dy| > |dz|: kz = a & b
- * ? 0 : !a & c ? 1 : 2 (a NaN, false in every comparison, gives 2), and kx,
- * ky the next two, keeping the winding; without branches (a random ray's
- * were mispredicted). */
-TRI_INLINE void tri_ray_init(PrimTriRay *p, const Ray *r)
-{
-    const float d[3] = {r->d.x, r->d.y, r->d.z};
-#ifdef TRI4_AVX
-    static const uint8_t axes[8] = {0x24, 0x24, 0x12, 0x24, 0x24, 0x09, 0x12, 0x09}; /* kx | ky << 2 | kz << 4 */
-    /* In the AVX2 build, the comparisons four lanes at once and the three
-     * divisions in one (each lane rounds as alone): shadow rays 0.7 to
-     * 3.2% faster than with a call to the scalar form, which inline was
-     * not faster. (Built for SSE2 alone, this form takes more instructions
-     * than the scalar one: 84 against 74.) */
-    const __m128 ad = _mm_andnot_ps(_mm_set1_ps(-0.0f), _mm_setr_ps(d[0], d[1], d[2], 0.0f));
-    int ac = _mm_movemask_ps(_mm_cmpgt_ps(ad, _mm_shuffle_ps(ad, ad, _MM_SHUFFLE(3, 2, 2, 1)))) & 3;
-    int b = _mm_movemask_ps(_mm_cmpgt_ps(ad, _mm_shuffle_ps(ad, ad, _MM_SHUFFLE(3, 2, 2, 2)))) & 1;
-    int k = axes[ac | b << 2];
-    /* the largest |d| within the bounds and every |d| finite: every |d| <=
-     * the upper one (false for inf and NaN), and one >= the lower */
-    int below = _mm_movemask_ps(_mm_cmple_ps(ad, _mm_set1_ps(TRI_RESCALE_MAX))) & 7;
-    int above = _mm_movemask_ps(_mm_cmpge_ps(ad, _mm_set1_ps(TRI_RESCALE_MIN))) & 7;
-    int simd = below == 7 && above != 0;
-    int kx = k & 3, ky = k >> 2 & 3, kz = k >> 4;
-#else
-    /* (by arithmetic here: 10 instructions fewer than by table) */
-    int a = fabsf(d[0]) > fabsf(d[1]), b = fabsf(d[0]) > fabsf(d[2]), c = fabsf(d[1]) > fabsf(d[2]);
-    int kz = 2 - 2 * (a & b) - ((1 - a) & c);
-    static const int next[3] = {1, 2, 0};
-    int kx = next[kz], ky = next[kx];
-    float m = fabsf(d[kz]);
-#endif
-    p->kx = kx;
-    p->ky = ky;
-    p->kz = kz;
-    p->o[0] = r->o.x;
-    p->o[1] = r->o.y;
-    p->o[2] = r->o.z;
-#ifdef TRI4_AVX
-    p->simd = simd;
-    float q[4];
-    _mm_storeu_ps(q, _mm_div_ps(_mm_setr_ps(-d[kx], -d[ky], 1.0f, 1.0f), _mm_setr_ps(d[kz], d[kz], d[kz], 1.0f)));
-    p->sx = q[0];
-    p->sy = q[1];
-    p->sz = q[2];
-#else
-    p->simd = !(m < TRI_RESCALE_MIN || m > TRI_RESCALE_MAX) && isfinite(r->d.x) && isfinite(r->d.y) && isfinite(r->d.z);
-    p->sx = -d[kx] / d[kz];
-    p->sy = -d[ky] / d[kz];
-    p->sz = 1.0f / d[kz];
-#endif
-}
 
 /* The lanes of one block (bit i of lanes for lane i), each judged exactly
  * as the scalar routine judges it; hits into the arrays at their lane. */

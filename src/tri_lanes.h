@@ -13,7 +13,7 @@
 TRI_INLINE int TRI_LANES(const PrimTri4 *blk, int lanes, const PrimTriRay *p, const Ray *r, float *ht, float *hterr,
                          float *hu, float *hv, int *slow)
 {
-    const V g5 = V_SET1(TRI4_GAMMA(5)), zero = V_SET1(0.0f);
+    const V g5 = V_SET1(GAMMA_F(5)), zero = V_SET1(0.0f);
     const V ox = V_SET1(p->o[p->kx]), oy = V_SET1(p->o[p->ky]), oz = V_SET1(p->o[p->kz]);
     const V sx = V_SET1(p->sx), sy = V_SET1(p->sy);
     /* One bound for the three edges, from the largest magnitudes:
@@ -49,7 +49,7 @@ TRI_INLINE int TRI_LANES(const PrimTri4 *blk, int lanes, const PrimTriRay *p, co
     d = V_ADD(d, V_MUL(ex, my));
     d = V_ADD(d, V_MUL(ex, ey));
     d = V_ADD(d, V_MUL(ey, ex));
-    V bound = V_ADD(V_MUL(V_SET1(TRI4_GAMMA(3)), m), V_MUL(d, V_SET1(1.0f + TRI4_GAMMA(3))));
+    V bound = V_ADD(V_MUL(V_SET1(GAMMA_F(3)), m), V_MUL(d, V_SET1(1.0f + GAMMA_F(3))));
     V emin = V_MIN(V_ABS(e0), V_MIN(V_ABS(e1), V_ABS(e2)));
     int unsure = V_MASK(V_LE(emin, bound));
     /* edges of both signs: the ray passes outside (a NaN lane, from an
@@ -76,8 +76,8 @@ TRI_INLINE int TRI_LANES(const PrimTri4 *blk, int lanes, const PrimTriRay *p, co
      * and abs are monotone. */
     V mz = V_MUL(mz_len, V_ABS(sz)), me = V_MAX(V_ABS(emn), V_ABS(emx));
     V dxe = V_MUL(g5, V_ADD(mx, mz_len)), dye = V_MUL(g5, V_ADD(my, mz_len));
-    V g3 = V_SET1(TRI4_GAMMA(3)), dze = V_MUL(g3, mz);
-    V de = V_ADD(V_MUL(V_MUL(V_SET1(TRI4_GAMMA(2)), mx), my), V_MUL(dye, mx));
+    V g3 = V_SET1(GAMMA_F(3)), dze = V_MUL(g3, mz);
+    V de = V_ADD(V_MUL(V_MUL(V_SET1(GAMMA_F(2)), mx), my), V_MUL(dye, mx));
     de = V_MUL(V_SET1(2.0f), V_ADD(de, V_MUL(dxe, my)));
     V tserr = V_ADD(V_MUL(V_MUL(g3, me), mz), V_MUL(de, mz));
     tserr = V_MUL(V_SET1(3.0f), V_ADD(tserr, V_MUL(dze, me)));

@@ -13,7 +13,17 @@
 #include "testutil.h"
 
 #include "lancer/prim.h"
-#include "../src/tri4.h" /* tri_ray_init: in test_prim_avx2, its AVX2 form */
+#include "../src/tri4.h" /* tri_ray_init and the lanes: in test_prim_avx2, their AVX2 forms */
+
+/* The four lanes' hits, as tri4_hit_watertight leaves them. */
+typedef struct {
+    float t[4], terr[4], u[4], v[4];
+} Hit4;
+
+static int tri4_hit(const PrimTri4 *t, int lanes, const PrimTriRay *p, const Ray *r, Hit4 *h)
+{
+    return tri4_hit_watertight(t, lanes, p, r, h->t, h->terr, h->u, h->v);
+}
 
 static Ray ray(float ox, float oy, float oz, float dx, float dy, float dz)
 {
@@ -542,8 +552,8 @@ static void test_tri4_matches_scalar(void **state)
         PrimTriRay p;
         prim_triray_init(&p, &r);
         int lanes = 1 + n / 96 % 15;
-        PrimHit4 h4;
-        int got = prim_tri4_hit_watertight(&t, lanes, &p, &r, &h4), nhit = 0;
+        Hit4 h4;
+        int got = tri4_hit(&t, lanes, &p, &r, &h4), nhit = 0;
         for (int l = 0; l < 4; l++) {
             PrimHit h;
             int want = (lanes >> l & 1) && prim_triangle_hit_watertight3(v[l], &r, &h);
@@ -614,8 +624,8 @@ static void test_shared_edge_with_an_edge_on_triangle(void **state)
             }
         PrimTriRay p;
         prim_triray_init(&p, &r);
-        PrimHit4 h4;
-        int lanes = prim_tri4_hit_watertight(&t4, 3, &p, &r, &h4), hits = 0;
+        Hit4 h4;
+        int lanes = tri4_hit(&t4, 3, &p, &r, &h4), hits = 0;
         for (int l = 0; l < 2; l++) {
             PrimHit h;
             int hit = prim_triangle_hit_watertight3(v[l], &r, &h);
@@ -656,8 +666,8 @@ static void test_edge_on_triangle_hit_near_origin(void **state)
         }
     PrimTriRay p;
     prim_triray_init(&p, &r);
-    PrimHit4 h4;
-    assert_int_equal(prim_tri4_hit_watertight(&t4, 15, &p, &r, &h4), 15);
+    Hit4 h4;
+    assert_int_equal(tri4_hit(&t4, 15, &p, &r, &h4), 15);
     for (int l = 0; l < 4; l++)
         assert_float_equal(h4.t[l], h.t, 0);
 }

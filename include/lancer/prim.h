@@ -169,16 +169,6 @@ typedef struct {
 } PrimTriRay;
 
 void prim_triray_init(PrimTriRay *p, const Ray *r);
-/* The four lanes' hits: what PrimHit holds of a triangle's, lane by lane. */
-typedef struct {
-    float t[4], terr[4], u[4], v[4];
-} PrimHit4;
-/* The lanes of t named by `lanes` (bit i for lane i), each judged exactly as
- * prim_triangle_hit_watertight3 judges it, bit for bit: four lanes at once
- * with SSE, and the lanes with an edge function too close to 0 one by one
- * through the scalar routine and its double path. Returns the lanes hit,
- * with the same t, terr, u and v in h as that routine gives. */
-int prim_tri4_hit_watertight(const PrimTri4 *t, int lanes, const PrimTriRay *p, const Ray *r, PrimHit4 *h);
 /* The watertight test's terr from its bound on t's error and t: the bound
  * plus t's own rounding, rounded up. */
 float prim_terr_up(float terr, float t);

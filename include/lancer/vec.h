@@ -61,6 +61,9 @@ static inline float vec_max_abs(Vec3 a)
     return m;
 }
 
+/* Component i (0: x, 1: y, 2: z). */
+static inline float vec_comp(Vec3 v, int i) { return i == 0 ? v.x : i == 1 ? v.y : v.z; }
+
 static inline int vec_is_finite(Vec3 a) { return isfinite(a.x) && isfinite(a.y) && isfinite(a.z); }
 
 /* Mirror direction d about the unit normal n: d - 2(d.n)n. */

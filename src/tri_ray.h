@@ -1,0 +1,87 @@
+/*
+ * tri_ray.h - the ray's set-up for the watertight triangle test (private to
+ * src/): the axes and shear of Woop, Benthin and Wald 2013, computed once
+ * per ray (PrimTriRay, prim.h). tri.c's scalar test and tri4.h's SIMD lanes
+ * both read it; the any-hit traversal inlines it, so that it sets its ray up
+ * without a call.
+ */
+#ifndef LANCER_TRI_RAY_H
+#define LANCER_TRI_RAY_H
+
+#include <math.h>
+#include <stdint.h>
+
+#include "lancer/prim.h"
+
+#if defined(__AVX2__) && !defined(LANCER_NO_SIMD)
+#include <immintrin.h>
+#endif
+
+/* Inline even where GCC would call: in the traversal's loops a call
+ * costs the registers it saves, and the leaf test is the innermost work. */
+#ifdef __GNUC__
+#define TRI_INLINE static inline __attribute__((always_inline))
+#else
+#define TRI_INLINE static inline
+#endif
+
+/* Directions whose largest component is shorter or longer than these are
+ * scaled by a power of two before the watertight test's shear (1/dz could
+ * overflow), and the SIMD lanes leave them to the scalar routine. */
+#define TRI_RESCALE_MIN 0x1p-60f
+#define TRI_RESCALE_MAX 0x1p60f
+
+/* prim_triray_init (prim.h), which calls this. kz is the axis of the
+ * largest |d|, from a = |dx| > |dy|, b = |dx| > |dz| and c = |dy| > |dz|:
+ * kz = a & b ? 0 : !a & c ? 1 : 2 (a NaN, false in every comparison, gives
+ * 2), and kx, ky the next two, keeping the winding; without branches (a
+ * random ray's were mispredicted). */
+TRI_INLINE void tri_ray_init(PrimTriRay *p, const Ray *r)
+{
+    const float d[3] = {r->d.x, r->d.y, r->d.z};
+#if defined(__AVX2__) && !defined(LANCER_NO_SIMD)
+    static const uint8_t axes[8] = {0x24, 0x24, 0x12, 0x24, 0x24, 0x09, 0x12, 0x09}; /* kx | ky << 2 | kz << 4 */
+    /* With AVX2, the comparisons four lanes at once and the three
+     * divisions in one (each lane rounds as alone). Built for SSE2 alone,
+     * this form takes more instructions than the scalar one
+     * (docs/performance.md). */
+    const __m128 ad = _mm_andnot_ps(_mm_set1_ps(-0.0f), _mm_setr_ps(d[0], d[1], d[2], 0.0f));
+    int ac = _mm_movemask_ps(_mm_cmpgt_ps(ad, _mm_shuffle_ps(ad, ad, _MM_SHUFFLE(3, 2, 2, 1)))) & 3;
+    int b = _mm_movemask_ps(_mm_cmpgt_ps(ad, _mm_shuffle_ps(ad, ad, _MM_SHUFFLE(3, 2, 2, 2)))) & 1;
+    int k = axes[ac | b << 2];
+    /* the largest |d| within the bounds and every |d| finite: every |d| <=
+     * the upper one (false for inf and NaN), and one >= the lower */
+    int below = _mm_movemask_ps(_mm_cmple_ps(ad, _mm_set1_ps(TRI_RESCALE_MAX))) & 7;
+    int above = _mm_movemask_ps(_mm_cmpge_ps(ad, _mm_set1_ps(TRI_RESCALE_MIN))) & 7;
+    int simd = below == 7 && above != 0;
+    int kx = k & 3, ky = k >> 2 & 3, kz = k >> 4;
+#else
+    /* by arithmetic here: fewer instructions than by table */
+    int a = fabsf(d[0]) > fabsf(d[1]), b = fabsf(d[0]) > fabsf(d[2]), c = fabsf(d[1]) > fabsf(d[2]);
+    int kz = 2 - 2 * (a & b) - ((1 - a) & c);
+    static const int next[3] = {1, 2, 0};
+    int kx = next[kz], ky = next[kx];
+    float m = fabsf(d[kz]);
+#endif
+    p->kx = kx;
+    p->ky = ky;
+    p->kz = kz;
+    p->o[0] = r->o.x;
+    p->o[1] = r->o.y;
+    p->o[2] = r->o.z;
+#if defined(__AVX2__) && !defined(LANCER_NO_SIMD)
+    p->simd = simd;
+    float q[4];
+    _mm_storeu_ps(q, _mm_div_ps(_mm_setr_ps(-d[kx], -d[ky], 1.0f, 1.0f), _mm_setr_ps(d[kz], d[kz], d[kz], 1.0f)));
+    p->sx = q[0];
+    p->sy = q[1];
+    p->sz = q[2];
+#else
+    p->simd = !(m < TRI_RESCALE_MIN || m > TRI_RESCALE_MAX) && isfinite(r->d.x) && isfinite(r->d.y) && isfinite(r->d.z);
+    p->sx = -d[kx] / d[kz];
+    p->sy = -d[ky] / d[kz];
+    p->sz = 1.0f / d[kz];
+#endif
+}
+
+#endif
