@@ -38,8 +38,12 @@ ALLCFLAGS = $(BASEFLAGS) $(OPTFLAGS) $(CFLAGS)
 LDLIBS   += -Wl,--as-needed $(shell pkg-config --libs $(PKGS) 2>/dev/null) -lm
 LDFLAGS  += -pthread $(SANLINK)
 
-LIB_SRC  := $(filter-out src/main.c,$(wildcard src/*.c))
+# The library (src/*.c) and the command line, its client (src/cli/*.c).
+LIB_SRC  := $(wildcard src/*.c)
 LIB_OBJ  := $(LIB_SRC:src/%.c=$(BUILD)/obj/%.o)
+CLI_SRC  := $(wildcard src/cli/*.c)
+CLI_OBJ  := $(CLI_SRC:src/cli/%.c=$(BUILD)/obj/cli/%.o)
+BENCH_OBJ := $(BUILD)/obj/cli/bench.o
 # On x86-64 the BVH traversal is built once more for AVX2, and picked at
 # run time when the processor has it (src/bvh_traverse.c).
 ifeq ($(shell uname -m),x86_64)
@@ -57,6 +61,10 @@ $(BUILD)/obj/%.o: src/%.c
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) $(ALLCFLAGS) -MMD -MP -c $< -o $@
 
+$(BUILD)/obj/cli/%.o: src/cli/%.c
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) $(ALLCFLAGS) -MMD -MP -c $< -o $@
+
 $(BUILD)/obj/tests/%.o: tests/%.c
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) $(ALLCFLAGS) -MMD -MP -c $< -o $@
@@ -65,10 +73,14 @@ $(BUILD)/liblancer.a: $(LIB_OBJ)
 	@rm -f $@
 	ar rcs $@ $^
 
-$(BUILD)/lancer: $(BUILD)/obj/main.o $(BUILD)/liblancer.a
+$(BUILD)/lancer: $(CLI_OBJ) $(BUILD)/liblancer.a
 	$(CC) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
 $(BUILD)/test_%: $(BUILD)/obj/tests/test_%.o $(BUILD)/liblancer.a
+	$(CC) $(LDFLAGS) $^ $(LDLIBS) -lcmocka -o $@
+
+# test_bench tests the benchmarks' rays, which live beside the command line.
+$(BUILD)/test_bench: $(BUILD)/obj/tests/test_bench.o $(BENCH_OBJ) $(BUILD)/liblancer.a
 	$(CC) $(LDFLAGS) $^ $(LDLIBS) -lcmocka -o $@
 
 $(BUILD)/obj/bvh_traverse_avx2.o: src/bvh_traverse.c
@@ -149,10 +161,10 @@ stress: deps-test exact-judge
 # Benchmarks (not tests): the routines' speed, lancer against Embree on ray
 # files of three CGAL meshes, and the bunny frame against POV-Ray.
 $(BUILD)/prim_bench: tests/bench/prim_bench.c $(BUILD)/liblancer.a
-	$(CC) $(CPPFLAGS) $(ALLCFLAGS) $^ $(LDLIBS) -o $@
+	$(CC) $(CPPFLAGS) -Isrc/cli $(ALLCFLAGS) $^ $(LDLIBS) -o $@
 
-$(BUILD)/embree_bench: tests/bench/embree_bench.c $(BUILD)/liblancer.a
-	$(CC) $(CPPFLAGS) $(ALLCFLAGS) $^ -lembree3 $(LDLIBS) -o $@
+$(BUILD)/embree_bench: tests/bench/embree_bench.c $(BENCH_OBJ) $(BUILD)/liblancer.a
+	$(CC) $(CPPFLAGS) -Isrc/cli $(ALLCFLAGS) $^ -lembree3 $(LDLIBS) -o $@
 
 bench:
 	sh scripts/deps.sh bench
@@ -176,4 +188,4 @@ deps-test:
 clean:
 	rm -rf build
 
--include $(wildcard $(BUILD)/obj/*.d $(BUILD)/obj/tests/*.d $(EXACT_DIR)/*.d)
+-include $(wildcard $(BUILD)/obj/*.d $(BUILD)/obj/cli/*.d $(BUILD)/obj/tests/*.d $(EXACT_DIR)/*.d)

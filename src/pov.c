@@ -52,10 +52,9 @@ static void key(FILE *f, const char *k, float v)
     num(f, v);
 }
 
-static void camera(FILE *f, const Scene *s)
+static void camera(FILE *f, const CameraSpec *c, int width, int height)
 {
-    const CameraSpec *c = &s->camera;
-    double a = (double)s->width / (double)s->height;
+    double a = (double)width / (double)height;
     double t = tan((double)c->fovy * POV_PI / 360.0);
     double angle = 2.0 * atan(a * t) * 180.0 / POV_PI;
     /* look_at last: POV-Ray builds the camera basis from sky at that point. */
@@ -192,27 +191,28 @@ static void prim(FILE *f, const Scene *s, const Prim *p)
     fputs(" }\n", f);
 }
 
-int pov_export(const Scene *s, FILE *f)
+int pov_export(const Scene *s, int width, int height, FILE *f)
 {
+    int w = width ? width : s->image.width, h = height ? height : s->image.height;
     /* For k x k anti-aliasing the reference is a plain render at k times the
      * size, averaged in k x k blocks (lancer diff --downsample k): POV-Ray's
      * own +A filter is not a box filter. */
-    int k = s->spp;
+    int k = s->image.spp;
     fprintf(f, "// Exported by lancer: the POV-Ray 3.7 twin of a lancer scene.\n"
                "// lancer-reference: width %d height %d spp %d\n"
                "// Render: povray -D -V -GA +GF +GW -A +W%d +H%d +FE +Oout.exr +Ithis.pov\n",
-            s->width, s->height, k, k * s->width, k * s->height);
+            w, h, k, k * w, k * h);
     if (k > 1)
         fprintf(f, "// then average out.exr in %d x %d blocks: lancer diff lancer.exr out.exr --downsample %d\n", k, k,
                 k);
     fprintf(f, "\n");
     fprintf(f, "#version 3.7;\n\nglobal_settings {\n  assumed_gamma 1.0\n  max_trace_level %d\n  adc_bailout 0\n"
                "  ambient_light rgb <1, 1, 1>\n}\n\n",
-            s->max_depth);
+            s->image.max_depth);
     fprintf(f, "background { color rgb ");
     vec(f, s->background);
     fprintf(f, " }\n\n");
-    camera(f, s);
+    camera(f, &s->camera, w, h);
     for (int i = 0; i < s->nlights; i++)
         light(f, &s->lights[i]);
     fprintf(f, "\n");

@@ -10,12 +10,12 @@
 #include "lancer/shade.h"
 
 typedef struct {
-    const Scene *s;
+    const RenderPlan *p;
     const Accel *a;
     Camera cam;
-    Interiors in; /* the solids the camera is inside */
     Image *img;
-    const RenderOptions *opt;
+    RenderProgress progress;
+    void *progress_ctx;
     pthread_mutex_t lock; /* guards next_row, rows_done, stats and progress */
     int next_row, rows_done;
     RayStats stats;
@@ -23,18 +23,17 @@ typedef struct {
 
 /* Starts loading the primitives hit, which shading reads first (their
  * material, then their shape): the loads then overlap instead of stalling
- * one shading after another (on bunny.scn, shading's wait on them fell
- * from a third of its perf samples to a tenth). */
-static void prefetch_prims(const Accel *a, const int *best, int n)
+ * one shading after another. */
+static void prefetch_prims(const Prim *prims, const int *best, int n)
 {
 #ifdef __GNUC__
     for (int m = 0; m < n; m++)
         if (best[m] >= 0) { /* both ends: a Prim may straddle two cache lines */
-            __builtin_prefetch(&a->prims[best[m]]);
-            __builtin_prefetch((const char *)&a->prims[best[m]] + sizeof(Prim) - 1);
+            __builtin_prefetch(&prims[best[m]]);
+            __builtin_prefetch((const char *)&prims[best[m]] + sizeof(Prim) - 1);
         }
 #else
-    (void)a;
+    (void)prims;
     (void)best;
     (void)n;
 #endif
@@ -46,14 +45,14 @@ static void prefetch_prims(const Accel *a, const int *best, int n)
 static void trace_packet(const Job *job, const float *sx, const float *sy, const int *px, int n, float *row,
                          RayStats *st)
 {
-    Ray r[BVH_PACKET];
-    int best[BVH_PACKET];
-    PrimHit h[BVH_PACKET];
+    Ray r[ACCEL_PACKET];
+    int best[ACCEL_PACKET];
+    PrimHit h[ACCEL_PACKET];
     camera_rays(&job->cam, sx, sy, n, r);
     accel_closest_packet(job->a, r, n, h, best, st);
-    prefetch_prims(job->a, best, n);
-    Vec3 c[BVH_PACKET];
-    shade_traced_packet(job->s, job->a, r, n, best, h, &job->in, st, c);
+    prefetch_prims(job->p->scene->prims, best, n);
+    Vec3 c[ACCEL_PACKET];
+    shade_traced_packet(job->p, job->a, r, n, best, h, st, c);
     for (int m = 0; m < n; m++) {
         float *p = row + 3 * px[m];
         p[0] += c[m].x;
@@ -62,17 +61,17 @@ static void trace_packet(const Job *job, const float *sx, const float *sy, const
     }
 }
 
-/* Row y into row (3 floats a pixel): each pixel the mean of s->spp x
- * s->spp camera rays through a regular grid of sub-pixel centres, the same
+/* Row y into row (3 floats a pixel): each pixel the mean of spp x spp
+ * camera rays through a regular grid of sub-pixel centres, the same
  * points as the pixel centres of a render at spp times the size (that
  * render, averaged in blocks, is the box-filtered reference). The camera
- * rays are traced BVH_PACKET at a time: neighbours share the eye and most
+ * rays are traced ACCEL_PACKET at a time: neighbours share the eye and most
  * of their path through the BVH. */
 static void render_row(const Job *job, int y, float *row, RayStats *st)
 {
-    int k = job->s->spp, w = job->img->width, n = 0;
-    float sx[BVH_PACKET], sy[BVH_PACKET]; /* the samples' image-plane positions */
-    int px[BVH_PACKET];
+    int k = job->p->spp, w = job->img->width, n = 0;
+    float sx[ACCEL_PACKET], sy[ACCEL_PACKET]; /* the samples' image-plane positions */
+    int px[ACCEL_PACKET];
     for (int x = 0; x < w; x++) {
         row[3 * x] = row[3 * x + 1] = row[3 * x + 2] = 0.0f;
         for (int j = 0; j < k; j++)
@@ -80,7 +79,7 @@ static void render_row(const Job *job, int y, float *row, RayStats *st)
                 sx[n] = (float)x + ((float)i + 0.5f) / (float)k;
                 sy[n] = (float)y + ((float)j + 0.5f) / (float)k;
                 px[n++] = x;
-                if (n == BVH_PACKET) {
+                if (n == ACCEL_PACKET) {
                     trace_packet(job, sx, sy, px, n, row, st);
                     n = 0;
                 }
@@ -108,8 +107,8 @@ static void *worker(void *arg)
         render_row(job, y, job->img->rgb + (size_t)y * (size_t)w * 3, &st);
         pthread_mutex_lock(&job->lock);
         job->rows_done++;
-        if (job->opt->progress)
-            job->opt->progress(job->opt->progress_ctx, job->rows_done, h);
+        if (job->progress)
+            job->progress(job->progress_ctx, job->rows_done, h);
         pthread_mutex_unlock(&job->lock);
     }
     pthread_mutex_lock(&job->lock);
@@ -118,21 +117,21 @@ static void *worker(void *arg)
     return NULL;
 }
 
-int render_image(const Scene *s, const Accel *a, const RenderOptions *opt, Image *img, RayStats *stats)
+int render_image(const RenderPlan *p, const Accel *a, const RenderOptions *opt, Image *img, RayStats *stats)
 {
     Job job;
-    job.s = s;
+    job.p = p;
     job.a = a;
     job.img = img;
-    job.opt = opt;
+    job.progress = opt ? opt->progress : NULL;
+    job.progress_ctx = opt ? opt->progress_ctx : NULL;
     job.next_row = 0;
     job.rows_done = 0;
     job.stats = (RayStats){0, 0, 0, 0, 0};
-    camera_init(&job.cam, &s->camera, img->width, img->height);
-    shade_interiors_at(s, s->camera.eye, &job.in);
+    camera_init(&job.cam, &p->scene->camera, img->width, img->height);
     if (pthread_mutex_init(&job.lock, NULL) != 0)
         return -1;
-    int extra = opt->threads > 1 ? opt->threads - 1 : 0;
+    int extra = p->threads > 1 ? p->threads - 1 : 0;
     pthread_t *tids = extra ? malloc(sizeof(pthread_t) * (size_t)extra) : NULL;
     int started = 0;
     if (tids)

@@ -483,19 +483,20 @@ static int parse_image(Parser *P, Loc at)
         return fail(P, v[MAX_DEPTH].value, "image: 'max_depth' must be a whole number from 1 to 256");
     if (v[SPP].set && !whole(&v[SPP], 0, 1, SCENE_MAX_SPP))
         return fail(P, v[SPP].value, "image: 'spp' must be a whole number from 1 to %d", SCENE_MAX_SPP);
-    P->s->spp = (int)num_or(&v[SPP], (float)P->s->spp);
+    P->s->image.spp = (int)num_or(&v[SPP], (float)P->s->image.spp);
     if (v[INTERSECT].set) {
         if (strcmp(v[INTERSECT].name, "classic") != 0 && strcmp(v[INTERSECT].name, "robust") != 0)
             return fail(P, v[INTERSECT].value, "image: 'intersect' must be 'robust' or 'classic', not '%s'",
                         v[INTERSECT].name);
-        P->s->classic = strcmp(v[INTERSECT].name, "classic") == 0;
+        P->s->image.classic = strcmp(v[INTERSECT].name, "classic") == 0;
     }
-    P->s->width = (int)num_or(&v[WIDTH], (float)P->s->width);
-    P->s->height = (int)num_or(&v[HEIGHT], (float)P->s->height);
-    P->s->max_depth = (int)num_or(&v[MAX_DEPTH], (float)P->s->max_depth);
+    SceneImage *im = &P->s->image;
+    im->width = (int)num_or(&v[WIDTH], (float)im->width);
+    im->height = (int)num_or(&v[HEIGHT], (float)im->height);
+    im->max_depth = (int)num_or(&v[MAX_DEPTH], (float)im->max_depth);
     P->s->background = vec_or(&v[BACKGROUND], P->s->background);
-    if ((long)P->s->width * P->s->height > IMAGE_MAX_PIXELS)
-        return fail(P, at, "image: %d x %d is more than the %ld pixels lancer renders", P->s->width, P->s->height,
+    if ((long)im->width * im->height > IMAGE_MAX_PIXELS)
+        return fail(P, at, "image: %d x %d is more than the %ld pixels lancer renders", im->width, im->height,
                     IMAGE_MAX_PIXELS);
     return 0;
 }
@@ -618,8 +619,6 @@ static int parse_material(Parser *P, Loc at)
                     "material: 'filter' and 'transmit' must add up to at most 1");
     if (v[IOR].set && !(m.ior > 0.0f))
         return fail(P, v[IOR].value, "material: 'ior' must be positive");
-    if (m.filter + m.transmit > 0.0f)
-        P->s->transparent = 1;
     Material *arr = grow(P->s->materials, &P->cap_materials, P->s->nmaterials, sizeof(Material));
     if (!arr)
         return fail(P, at, "out of memory");
@@ -994,10 +993,9 @@ int scene_transform(Scene *s, float scale, Vec3 offset)
     return 0;
 }
 
-int scene_from_mesh(Scene *s, const Mesh *m, int classic)
+int scene_from_mesh(Scene *s, const Mesh *m)
 {
     memset(s, 0, sizeof *s);
-    s->classic = classic;
     s->materials = calloc(1, sizeof(Material));
     s->nmaterials = s->materials ? 1 : 0;
     int dropped;
@@ -1005,6 +1003,52 @@ int scene_from_mesh(Scene *s, const Mesh *m, int classic)
         scene_free(s);
         return -1;
     }
+    return 0;
+}
+
+int scene_split_triangles(Scene *s)
+{
+    int ntri = 0;
+    for (int i = 0; i < s->nprims; i++)
+        ntri += s->prims[i].kind == PRIM_TRIANGLE || s->prims[i].kind == PRIM_SMOOTH_TRIANGLE;
+    size_t n = (size_t)s->nprims + (size_t)ntri;
+    if (n > (size_t)INT32_MAX)
+        return -1;
+    Prim *np = malloc(sizeof(Prim) * (n ? n : 1));
+    if (!np)
+        return -1;
+    size_t k = 0;
+    for (int i = 0; i < s->nprims; i++) {
+        const Prim *p = &s->prims[i];
+        np[k] = *p;
+        if (p->kind != PRIM_TRIANGLE && p->kind != PRIM_SMOOTH_TRIANGLE) {
+            k++;
+            continue;
+        }
+        const Triangle *t = &p->g.tri;
+        Vec3 v[3] = {t->a, t->b, t->c}, nv[3] = {t->na, t->nb, t->nc};
+        int c = 0; /* the corner opposite the longest edge */
+        float best = -1.0f;
+        for (int j = 0; j < 3; j++) {
+            Vec3 e = vec_sub(v[(j + 1) % 3], v[(j + 2) % 3]);
+            if (vec_dot(e, e) > best) {
+                best = vec_dot(e, e);
+                c = j;
+            }
+        }
+        int b = (c + 1) % 3, d = (c + 2) % 3;
+        Vec3 m = vec_scale(vec_add(v[b], v[d]), 0.5f), nm = vec_normalize(vec_add(nv[b], nv[d]));
+        np[k + 1] = np[k];
+        Triangle *t0 = &np[k].g.tri, *t1 = &np[k + 1].g.tri;
+        t0->a = v[c], t0->b = v[b], t0->c = m;
+        t0->na = nv[c], t0->nb = nv[b], t0->nc = nm;
+        t1->a = v[c], t1->b = m, t1->c = v[d];
+        t1->na = nv[c], t1->nb = nm, t1->nc = nv[d];
+        k += 2;
+    }
+    free(s->prims);
+    s->prims = np;
+    s->nprims = (int)n;
     return 0;
 }
 
@@ -1031,10 +1075,10 @@ int scene_parse(const char *name, const char *text, size_t len, Scene *s, char *
     P.err = err;
     P.errlen = errlen;
     P.s = s;
-    s->width = 640;
-    s->height = 480;
-    s->max_depth = 5; /* POV-Ray's default max_trace_level */
-    s->spp = 1;
+    s->image.width = 640;
+    s->image.height = 480;
+    s->image.max_depth = 5; /* POV-Ray's default max_trace_level */
+    s->image.spp = 1;
     int rc = next(&P);
     while (rc == 0 && P.tok.kind != TOK_EOF)
         rc = parse_statement(&P);

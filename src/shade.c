@@ -20,18 +20,11 @@
 #define SHADOW_MAX_CROSSINGS 256
 
 typedef struct {
-    const Scene *s;
+    const RenderPlan *p;
+    const Scene *s; /* the plan's */
     const Accel *a;
     RayStats *st;
 } Ctx;
-
-void shade_interiors_at(const Scene *s, Vec3 p, Interiors *in)
-{
-    in->n = 0;
-    for (int i = 0; i < s->nprims && in->n < SHADE_MAX_INTERIORS; i++)
-        if (prim_inside(&s->prims[i], p))
-            in->prim[in->n++] = i;
-}
 
 /* POV-Ray's trace.cpp splits the index range [a, b] at its middle until
  * neighbours remain, averaging the four corner samples of each cell; along
@@ -84,13 +77,13 @@ static float toward(Vec3 p, Vec3 q, Vec3 *dir)
 
 /* The light arriving at p from point q, at distance dist in unit
  * direction d: 1 when nothing is in between, 0 behind an opaque object,
- * and the product of pass_factor over every transparent surface crossed
- * (refraction is ignored, as in POV-Ray). */
-static Vec3 transmittance(const Ctx *c, const Surface *from, Vec3 q, Vec3 d, float dist)
+ * and, when shadows are filtered, the product of pass_factor over every
+ * transparent surface crossed (refraction is ignored, as in POV-Ray). */
+static Vec3 transmittance(const Ctx *c, PlanShadow mode, const Surface *from, Vec3 q, Vec3 d, float dist)
 {
     Ray r = ray_make(prim_spawn_origin(from, d), d, dist);
     c->st->shadow++;
-    if (!c->s->transparent) /* any hit will do */
+    if (mode == PLAN_SHADOW_OPAQUE) /* any hit will do */
         return accel_occluded(c->a, &r, c->st) ? vec3(0, 0, 0) : vec3(1, 1, 1);
     Vec3 f = vec3(1, 1, 1);
     for (int n = 0; n < SHADOW_MAX_CROSSINGS; n++) {
@@ -103,7 +96,7 @@ static Vec3 transmittance(const Ctx *c, const Surface *from, Vec3 q, Vec3 d, flo
             return vec3(0, 0, 0);
         f = vec_mul(f, pass_factor(m));
         Surface sf;
-        prim_surface(&c->a->prims[i], &r, &h, c->a->variant, &sf);
+        prim_surface(&c->s->prims[i], &r, &h, c->p->variant, &sf);
         r.o = prim_spawn_origin(&sf, d);
         r.tmax = vec_length(vec_sub(q, r.o));
         c->st->shadow++;
@@ -111,12 +104,15 @@ static Vec3 transmittance(const Ctx *c, const Surface *from, Vec3 q, Vec3 d, flo
     return vec3(0, 0, 0);
 }
 
-/* The visible fraction of light l from p, per channel; L and dist: the
- * unit direction and distance from p to l->pos, which light_term() has. */
-static Vec3 light_visibility(const Ctx *c, const Light *l, const Surface *sf, Vec3 L, float dist)
+/* The visible fraction of light li from p, per channel; L and dist: the
+ * unit direction and distance from p to the light's position, which
+ * light_term() has. */
+static Vec3 light_visibility(const Ctx *c, int li, const Surface *sf, Vec3 L, float dist)
 {
+    const Light *l = &c->s->lights[li];
+    PlanShadow mode = c->p->shadow[li];
     if (l->area_n1 * l->area_n2 == 1)
-        return transmittance(c, sf, l->pos, L, dist);
+        return transmittance(c, mode, sf, l->pos, L, dist);
     float w1[SCENE_MAX_AREA_SAMPLES], w2[SCENE_MAX_AREA_SAMPLES];
     shade_area_weights(l->area_n1, w1);
     shade_area_weights(l->area_n2, w2);
@@ -128,7 +124,7 @@ static Vec3 light_visibility(const Ctx *c, const Light *l, const Surface *sf, Ve
             Vec3 q = vec_madd(vec_madd(l->pos, l->area_u, su), l->area_v, sv);
             Vec3 d;
             float qd = toward(sf->p, q, &d);
-            vis = vec_madd(vis, transmittance(c, sf, q, d, qd), w1[i] * w2[j]);
+            vis = vec_madd(vis, transmittance(c, mode, sf, q, d, qd), w1[i] * w2[j]);
         }
     }
     return vis;
@@ -141,7 +137,7 @@ static float opacity_of(const Material *m) { return 1.0f - m->filter - m->transm
  * adds nothing, and no shadow ray is needed; else 1, with the unit
  * direction *L and distance *dist to the light, the surface's *term and the
  * light's colour *lc, to be scaled by the visibility unless the light is
- * shadowless. Inline: the call cost 3% of bunny.scn's render. */
+ * shadowless. Inline: it runs for every light at every hit. */
 static inline int light_term(const Material *m, const Surface *sf, const Ray *r, const Light *l, Vec3 *L, float *dist,
                              Vec3 *term, Vec3 *lc)
 {
@@ -203,7 +199,7 @@ static int refract(const Ctx *c, int prim, const Material *m, Vec3 f, const Surf
         eta = 1.0f;
     } else { /* entering a solid nested in the current one */
         eta = material_of(c, in->prim[in->n - 1])->ior / m->ior;
-        if (out.n < SHADE_MAX_INTERIORS)
+        if (out.n < PLAN_MAX_INTERIORS)
             out.prim[out.n++] = prim;
     }
     if (fabsf(eta - 1.0f) < 1e-10f) { /* straight through, at the same level */
@@ -228,7 +224,7 @@ static int refract(const Ctx *c, int prim, const Material *m, Vec3 f, const Surf
  * at it, any other ray is one deeper. */
 static Vec3 trace(const Ctx *c, const Ray *r, int level, int continued, const Interiors *in)
 {
-    if (level >= c->s->max_depth)
+    if (level >= c->p->max_depth)
         return vec3(0, 0, 0);
     if (!continued)
         level++;
@@ -256,7 +252,7 @@ static Vec3 shade_rest(const Ctx *c, const Ray *r, int i, const Material *m, con
                        const Interiors *in)
 {
     /* Any child ray of a hit at the last level returns black: skip them. */
-    if (level >= c->s->max_depth)
+    if (level >= c->p->max_depth)
         return col;
     int tir = 0;
     Vec3 f = pass_factor(m);
@@ -270,22 +266,20 @@ static Vec3 shade_rest(const Ctx *c, const Ray *r, int i, const Material *m, con
     return col;
 }
 
-Vec3 shade_trace(const Scene *s, const Accel *a, const Ray *r, const Interiors *in, RayStats *st)
+Vec3 shade_trace(const RenderPlan *p, const Accel *a, const Ray *r, RayStats *st)
 {
-    Ctx c = {s, a, st};
-    Interiors none = {0, {0}};
-    return trace(&c, r, 0, 0, in ? in : &none);
+    Ctx c = {p, p->scene, a, st};
+    return trace(&c, r, 0, 0, &p->camera_in);
 }
 
-Vec3 shade_traced(const Scene *s, const Accel *a, const Ray *r, int i, const PrimHit *h, const Interiors *in,
-                  RayStats *st)
+Vec3 shade_traced(const RenderPlan *p, const Accel *a, const Ray *r, int i, const PrimHit *h, RayStats *st)
 {
     Vec3 col;
-    shade_traced_packet(s, a, r, 1, &i, h, in, st, &col);
+    shade_traced_packet(p, a, r, 1, &i, h, st, &col);
     return col;
 }
 
-/* The colours of the n rays r (n <= BVH_PACKET) at `level`, whose closest
+/* The colours of the n rays r (n <= ACCEL_PACKET) at `level`, whose closest
  * hits are best[k] (h[k]), or the background where best[k] < 0, into
  * out[k]: ambient and the lights, light by light over all of them, so that
  * the shadow rays towards a point light of an opaque scene go to
@@ -296,35 +290,36 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
                          const Interiors *in, Vec3 *out)
 {
     const Scene *s = c->s;
-    const Material *m[BVH_PACKET];
-    Surface sf[BVH_PACKET];
+    const Material *m[ACCEL_PACKET];
+    Surface sf[ACCEL_PACKET];
     for (int k = 0; k < n; k++) {
         if (best[k] < 0) {
             out[k] = s->background;
             continue;
         }
         m[k] = material_of(c, best[k]);
-        prim_surface(&c->a->prims[best[k]], &r[k], &h[k], c->a->variant, &sf[k]);
+        prim_surface(&s->prims[best[k]], &r[k], &h[k], c->p->variant, &sf[k]);
         out[k] = vec_scale(m[k]->color, m[k]->ambient * opacity_of(m[k]));
     }
     for (int i = 0; i < s->nlights; i++) {
         const Light *l = &s->lights[i];
-        const int together = !l->shadowless && l->area_n1 * l->area_n2 == 1 && !s->transparent;
-        Vec3 term[BVH_PACKET], lc[BVH_PACKET];
-        Ray sr[BVH_PACKET];
-        int lit[BVH_PACKET], who[BVH_PACKET], ns = 0;
+        const PlanShadow mode = c->p->shadow[i];
+        const int together = mode == PLAN_SHADOW_OPAQUE && l->area_n1 * l->area_n2 == 1;
+        Vec3 term[ACCEL_PACKET], lc[ACCEL_PACKET];
+        Ray sr[ACCEL_PACKET];
+        int lit[ACCEL_PACKET], who[ACCEL_PACKET], ns = 0;
         for (int k = 0; k < n; k++) {
             Vec3 L;
             float dist;
             lit[k] = best[k] >= 0 && light_term(m[k], &sf[k], &r[k], l, &L, &dist, &term[k], &lc[k]);
-            if (!lit[k] || l->shadowless)
+            if (!lit[k] || mode == PLAN_SHADOW_NONE)
                 continue;
             if (together) { /* as transmittance() */
                 sr[ns] = ray_make(prim_spawn_origin(&sf[k], L), L, dist);
                 c->st->shadow++;
                 who[ns++] = k;
             } else
-                lc[k] = vec_mul(lc[k], light_visibility(c, l, &sf[k], L, dist));
+                lc[k] = vec_mul(lc[k], light_visibility(c, i, &sf[k], L, dist));
         }
         unsigned dark = ns ? accel_occluded_packet(c->a, sr, ns, c->st) : 0;
         for (int j = 0; j < ns; j++)
@@ -334,12 +329,12 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
             if (lit[k])
                 out[k] = vec_add(out[k], vec_mul(lc[k], term[k]));
     }
-    if (level >= s->max_depth) /* any child ray of a hit at the last level returns black */
+    if (level >= c->p->max_depth) /* any child ray of a hit at the last level returns black */
         return;
     /* shade_rest() for a ray that refracts; the others' mirror rays,
      * traced as trace() would, are shaded together one level deeper */
-    Ray rr[BVH_PACKET];
-    int who[BVH_PACKET], nr = 0;
+    Ray rr[ACCEL_PACKET];
+    int who[ACCEL_PACKET], nr = 0;
     for (int k = 0; k < n; k++) {
         if (best[k] < 0)
             continue;
@@ -352,26 +347,25 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
     }
     if (nr == 0)
         return;
-    int best2[BVH_PACKET];
-    PrimHit h2[BVH_PACKET];
-    Vec3 got[BVH_PACKET];
+    int best2[ACCEL_PACKET];
+    PrimHit h2[ACCEL_PACKET];
+    Vec3 got[ACCEL_PACKET];
     accel_closest_packet(c->a, rr, nr, h2, best2, c->st);
     shade_packet(c, rr, nr, best2, h2, level + 1, in, got);
     for (int j = 0; j < nr; j++)
         out[who[j]] = vec_madd(out[who[j]], got[j], m[who[j]]->reflection);
 }
 
-void shade_traced_packet(const Scene *s, const Accel *a, const Ray *r, int n, const int *best, const PrimHit *h,
-                         const Interiors *in, RayStats *st, Vec3 *out)
+void shade_traced_packet(const RenderPlan *p, const Accel *a, const Ray *r, int n, const int *best, const PrimHit *h,
+                         RayStats *st, Vec3 *out)
 {
-    Ctx c = {s, a, st};
-    Interiors none = {0, {0}};
-    for (int k = 0; k < n; k += BVH_PACKET) {
-        int m = n - k < BVH_PACKET ? n - k : BVH_PACKET;
-        if (s->max_depth < 1) /* as trace() at level 0 */
+    Ctx c = {p, p->scene, a, st};
+    for (int k = 0; k < n; k += ACCEL_PACKET) {
+        int m = n - k < ACCEL_PACKET ? n - k : ACCEL_PACKET;
+        if (p->max_depth < 1) /* as trace() at level 0 */
             for (int j = 0; j < m; j++)
                 out[k + j] = vec3(0, 0, 0);
         else
-            shade_packet(&c, r + k, m, best + k, h + k, 1, in ? in : &none, out + k);
+            shade_packet(&c, r + k, m, best + k, h + k, 1, &p->camera_in, out + k);
     }
 }

@@ -1,4 +1,4 @@
-/* Tests for bench.c: the generated rays and the timed passes. */
+/* Tests for src/cli/bench.c: the generated rays and the timed passes. */
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -7,7 +7,7 @@
 #include <string.h>
 #include <cmocka.h>
 
-#include "lancer/bench.h"
+#include "../src/cli/bench.h"
 
 static void test_rays_and_passes(void **state)
 {
@@ -23,14 +23,14 @@ static void test_rays_and_passes(void **state)
     s.prims[0].kind = PRIM_SPHERE;
     s.prims[0].g.sphere.c = vec3(0, 0, 0);
     s.prims[0].g.sphere.r = 1;
-    Accel a;
-    assert_int_equal(accel_build(&a, &s, 1), 0);
+    Accel *a = accel_build(&s, PRIM_ROBUST, 1);
+    assert_non_null(a);
     RaySet p, sh, d;
-    assert_int_equal(bench_gen_rays(&a, 32, 24, 7, &p, &sh, &d), 0);
+    assert_int_equal(bench_gen_rays(&s, a, 32, 24, 7, &p, &sh, &d), 0);
     assert_int_equal(p.n, 32 * 24);
     /* one shadow and one diffuse ray per primary hit */
     BenchResult r;
-    bench_trace(&a, p.rays, p.n, 0, 1, &r);
+    bench_trace(a, p.rays, p.n, 0, 1, &r);
     assert_true(r.hits > p.n / 10 && r.hits < p.n);
     assert_int_equal(sh.n, r.hits);
     assert_int_equal(d.n, r.hits);
@@ -38,7 +38,7 @@ static void test_rays_and_passes(void **state)
     /* one pass counts the hits and sums their t as bench_trace does */
     size_t hits;
     double sumt;
-    assert_true(bench_pass(&a, p.rays, p.n, 0, &hits, &sumt) >= 0.0);
+    assert_true(bench_pass(a, p.rays, p.n, 0, &hits, &sumt) >= 0.0);
     assert_int_equal(hits, r.hits);
     assert_true(sumt == r.sumt);
     for (size_t i = 0; i < d.n; i++) {
@@ -53,15 +53,15 @@ static void test_rays_and_passes(void **state)
         assert_true((vec_dot(so, so) > 1.0f) == (vec_dot(sh.rays[i].d, so) > 0.0f));
     }
     /* so none of them hits the sphere again */
-    bench_trace(&a, d.rays, d.n, 0, 1, &r);
+    bench_trace(a, d.rays, d.n, 0, 1, &r);
     assert_int_equal(r.hits, 0);
-    bench_trace(&a, sh.rays, sh.n, 1, 1, &r);
+    bench_trace(a, sh.rays, sh.n, 1, 1, &r);
     assert_true(r.hits < sh.n); /* the light is outside: most shadow rays are clear */
     bench_free(&p);
     bench_free(&sh);
     bench_free(&d);
     assert_null(p.rays);
-    accel_free(&a);
+    accel_free(a);
     scene_free(&s);
 }
 

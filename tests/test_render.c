@@ -28,32 +28,38 @@ static void log_progress(void *ctx, int done, int total)
 }
 
 /* Renders scene file `path` at w x h (and spp x spp samples when spp > 0)
- * on `threads` threads into img; *s and *a are left for the caller to free. */
-static void render_scene(const char *path, int threads, int w, int h, int spp, Scene *s, Accel *a, Image *img,
-                         RayStats *st, ProgressLog *log)
+ * on `threads` threads into img, as the command line does; the caller
+ * frees *s, *p and *a. */
+static void render_scene(const char *path, int threads, int w, int h, int spp, Scene *s, RenderPlan *p, Accel **a,
+                         Image *img, RayStats *st, ProgressLog *log)
 {
     char err[512];
     int rc = scene_load(path, s, err, sizeof err);
     if (rc)
         print_error("%s\n", err);
     assert_int_equal(rc, 0);
-    s->width = w;
-    s->height = h;
-    if (spp > 0)
-        s->spp = spp;
-    assert_int_equal(accel_build(a, s, 2), 0);
+    PlanOptions o = plan_options();
+    o.width = w;
+    o.height = h;
+    o.spp = spp;
+    o.threads = threads;
+    assert_int_equal(plan_build(p, s, &o, err, sizeof err), 0);
+    *a = accel_build(s, p->variant, 2);
+    assert_non_null(*a);
     assert_int_equal(image_init(img, w, h), 0);
     memset(st, 0, sizeof *st);
-    RenderOptions opt = {threads, log ? log_progress : NULL, log};
-    assert_int_equal(render_image(s, a, &opt, img, st), 0);
+    RenderOptions opt = {log ? log_progress : NULL, log};
+    assert_int_equal(render_image(p, *a, &opt, img, st), 0);
 }
 
 static void render_default(int threads, int w, int h, Image *img, RayStats *st, ProgressLog *log)
 {
     Scene s;
-    Accel a;
-    render_scene("scenes/default.scn", threads, w, h, 0, &s, &a, img, st, log);
-    accel_free(&a);
+    RenderPlan p;
+    Accel *a;
+    render_scene("scenes/default.scn", threads, w, h, 0, &s, &p, &a, img, st, log);
+    accel_free(a);
+    plan_free(&p);
     scene_free(&s);
 }
 
@@ -111,28 +117,27 @@ static void test_pixels_are_single_rays(void **state)
     for (int sc = 0; sc < 4; sc++)
         for (int k = 1; k <= 2; k++) {
             Scene s;
-            Accel a;
+            RenderPlan p;
+            Accel *a;
             Image img;
             RayStats st, st1 = {0, 0, 0, 0, 0};
-            render_scene(scenes[sc], 1, 29, 23, k, &s, &a, &img, &st, NULL);
+            render_scene(scenes[sc], 1, 29, 23, k, &s, &p, &a, &img, &st, NULL);
             Camera cam;
-            Interiors in;
-            camera_init(&cam, &s.camera, s.width, s.height);
-            shade_interiors_at(&s, s.camera.eye, &in);
-            for (int y = 0; y < s.height; y++)
-                for (int x = 0; x < s.width; x++) {
+            camera_init(&cam, &s.camera, p.width, p.height);
+            for (int y = 0; y < p.height; y++)
+                for (int x = 0; x < p.width; x++) {
                     Vec3 sum = vec3(0, 0, 0);
                     for (int j = 0; j < k; j++)
                         for (int i = 0; i < k; i++) {
                             Ray r = camera_ray(&cam, (float)x + ((float)i + 0.5f) / (float)k,
                                                (float)y + ((float)j + 0.5f) / (float)k);
-                            sum = vec_add(sum, shade_trace(&s, &a, &r, &in, &st1));
+                            sum = vec_add(sum, shade_trace(&p, a, &r, &st1));
                             st1.camera++;
                         }
                     if (k > 1)
                         sum = vec_scale(sum, 1.0f / (float)(k * k));
                     float want[3] = {sum.x, sum.y, sum.z};
-                    assert_memory_equal(&img.rgb[3 * (y * s.width + x)], want, sizeof want);
+                    assert_memory_equal(&img.rgb[3 * (y * p.width + x)], want, sizeof want);
                 }
             /* the same rays (the tests made may differ: a packet meets
              * leaves in its own order) */
@@ -140,7 +145,8 @@ static void test_pixels_are_single_rays(void **state)
                         st.refraction == st1.refraction);
             assert_true(sc != 1 || st.refraction > 0);
             image_free(&img);
-            accel_free(&a);
+            accel_free(a);
+            plan_free(&p);
             scene_free(&s);
         }
 }

@@ -42,7 +42,7 @@ static int scene_is_empty(const Scene *s)
     Scene zero;
     memset(&zero, 0, sizeof zero);
     return s->materials == NULL && s->nmaterials == 0 && s->lights == NULL && s->nlights == 0 &&
-           s->prims == NULL && s->nprims == 0 && s->width == 0 && s->height == 0 && s->max_depth == 0 &&
+           s->prims == NULL && s->nprims == 0 && s->image.width == 0 && s->image.height == 0 && s->image.max_depth == 0 &&
            memcmp(s, &zero, sizeof zero) == 0;
 }
 
@@ -570,9 +570,9 @@ static void test_full_scene(void **state)
     Scene s;
     parse_ok(full_scene, &s);
 
-    assert_int_equal(s.width, 320);
-    assert_int_equal(s.height, 200);
-    assert_int_equal(s.max_depth, 7);
+    assert_int_equal(s.image.width, 320);
+    assert_int_equal(s.image.height, 200);
+    assert_int_equal(s.image.max_depth, 7);
     assert_vec(s.background, 0.1f, 0.2f, 0.3f, 0);
 
     assert_vec(s.camera.eye, 1, 2, -3, 0);
@@ -681,9 +681,9 @@ static void test_defaults(void **state)
     (void)state;
     Scene s;
     parse_ok("camera { eye 0 0 -5 target 0 0 0 fov 40 }", &s);
-    assert_int_equal(s.width, 640);
-    assert_int_equal(s.height, 480);
-    assert_int_equal(s.max_depth, 5);
+    assert_int_equal(s.image.width, 640);
+    assert_int_equal(s.image.height, 480);
+    assert_int_equal(s.image.max_depth, 5);
     assert_vec(s.background, 0, 0, 0, 0);
     assert_vec(s.camera.up, 0, 1, 0, 0);
     assert_int_equal(s.nmaterials, 0);
@@ -696,22 +696,22 @@ static void test_defaults(void **state)
 
     /* an image block sets only what it names, wherever it stands */
     parse_ok("camera { eye 0 0 -5 target 0 0 0 fov 40 }\nimage { height 100 }\n", &s);
-    assert_int_equal(s.width, 640);
-    assert_int_equal(s.height, 100);
-    assert_int_equal(s.max_depth, 5);
+    assert_int_equal(s.image.width, 640);
+    assert_int_equal(s.image.height, 100);
+    assert_int_equal(s.image.max_depth, 5);
     scene_free(&s);
     parse_ok("image { }\ncamera { eye 0 0 -5 target 0 0 0 fov 40 }\n", &s);
-    assert_int_equal(s.width, 640);
-    assert_int_equal(s.height, 480);
+    assert_int_equal(s.image.width, 640);
+    assert_int_equal(s.image.height, 480);
     scene_free(&s);
 
     /* the limits themselves are allowed */
     parse_ok("image { width 1 height 32768 max_depth 256 }\n"
              "camera { eye 0 0 0 target 0 0 1 fov 179.9 }\n",
              &s);
-    assert_int_equal(s.width, 1);
-    assert_int_equal(s.height, 32768);
-    assert_int_equal(s.max_depth, 256);
+    assert_int_equal(s.image.width, 1);
+    assert_int_equal(s.image.height, 32768);
+    assert_int_equal(s.image.max_depth, 256);
     scene_free(&s);
 }
 
@@ -1003,9 +1003,9 @@ static void test_load_default_scene(void **state)
     char err[512] = "";
     if (scene_load("scenes/default.scn", &s, err, sizeof err) != 0)
         fail_msg("scenes/default.scn: %s", err);
-    assert_int_equal(s.width, 640);
-    assert_int_equal(s.height, 480);
-    assert_int_equal(s.max_depth, 5);
+    assert_int_equal(s.image.width, 640);
+    assert_int_equal(s.image.height, 480);
+    assert_int_equal(s.image.max_depth, 5);
     assert_vec(s.background, 0.55f, 0.7f, 0.9f, 0);
     assert_vec(s.camera.eye, 0, 2.2f, -7.5f, 0);
     assert_float_equal(s.camera.fovy, 40, 0);
@@ -1030,9 +1030,8 @@ static void test_scene_from_mesh(void **state)
     int tri[2][3] = {{0, 1, 2}, {0, 1, 3}};
     Mesh m = {v, 4, NULL, 0, tri, 2, NULL, 0};
     Scene s;
-    assert_int_equal(scene_from_mesh(&s, &m, 1), 0);
+    assert_int_equal(scene_from_mesh(&s, &m), 0);
     assert_int_equal(s.nmaterials, 1);
-    assert_true(s.classic);
     assert_int_equal(s.nprims, 2);
     for (int i = 0; i < 2; i++) {
         assert_int_equal(s.prims[i].kind, PRIM_TRIANGLE);

@@ -1,7 +1,8 @@
-/* Shaded values checked against REFERENCE.md section 1 evaluated by hand:
- * a lit point, fade, a point in shadow, shadowless lights, the phong and
- * specular peaks, one reflection bounce, and the depth limit; and that
- * shading a known first hit (shade_traced) is shade_trace. */
+/* Shaded values checked against POV-Ray's classic finish (the formula in
+ * docs/povray-rules.md) evaluated by hand: a lit point, fade, a point in
+ * shadow, shadowless lights, the phong and specular peaks, one reflection
+ * bounce, and the depth limit; and that shading a known first hit
+ * (shade_traced) is shade_trace. */
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -31,15 +32,30 @@ static void load(Scene *s, const char *extra)
     assert_int_equal(rc, 0);
 }
 
-static Vec3 trace(const Scene *s, Vec3 o, Vec3 d)
+/* The plan for s in its own coordinates, since the tests' rays are in
+ * them, and its Accel. */
+static Accel *plan_world(RenderPlan *p, Scene *s)
 {
-    Accel a;
+    PlanOptions o = plan_options();
+    o.world = 1;
+    char err[256];
+    assert_int_equal(plan_build(p, s, &o, err, sizeof err), 0);
+    Accel *a = accel_build(s, p->variant, 1);
+    assert_non_null(a);
+    return a;
+}
+
+/* The colour seen along the ray from o towards d, the camera's ray. */
+static Vec3 trace(Scene *s, Vec3 o, Vec3 d)
+{
+    RenderPlan p;
+    Accel *a = plan_world(&p, s);
     RayStats st;
     memset(&st, 0, sizeof st);
-    assert_int_equal(accel_build(&a, s, 1), 0);
     Ray r = ray_make(o, vec_normalize(d), INFINITY);
-    Vec3 c = shade_trace(s, &a, &r, NULL, &st);
-    accel_free(&a);
+    Vec3 c = shade_trace(&p, a, &r, &st);
+    accel_free(a);
+    plan_free(&p);
     return c;
 }
 
@@ -86,13 +102,22 @@ static void test_shadowless_light(void **state)
 {
     (void)state;
     Scene s;
-    /* no shadow and no highlight, but full diffuse */
+    /* The eye and the light are mirror images in the floor, so a phong
+     * highlight would peak (R.L = 1, +1 in every channel), and the sphere
+     * lies on the way to the light: a shadowless light casts no shadow and
+     * adds no highlight, but lights diffusely in full. */
     load(&s,
          "material shiny { color 0.5 0.4 0.3 ambient 0.1 diffuse 0.6 phong 1 }\n"
          "light { position 3 4 0 shadowless }\n"
          "sphere { center 1.5 2 0 radius 0.5 material m }\n");
-    /* the floor keeps material m; the sphere would shadow it */
+    s.prims[0].material = 1; /* the floor is shiny */
     assert_vec(trace(&s, EYE, DIR), 0.5f * 0.58f, 0.4f * 0.58f, 0.3f * 0.58f, 1e-6);
+    /* the same light, casting shadows: the sphere leaves the ambient term */
+    s.lights[0].shadowless = 0;
+    assert_vec(trace(&s, EYE, DIR), 0.05f, 0.04f, 0.03f, 1e-6);
+    /* and without the sphere, the highlight is there */
+    s.nprims = 1;
+    assert_vec(trace(&s, EYE, DIR), 0.5f * 0.58f + 1, 0.4f * 0.58f + 1, 0.3f * 0.58f + 1, 1e-5);
     scene_free(&s);
 }
 
@@ -137,7 +162,7 @@ static void test_reflection_bounce(void **state)
     /* aimed elsewhere, the reflected ray meets the background */
     assert_vec(trace(&s, EYE, vec3(3, -4, 3)), 0.1f, 0.2f, 0.3f, 1e-6);
     /* max_depth 1 allows no bounce: the cut ray is black, not background */
-    s.max_depth = 1;
+    s.image.max_depth = 1;
     assert_vec(trace(&s, EYE, DIR), 0, 0, 0, 0);
     scene_free(&s);
 }
@@ -146,8 +171,22 @@ static void test_miss_and_depth_limit(void **state)
 {
     (void)state;
     Scene s;
+    /* A camera ray that meets nothing sees the background, at any depth
+     * limit: the camera ray is level 1, within even max_depth 1. */
     load(&s, "");
     assert_vec(trace(&s, EYE, vec3(0, 1, 0)), 0.2f, 0.4f, 0.6f, 0);
+    s.image.max_depth = 1;
+    assert_vec(trace(&s, EYE, vec3(0, 1, 0)), 0.2f, 0.4f, 0.6f, 0);
+    scene_free(&s);
+    /* A black mirror floor: its reflected ray meets nothing either. At
+     * level 2 it is within max_depth 2 and brings the background; with
+     * max_depth 1 it is cut, and a cut ray is black, not background. */
+    load(&s, "material mirror { color 0 0 0 ambient 0 diffuse 0 reflection 1 }\n");
+    s.prims[0].material = 1;
+    s.image.max_depth = 2;
+    assert_vec(trace(&s, EYE, DIR), 0.2f, 0.4f, 0.6f, 1e-7);
+    s.image.max_depth = 1;
+    assert_vec(trace(&s, EYE, DIR), 0, 0, 0, 0);
     scene_free(&s);
 }
 
@@ -220,7 +259,7 @@ static void test_transparent_surface(void **state)
     Vec3 f = vec3(0.5f * 0.5f + 0.25f, 0.4f * 0.5f + 0.25f, 0.3f * 0.5f + 0.25f);
     assert_vec(trace(&s, EYE, DIR), 0.5f * k + f.x * 0.2f, 0.4f * k + f.y * 0.4f, 0.3f * k + f.z * 0.6f, 1e-6);
     /* max_depth 1: the transmitted ray is cut, only the surface remains */
-    s.max_depth = 1;
+    s.image.max_depth = 1;
     assert_vec(trace(&s, EYE, DIR), 0.5f * k, 0.4f * k, 0.3f * k, 1e-6);
     scene_free(&s);
 }
@@ -277,25 +316,25 @@ static void test_total_internal_reflection(void **state)
              "sphere { center 0 0 0 radius 1 material glass }\n");
     s.prims[0] = s.prims[1];
     s.nprims = 1;
-    s.max_depth = 3;
-    Accel a;
+    s.image.max_depth = 3;
+    s.camera.eye = vec3(0, 0, 0); /* camera rays start inside the ball */
+    RenderPlan p;
+    Accel *a = plan_world(&p, &s);
     RayStats st;
     memset(&st, 0, sizeof st);
-    accel_build(&a, &s, 1);
-    Interiors in;
-    shade_interiors_at(&s, vec3(0, 0, 0), &in);
-    assert_int_equal(in.n, 1);
+    assert_int_equal(p.camera_in.n, 1);
     /* from (0, -0.866, 0) along +x: hits at (0.5, -0.866, 0), 60 degrees off the normal */
     Ray r = ray_make(vec3(0, -0.8660254f, 0), vec3(1, 0, 0), INFINITY);
-    assert_vec(shade_trace(&s, &a, &r, &in, &st), 0, 0, 0, 0);
+    assert_vec(shade_trace(&p, a, &r, &st), 0, 0, 0, 0);
     assert_int_equal(st.refraction, 0);
     assert_int_equal(st.reflection, 2);
     /* the same ray from outside the list's point of view would refract out */
     memset(&st, 0, sizeof st);
     r = ray_make(vec3(0, 0, 0), vec3(1, 0, 0), INFINITY); /* head-on: leaves, to the background */
-    assert_vec(shade_trace(&s, &a, &r, &in, &st), 0.2f, 0.4f, 0.6f, 1e-6);
+    assert_vec(shade_trace(&p, a, &r, &st), 0.2f, 0.4f, 0.6f, 1e-6);
     assert_int_equal(st.refraction, 1);
-    accel_free(&a);
+    accel_free(a);
+    plan_free(&p);
     scene_free(&s);
 }
 
@@ -361,38 +400,39 @@ static void test_traced_is_trace(void **state)
     /* the mirror in place of the scene's own floor */
     memmove(&s.prims[0], &s.prims[1], sizeof(Prim) * (size_t)(s.nprims - 1));
     s.nprims--;
-    Accel a;
-    assert_int_equal(accel_build(&a, &s, 1), 0);
     /* one sign per axis, so that they go through the BVH as one packet */
     const Vec3 dirs[] = {vec3(3, -4, 0.05f), vec3(3, -4, 3), vec3(3.4f, -3.6f, 0.4f), vec3(3, -3.9f, 0.1f),
                          vec3(2, -0.5f, 0.2f)};
     /* five rays, and twelve (more than a packet: shade_traced_packet takes
-     * them BVH_PACKET at a time) */
+     * them ACCEL_PACKET at a time) */
     for (int depth = 0; depth <= 3; depth++)
         for (int n = 5; n <= 12; n += 7) {
-            s.max_depth = depth;
-            Ray r[2 * BVH_PACKET];
-            PrimHit h[2 * BVH_PACKET];
-            int best[2 * BVH_PACKET];
+            s.image.max_depth = depth;
+            RenderPlan p;
+            Accel *a = plan_world(&p, &s);
+            Ray r[2 * ACCEL_PACKET];
+            PrimHit h[2 * ACCEL_PACKET];
+            int best[2 * ACCEL_PACKET];
             RayStats st = {0, 0, 0, 0, 0}, st1 = st;
             for (int k = 0; k < n; k++)
                 r[k] = ray_make(EYE, vec_normalize(vec_add(dirs[k % 5], vec3(0, 0, 0.01f * (float)(k / 5)))), INFINITY);
-            accel_closest_packet(&a, r, n, h, best, &st);
-            Vec3 all[2 * BVH_PACKET];
+            accel_closest_packet(a, r, n, h, best, &st);
+            Vec3 all[2 * ACCEL_PACKET];
             RayStats st2 = st;
-            shade_traced_packet(&s, &a, r, n, best, h, NULL, &st2, all);
+            shade_traced_packet(&p, a, r, n, best, h, &st2, all);
             for (int k = 0; k < n; k++) {
                 PrimHit w;
-                assert_int_equal(best[k], accel_closest(&a, &r[k], &w, &st1));
-                Vec3 got = shade_traced(&s, &a, &r[k], best[k], &h[k], NULL, &st);
-                Vec3 want = shade_trace(&s, &a, &r[k], NULL, &st1);
+                assert_int_equal(best[k], accel_closest(a, &r[k], &w, &st1));
+                Vec3 got = shade_traced(&p, a, &r[k], best[k], &h[k], &st);
+                Vec3 want = shade_trace(&p, a, &r[k], &st1);
                 assert_memory_equal(&got, &want, sizeof got);
                 assert_memory_equal(&all[k], &want, sizeof want);
             }
             assert_true(st.shadow == st1.shadow && st.reflection == st1.reflection);
             assert_true(st2.shadow == st1.shadow && st2.reflection == st1.reflection);
+            accel_free(a);
+            plan_free(&p);
         }
-    accel_free(&a);
     scene_free(&s);
 }
 
@@ -407,15 +447,15 @@ static void test_occluded_packet_is_occluded(void **state)
     load(&s, "sphere { center 0 1 0 radius 1 material m }\n"
              "sphere { center 2.5 0.5 1 radius 0.5 material m }\n"
              "sphere { center -2 0.7 -1 radius 0.7 material m }\n");
-    Accel a;
-    assert_int_equal(accel_build(&a, &s, 1), 0);
+    Accel *a = accel_build(&s, PRIM_ROBUST, 1);
+    assert_non_null(a);
     unsigned long long g = 12345;
     const Vec3 light = vec3(0.5f, 6, -0.5f);
     int blocked = 0, by_plane = 0, free_rays = 0;
     for (int k = 0; k < 4000; k++) {
-        int n = 1 + k % (2 * BVH_PACKET + 3); /* more than a packet too */
+        int n = 1 + k % (2 * ACCEL_PACKET + 3); /* more than a packet too */
         Vec3 c = test_rvec(&g, -4, 4);
-        Ray r[2 * BVH_PACKET + 3];
+        Ray r[2 * ACCEL_PACKET + 3];
         for (int j = 0; j < n; j++) {
             Vec3 o = vec_add(c, test_rvec(&g, -0.5f, 0.5f));
             o.y = k % 5 == 0 && j == 0 ? -0.5f : fabsf(o.y) * 0.3f + 1e-3f;
@@ -424,10 +464,10 @@ static void test_occluded_packet_is_occluded(void **state)
             r[j] = ray_make(o, vec_scale(d, 1.0f / len), len);
         }
         RayStats st = {0, 0, 0, 0, 0};
-        unsigned got = accel_occluded_packet(&a, r, n, &st);
+        unsigned got = accel_occluded_packet(a, r, n, &st);
         assert_true(got >> n == 0);
         for (int j = 0; j < n; j++) {
-            int want = accel_occluded(&a, &r[j], &st);
+            int want = accel_occluded(a, &r[j], &st);
             assert_int_equal((int)(got >> j & 1), want);
             blocked += want;
             by_plane += want && r[j].o.y < 0.0f;
@@ -436,7 +476,7 @@ static void test_occluded_packet_is_occluded(void **state)
     }
     /* every kind of verdict was met */
     assert_true(blocked > 1000 && by_plane > 100 && free_rays > 1000);
-    accel_free(&a);
+    accel_free(a);
     scene_free(&s);
 }
 

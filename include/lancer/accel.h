@@ -1,43 +1,52 @@
 /*
  * accel.h - visibility queries over all primitives of a scene.
  *
- *     Accel a;
- *     if (accel_build(&a, &scene) != 0) ... out of memory ...
+ *     Accel *a = accel_build(&scene, PRIM_ROBUST, threads);
+ *     if (!a) ... out of memory ...
  *     PrimHit h;
- *     int i = accel_closest(&a, &ray, &h, &stats);     -1: nothing hit
- *     int blocked = accel_occluded(&a, &shadow_ray, &stats);
- *     accel_free(&a);
+ *     int i = accel_closest(a, &ray, &h, &stats);     -1: nothing hit
+ *     int blocked = accel_occluded(a, &shadow_ray, &stats);
+ *     accel_free(a);
  *
  * Bounded primitives go into a BVH (bvh.h); unbounded ones (planes) are
- * tested one by one beside it. The Accel borrows the scene's arrays, which
- * must outlive it.
+ * tested one by one beside it. The answers are scene indices. The Accel
+ * borrows the scene's arrays, which must outlive it. Its layout is its
+ * own (accel.c): callers use the functions below.
  */
 #ifndef LANCER_ACCEL_H
 #define LANCER_ACCEL_H
 
-#include "lancer/bvh.h"
+#include <stddef.h>
+
 #include "lancer/scene.h"
 
-typedef struct {
-    const Prim *prims; /* the scene's, indexed by the answers */
-    PrimVariant variant; /* which intersection routines answer */
-    Bvh bvh;
-    int *unbounded; /* scene indices of the planes */
-    int nunbounded;
-} Accel;
+typedef struct Accel Accel;
 
-/* Uses the scene's intersection variant (robust unless it asks for classic),
- * building on up to `threads` threads. Returns 0, or -1 when memory runs
+/* Builds the queries over s's primitives, answered by the routines of
+ * variant v, on up to `threads` threads. Returns NULL when memory runs
  * out. */
-int accel_build(Accel *a, const Scene *s, int threads);
+Accel *accel_build(const Scene *s, PrimVariant v, int threads);
 void accel_free(Accel *a);
+
+/* The variant whose routines answer. */
+PrimVariant accel_variant(const Accel *a);
+
+/* The box of the bounded primitives, rounded outwards. Returns 0, or -1
+ * when there are none (lo and hi are then unset). */
+int accel_bounds(const Accel *a, Vec3 *lo, Vec3 *hi);
+
+/* The memory the structure holds, in bytes (not the scene's). */
+size_t accel_bytes(const Accel *a);
+
+/* Rays that the packet queries below trace through the BVH together. */
+#define ACCEL_PACKET 8
 
 /* The primitive with the nearest hit in (0, r->tmax) and its PrimHit, or -1. */
 int accel_closest(const Accel *a, const Ray *r, PrimHit *h, RayStats *st);
 
 /* accel_closest for each of r[0 .. n-1]: best[k] and h[k]. Neighbouring
  * rays, such as camera rays and their mirror rays, are traced through the
- * BVH together (bvh_closest_packet). */
+ * BVH together . */
 void accel_closest_packet(const Accel *a, const Ray *r, int n, PrimHit *h, int *best, RayStats *st);
 
 /* 1 when anything is hit in (0, r->tmax): stops at the first hit found. */

@@ -21,7 +21,8 @@
 
 #include "lancer/scene.h"
 
-/* Writes the scene to f. Returns 0, or -1 if a write to f failed. */
-int pov_export(const Scene *s, FILE *f);
+/* Writes the scene to f, for an image of width x height pixels (0: the
+ * scene's own size). Returns 0, or -1 if a write to f failed. */
+int pov_export(const Scene *s, int width, int height, FILE *f);
 
 #endif

@@ -2,9 +2,10 @@
  * render.h - the render loop: camera rays through every pixel, shaded, in
  * parallel.
  *
- *     RenderOptions opt = {threads, on_progress, ctx};
- *     if (render_image(&scene, &accel, &opt, &img, &stats) != 0) ...
+ *     RenderOptions opt = {on_progress, ctx};      or NULL: no progress calls
+ *     if (render_image(&plan, accel, &opt, &img, &stats) != 0) ...
  *
+ * The image size, samples per pixel and threads are the plan's (plan.h).
  * Rows are handed out to threads one at a time; every pixel is computed on
  * its own from the same inputs, so the image is bit-identical for any thread
  * count. A row's camera rays are traced eight at a time
@@ -20,18 +21,18 @@
 
 #include "lancer/accel.h"
 #include "lancer/image.h"
+#include "lancer/plan.h"
 
 typedef void (*RenderProgress)(void *ctx, int rows_done, int rows_total);
 
 typedef struct {
-    int threads; /* 1 or more */
     RenderProgress progress;
     void *progress_ctx;
 } RenderOptions;
 
-/* Renders into img, which must already have the scene's size. Adds the ray
+/* Renders into img, which must already have the plan's size. Adds the ray
  * counts to *stats. Returns 0, or -1 when its lock cannot be set up (the
  * calling thread renders even when no other thread can be started). */
-int render_image(const Scene *s, const Accel *a, const RenderOptions *opt, Image *img, RayStats *stats);
+int render_image(const RenderPlan *p, const Accel *a, const RenderOptions *opt, Image *img, RayStats *stats);
 
 #endif

@@ -1,6 +1,7 @@
 /*
- * scene.h - the scene: plain arrays of materials, lights and primitives, and
- * the parser of lancer's scene format (the format is documented in README.md).
+ * scene.h - the scene: the world as plain arrays of materials, lights and
+ * primitives, with the camera; and the parser of lancer's scene format (the
+ * format is documented in README.md).
  *
  *     Scene s;
  *     char err[512];
@@ -14,6 +15,10 @@
  * A loaded scene has been validated: every number is finite, every normal and
  * axis has length, every material exists. On error nothing is returned (the
  * Scene is left empty and scene_free is still safe).
+ *
+ * How to render the scene is not the Scene's: the file's image block is
+ * kept as it was read (SceneImage), and the render plan (plan.h) resolves
+ * it against the command line and derives every render decision.
  */
 #ifndef LANCER_SCENE_H
 #define LANCER_SCENE_H
@@ -61,12 +66,17 @@ typedef struct {
     float fovy; /* vertical field of view, degrees */
 } CameraSpec;
 
+/* The file's image block, or its defaults: what the plan starts from. */
 typedef struct {
     int width, height;
     int max_depth; /* POV-Ray's max_trace_level: the camera ray is level 1 */
     int spp;       /* spp x spp regular samples per pixel, box-filtered */
     int classic;   /* use the classic intersection routines, not the robust ones */
-    Vec3 background;
+} SceneImage;
+
+typedef struct {
+    SceneImage image;
+    Vec3 background; /* what a ray that hits nothing sees */
     CameraSpec camera;
     Material *materials;
     int nmaterials;
@@ -74,8 +84,7 @@ typedef struct {
     int nlights;
     Prim *prims;
     int nprims;
-    int transparent; /* some material lets light through */
-    int degenerate;  /* mesh triangles dropped for having no area */
+    int degenerate; /* mesh triangles dropped for having no area */
 } Scene;
 
 /* Reads and parses a scene file. Returns 0, or -1 with "path:line:col:
@@ -94,15 +103,22 @@ int scene_parse(const char *name, const char *text, size_t len, Scene *s, char *
 int scene_add_mesh(Scene *s, const Mesh *m, int material, int smooth, const float *xf, int *dropped);
 
 /* A new scene of the mesh's flat triangles and one default material (the
- * benchmarks' scene); `classic` picks the intersection routines. Returns 0,
- * or -1 when memory runs out (the scene is then empty). */
-int scene_from_mesh(Scene *s, const Mesh *m, int classic);
+ * benchmarks' scene). Returns 0, or -1 when memory runs out (the scene is
+ * then empty). */
+int scene_from_mesh(Scene *s, const Mesh *m);
+
+/* Splits every triangle in two across its longest edge: the corner
+ * opposite it is joined to the edge's midpoint, and both halves keep the
+ * primitive's kind, material and normals. The surface stays the same, and
+ * the triangle count doubles (the BVH's build series grows meshes so).
+ * Returns 0, or -1 when memory runs out or the count would pass INT32_MAX
+ * (the scene is then unchanged). */
+int scene_split_triangles(Scene *s);
 
 /* Moves the whole scene, camera and lights included, by p -> p*scale +
  * offset (scale > 0). Shading does not change: fade distances scale too,
- * and every angle stays. Used to check that pictures do not depend on where
- * a scene sits in floating point. Returns 0, or -1 when an oriented box
- * degenerates in float at the new scale. */
+ * and every angle stays. The render plan moves scenes so (plan.h). Returns
+ * 0, or -1 when an oriented box degenerates in float at the new scale. */
 int scene_transform(Scene *s, float scale, Vec3 offset);
 
 void scene_free(Scene *s);

@@ -1,12 +1,11 @@
 /*
  * shade.h - recursive Whitted shading with POV-Ray 3.7's classic finish.
  *
- *     Interiors in;
- *     shade_interiors_at(&scene, camera_eye, &in);      once per camera
- *     Vec3 c = shade_trace(&scene, &accel, &camera_ray, &in, &stats);
+ *     RenderPlan p;  Accel *a;                  ... plan_build, accel_build ...
+ *     Vec3 c = shade_trace(&p, a, &camera_ray, &stats);
  *
- * The model is POV-Ray 3.7's, term for term (REFERENCE.md section 1, and
- * docs/povray-rules.md for area lights, transparency and refraction):
+ * The model is POV-Ray 3.7's, term for term (docs/povray-rules.md gives
+ * each rule with its source in POV-Ray's code):
  *
  * - ambient, Lambert diffuse, and phong and specular highlights in the
  *   light's colour; a light with N.L below 1e-10 adds nothing at all;
@@ -20,42 +19,31 @@
  * - additive mirror reflection.
  *
  * Depth counts like POV-Ray's max_trace_level: the camera ray is level 1,
- * every reflected or refracted ray one more; a ray past scene->max_depth is
- * black, not the background. A transmitted ray that does not bend continues
- * at its parent's level.
+ * every reflected or refracted ray one more; a ray past the plan's
+ * max_depth is black, not the background. A transmitted ray that does not
+ * bend continues at its parent's level. Camera rays start inside the
+ * plan's camera_in; every other setting and decision comes from the plan
+ * too (plan.h), and the visibility queries from the Accel.
  */
 #ifndef LANCER_SHADE_H
 #define LANCER_SHADE_H
 
 #include "lancer/accel.h"
+#include "lancer/plan.h"
 
-/* Nesting beyond this many interiors is not tracked (deeper entries are
- * dropped): far more than any real scene nests transparent solids. */
-#define SHADE_MAX_INTERIORS 16
-
-/* The ordered list of primitives a ray is inside, innermost last. */
-typedef struct {
-    int n;
-    int prim[SHADE_MAX_INTERIORS];
-} Interiors;
-
-/* The solids that contain point p, in scene order: where camera rays start. */
-void shade_interiors_at(const Scene *s, Vec3 p, Interiors *in);
-
-/* The colour seen along camera ray r, which starts inside `in`. */
-Vec3 shade_trace(const Scene *s, const Accel *a, const Ray *r, const Interiors *in, RayStats *st);
+/* The colour seen along camera ray r. */
+Vec3 shade_trace(const RenderPlan *p, const Accel *a, const Ray *r, RayStats *st);
 
 /* shade_trace when the camera ray's closest hit is already known: i and h
  * from accel_closest (or accel_closest_packet). The same colour. */
-Vec3 shade_traced(const Scene *s, const Accel *a, const Ray *r, int i, const PrimHit *h, const Interiors *in,
-                  RayStats *st);
+Vec3 shade_traced(const RenderPlan *p, const Accel *a, const Ray *r, int i, const PrimHit *h, RayStats *st);
 
 /* shade_traced for each of r[0 .. n-1] into out[k], BVH_PACKET at a time:
  * the same colours. The shadow rays of the rays' hits towards each point light
  * are traced together (accel_occluded_packet), and so are their mirror
  * rays (accel_closest_packet), whose hits are shaded the same way. */
-void shade_traced_packet(const Scene *s, const Accel *a, const Ray *r, int n, const int *best, const PrimHit *h,
-                         const Interiors *in, RayStats *st, Vec3 *out);
+void shade_traced_packet(const RenderPlan *p, const Accel *a, const Ray *r, int n, const int *best, const PrimHit *h,
+                         RayStats *st, Vec3 *out);
 
 /* POV-Ray's area-light weights along one axis of n samples (n <= 64): the
  * leaves of its recursive halving of the grid, which is a plain mean only

@@ -24,7 +24,9 @@
 #include <embree3/rtcore.h>
 
 #include "lancer/accel.h"
-#include "lancer/bench.h"
+#include "lancer/bvh.h"
+#include "bench.h"
+#include "clock.h"
 #include "lancer/rayfile.h"
 
 #define ROUNDS_MAX 64
@@ -51,7 +53,7 @@ static double median(double *v, int n)
 
 static RTCScene embree_scene(RTCDevice dev, const Mesh *m, int robust, double *ms)
 {
-    double t0 = bench_now();
+    double t0 = clock_now();
     RTCScene sc = rtcNewScene(dev);
     if (robust)
         rtcSetSceneFlags(sc, RTC_SCENE_FLAG_ROBUST);
@@ -72,7 +74,7 @@ static RTCScene embree_scene(RTCDevice dev, const Mesh *m, int robust, double *m
     rtcAttachGeometry(sc, g);
     rtcReleaseGeometry(g);
     rtcCommitScene(sc);
-    *ms = 1e3 * (bench_now() - t0);
+    *ms = 1e3 * (clock_now() - t0);
     return sc;
 }
 
@@ -82,7 +84,7 @@ static double embree_pass(RTCScene sc, const Ray *rays, size_t n, int any, size_
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     size_t k = 0;
-    double t0 = bench_now();
+    double t0 = clock_now();
     for (size_t i = 0; i < n; i++) {
         struct RTCRayHit rh;
         rh.ray.org_x = rays[i].o.x;
@@ -108,7 +110,7 @@ static double embree_pass(RTCScene sc, const Ray *rays, size_t n, int any, size_
         }
     }
     *hits = k;
-    return bench_now() - t0;
+    return clock_now() - t0;
 }
 
 int main(int argc, char **argv)
@@ -127,21 +129,20 @@ int main(int argc, char **argv)
         return 1;
     }
     Scene s;
-    if (scene_from_mesh(&s, &m, 0) != 0) {
+    if (scene_from_mesh(&s, &m) != 0) {
         fprintf(stderr, "out of memory\n");
         return 1;
     }
     RTCDevice dev = rtcNewDevice("threads=1");
     double lb[ROUNDS_MAX], ed[ROUNDS_MAX], er[ROUNDS_MAX], lf[ROUNDS_MAX], ef[ROUNDS_MAX];
-    Accel acc;
+    Accel *acc = NULL;
     RTCScene sd = NULL, sr = NULL;
     for (int k = 0; k < passes; k++) { /* builds, alternating too */
-        double f0 = faults(), t0 = bench_now();
-        if (k > 0)
-            accel_free(&acc);
-        if (accel_build(&acc, &s, 1) != 0)
+        double f0 = faults(), t0 = clock_now();
+        accel_free(acc);
+        if (!(acc = accel_build(&s, PRIM_ROBUST, 1)))
             return 1;
-        lb[k] = 1e3 * (bench_now() - t0);
+        lb[k] = 1e3 * (clock_now() - t0);
         lf[k] = faults() - f0;
         if (sd) {
             rtcReleaseScene(sd);
@@ -152,7 +153,7 @@ int main(int argc, char **argv)
         sr = embree_scene(dev, &m, 1, &er[k]);
         ef[k] = 0.5 * (faults() - f0);
     }
-    size_t bytes = bvh_bytes(&acc.bvh);
+    size_t bytes = accel_bytes(acc);
     printf("mesh %s: %d triangles, %d degenerate dropped\n", argv[1], m.nt, m.degenerate);
     printf("build (ms, median of %d, one thread): lancer %.1f, Embree %.1f, Embree robust %.1f; "
            "lancer / Embree = %.2f\n",
@@ -176,7 +177,7 @@ int main(int argc, char **argv)
         }
         int any = f == 1;
         double sumt;
-        bench_pass(&acc, rays, n, any, &hl, &sumt); /* warm-up */
+        bench_pass(acc, rays, n, any, &hl, &sumt); /* warm-up */
         embree_pass(sd, rays, n, any, &hd);
         embree_pass(sr, rays, n, any, &hr);
         double tl[ROUNDS_MAX], td[ROUNDS_MAX], trr[ROUNDS_MAX], qd[ROUNDS_MAX], qr[ROUNDS_MAX];
@@ -184,7 +185,7 @@ int main(int argc, char **argv)
             for (int j = 0; j < 3; j++)
                 switch ((j + k) % 3) {
                 case 0:
-                    tl[k] = n / bench_pass(&acc, rays, n, any, &hl, &sumt) / 1e6;
+                    tl[k] = n / bench_pass(acc, rays, n, any, &hl, &sumt) / 1e6;
                     break;
                 case 1:
                     td[k] = n / embree_pass(sd, rays, n, any, &hd) / 1e6;
@@ -203,7 +204,7 @@ int main(int argc, char **argv)
     rtcReleaseScene(sd);
     rtcReleaseScene(sr);
     rtcReleaseDevice(dev);
-    accel_free(&acc);
+    accel_free(acc);
     scene_free(&s);
     mesh_free(&m);
     return 0;

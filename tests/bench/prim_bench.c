@@ -12,7 +12,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 
-#include "lancer/bench.h"
+#include "clock.h"
 #include "lancer/prim.h"
 
 typedef int (*HitFn)(const void *prim, const Ray *r, PrimHit *h);
@@ -43,10 +43,10 @@ static double pass(HitFn fn, const void *prim, const Ray *rays, int n, int *hits
 {
     PrimHit h;
     int k = 0;
-    double t0 = bench_now();
+    double t0 = clock_now();
     for (int i = 0; i < n; i++)
         k += fn(prim, &rays[i], &h);
-    double t = bench_now() - t0;
+    double t = clock_now() - t0;
     *hits = k;
     return t;
 }

@@ -1,19 +1,12 @@
 /*
  * bench.c - benchmark rays and timed passes (see bench.h).
  */
-#include "lancer/bench.h"
+#include "bench.h"
 
 #include <stdlib.h>
-#include <time.h>
 
+#include "clock.h"
 #include "lancer/camera.h"
-
-double bench_now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 /* xorshift64*: fast, and the same sequence on every machine. */
 static double next_unit(unsigned long long *s)
@@ -31,23 +24,22 @@ void bench_free(RaySet *s)
     s->n = 0;
 }
 
-int bench_gen_rays(const Accel *a, int w, int h, unsigned long long seed, RaySet *primary, RaySet *shadow,
-                   RaySet *diffuse)
+int bench_gen_rays(const Scene *s, const Accel *a, int w, int h, unsigned long long seed, RaySet *primary,
+                   RaySet *shadow, RaySet *diffuse)
 {
     primary->n = shadow->n = diffuse->n = 0;
     size_t np = (size_t)w * (size_t)h;
     primary->rays = malloc(sizeof(Ray) * np);
     shadow->rays = malloc(sizeof(Ray) * np);
     diffuse->rays = malloc(sizeof(Ray) * np);
-    if (!primary->rays || !shadow->rays || !diffuse->rays || a->bvh.nnodes == 0) {
+    Vec3 lo, hi;
+    if (!primary->rays || !shadow->rays || !diffuse->rays || accel_bounds(a, &lo, &hi) != 0) {
         bench_free(primary);
         bench_free(shadow);
         bench_free(diffuse);
         return -1;
     }
-    /* Frame the root box from the front, a little above, 40 degrees high. */
-    const Bvh *b = &a->bvh;
-    Vec3 lo = vec3(b->lo[0], b->lo[1], b->lo[2]), hi = vec3(b->hi[0], b->hi[1], b->hi[2]);
+    /* Frame the bounds from the front, a little above, 40 degrees high. */
     Vec3 c = vec_scale(vec_add(lo, hi), 0.5f);
     float radius = 0.5f * vec_length(vec_sub(hi, lo));
     CameraSpec spec = {vec_madd(c, vec_normalize(vec3(0.0f, 0.3f, 1.0f)), 3.0f * radius), c, vec3(0, 1, 0), 40.0f};
@@ -64,7 +56,7 @@ int bench_gen_rays(const Accel *a, int w, int h, unsigned long long seed, RaySet
             if (i < 0)
                 continue;
             Surface sf;
-            prim_surface(&a->prims[i], &r, &hit, a->variant, &sf);
+            prim_surface(&s->prims[i], &r, &hit, accel_variant(a), &sf);
             Vec3 tol = vec_sub(light, sf.p);
             float dist = vec_length(tol);
             Vec3 l = vec_scale(tol, 1.0f / dist);
@@ -96,7 +88,7 @@ double bench_pass(const Accel *a, const Ray *rays, size_t n, int any, size_t *hi
 {
     RayStats st = {0, 0, 0, 0, 0};
     size_t k = 0;
-    double sum = 0.0, t0 = bench_now();
+    double sum = 0.0, t0 = clock_now();
     for (size_t i = 0; i < n; i++) {
         if (any) {
             k += (size_t)accel_occluded(a, &rays[i], &st);
@@ -108,7 +100,7 @@ double bench_pass(const Accel *a, const Ray *rays, size_t n, int any, size_t *hi
             }
         }
     }
-    double dt = bench_now() - t0;
+    double dt = clock_now() - t0;
     *hits = k;
     *sumt = sum;
     return dt;

@@ -1,15 +1,17 @@
 /*
  * bench.h - ray-casting benchmarks: rays framing a scene, and timed passes.
+ * A client of the library, beside the command line (lancer bench) and the
+ * benchmark programs in tests/bench.
  *
  *     RaySet primary, shadow, diffuse;
- *     bench_gen_rays(&accel, 1024, 1024, &primary, &shadow, &diffuse);
+ *     bench_gen_rays(&scene, accel, 1024, 1024, 1, &primary, &shadow, &diffuse);
  *     BenchResult res;
- *     bench_trace(&accel, primary.rays, primary.n, 0, 3, &res);
+ *     bench_trace(accel, primary.rays, primary.n, 0, 3, &res);
  *     ... res.mrays, res.hits ...
  *     bench_free(&primary); ...
  *
- * The rays are the ones REFERENCE.md section 4 describes, so figures can be
- * set beside Embree's on the same files (rayfile.h):
+ * The rays are the usual three sets of CPU ray-tracing benchmarks, so that
+ * figures can be set beside Embree's on the same files (rayfile.h):
  *
  * - primary: a camera framing the scene's bounds, one ray per pixel centre;
  * - shadow: from each primary hit to one point light, tmax = the distance;
@@ -20,8 +22,8 @@
  * Secondary rays start at prim_spawn_origin, so they begin strictly off
  * their surface and need no t_min.
  */
-#ifndef LANCER_BENCH_H
-#define LANCER_BENCH_H
+#ifndef LANCER_CLI_BENCH_H
+#define LANCER_CLI_BENCH_H
 
 #include <stddef.h>
 
@@ -38,11 +40,12 @@ typedef struct {
     double sumt; /* the sum of t over hits (closest hit only) */
 } BenchResult;
 
-/* Generates the three sets for a w x h camera (the seed fixes the diffuse
- * directions and their order). Returns 0, or -1 when memory runs out or
- * the scene has no bounded primitive to frame. */
-int bench_gen_rays(const Accel *a, int w, int h, unsigned long long seed, RaySet *primary, RaySet *shadow,
-                   RaySet *diffuse);
+/* Generates the three sets for a w x h camera framing scene s, whose
+ * queries a answers (the seed fixes the diffuse directions and their
+ * order). Returns 0, or -1 when memory runs out or the scene has no
+ * bounded primitive to frame. */
+int bench_gen_rays(const Scene *s, const Accel *a, int w, int h, unsigned long long seed, RaySet *primary,
+                   RaySet *shadow, RaySet *diffuse);
 
 /* Traces the rays on the calling thread: one warm-up pass, then `passes`
  * timed ones; closest hit, or any hit when `any`. */
@@ -51,9 +54,6 @@ void bench_trace(const Accel *a, const Ray *rays, size_t n, int any, int passes,
 /* One pass of bench_trace: the seconds it took; the hits, and for closest
  * hit the sum of their t, into *hits and *sumt. */
 double bench_pass(const Accel *a, const Ray *rays, size_t n, int any, size_t *hits, double *sumt);
-
-/* Seconds on a monotonic clock, for timing. */
-double bench_now(void);
 
 void bench_free(RaySet *s);
 

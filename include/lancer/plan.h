@@ -1,0 +1,93 @@
+/*
+ * plan.h - the render plan: how a scene is to be rendered, decided once,
+ * before the first ray.
+ *
+ *     Scene s;                                 ... scene_load ...
+ *     PlanOptions o = plan_options();          the scene's own settings
+ *     o.threads = 4;                           ... and the command line's
+ *     RenderPlan p;
+ *     char err[256];
+ *     if (plan_build(&p, &s, &o, err, sizeof err) != 0) ... err ...
+ *     Accel *a = accel_build(&s, p.variant, p.threads);
+ *     render_image(&p, a, NULL, &img, &stats);
+ *     plan_free(&p);
+ *
+ * The Scene is the world; the plan is everything else the renderer reads:
+ *
+ * - the settings: the scene file's image block (SceneImage), with each
+ *   option that is set in PlanOptions taking its place;
+ * - the coordinates: plan_build moves the scene by the options' scale and
+ *   translation, then, for the robust variant, so that the eye sits at the
+ *   origin (camera-relative rendering; the offset is kept in the plan)
+ *   unless the options ask for world coordinates;
+ * - the decisions derived from the scene: which solids the camera is
+ *   inside, whether any material lets light through or reflects, and how
+ *   each light's shadows are traced.
+ *
+ * The plan points into the scene, which must outlive it and must not
+ * change while it is used. shade.c and render.c read only the plan (and
+ * through it the scene) and the Accel.
+ */
+#ifndef LANCER_PLAN_H
+#define LANCER_PLAN_H
+
+#include <stddef.h>
+
+#include "lancer/scene.h"
+
+/* What the caller asks for; a zero (or NULL) field keeps the scene's own. */
+typedef struct {
+    int width, height; /* pixels, 1 to IMAGE_MAX_SIDE */
+    int spp;           /* 1 to SCENE_MAX_SPP */
+    int classic;       /* 1: the classic routines, whatever the scene says */
+    int threads;       /* render and build threads; 0 means 1 */
+    int world;         /* 1: keep the scene's coordinates, no camera-relative move
+                        * (for callers that trace rays of their own in them) */
+    int move;          /* 1: move the scene by p -> p*scale + translate first */
+    float scale;       /* > 0 */
+    Vec3 translate;
+} PlanOptions;
+
+/* Nesting beyond this many interiors is not tracked (deeper entries are
+ * dropped): far more than any real scene nests transparent solids. */
+#define PLAN_MAX_INTERIORS 16
+
+/* The ordered list of primitives a ray is inside, innermost last. */
+typedef struct {
+    int n;
+    int prim[PLAN_MAX_INTERIORS];
+} Interiors;
+
+/* How the shadows of one light are found. */
+typedef enum {
+    PLAN_SHADOW_NONE,    /* a shadowless light: no shadow rays */
+    PLAN_SHADOW_OPAQUE,  /* any hit blocks it: any-hit queries, in packets for a point light */
+    PLAN_SHADOW_FILTERED /* transparent surfaces filter it: each surface on the way is found */
+} PlanShadow;
+
+typedef struct {
+    const Scene *scene; /* the world, in the plan's coordinates */
+    int width, height, spp, max_depth, threads;
+    PrimVariant variant;
+    Vec3 offset;           /* added to the plan's coordinates, gives the scene's as moved by the options */
+    Interiors camera_in;   /* the solids the camera is inside, in scene order: where camera rays start */
+    int transparent;       /* some material lets light through (filter or transmit) */
+    int reflective;        /* some material reflects */
+    PlanShadow *shadow;    /* per light, scene->lights[i] */
+} RenderPlan;
+
+/* Options that keep every setting of the scene, on one thread. */
+PlanOptions plan_options(void);
+
+/* Builds the plan for scene s, moving s as described above. Returns 0, or
+ * -1 with a message in err: a setting out of range, a move that is not
+ * finite or makes an oriented box degenerate (s may then be partly
+ * moved: load it again), or no memory. On error p needs no plan_free. */
+int plan_build(RenderPlan *p, Scene *s, const PlanOptions *o, char *err, size_t errlen);
+
+void plan_free(RenderPlan *p);
+
+/* The solids of s that contain point q, in scene order. */
+void plan_interiors_at(const Scene *s, Vec3 q, Interiors *in);
+
+#endif

@@ -1,0 +1,61 @@
+/*
+ * cli.h - the command line's shared parts: the command table that main.c
+ * dispatches on, and the helpers every command uses. Only the command
+ * line prints or exits; the library returns messages instead.
+ *
+ * A command describes its options as a table of Opt, each naming a field
+ * of the command's own argument struct by its offset. main.c parses argv
+ * against the table into a zeroed struct (after the command's defaults),
+ * then calls run() with the struct and the positional arguments, so that
+ * no command parses options itself.
+ *
+ * Exit status: 0 success, 1 an error in the input or while writing, 2 a
+ * usage error.
+ */
+#ifndef LANCER_CLI_H
+#define LANCER_CLI_H
+
+#include <stddef.h>
+
+#define LANCER_VERSION "0.1.0"
+
+typedef enum { OPT_FLAG, OPT_STRING, OPT_INT, OPT_DOUBLE } OptKind;
+
+typedef struct {
+    const char *name, *alias; /* "--output", "-o" */
+    OptKind kind;
+    size_t offset; /* of an int (flags, ints), a const char * or a double in the args */
+    int lo, hi;    /* the range of an int */
+} Opt;
+
+typedef struct {
+    const char *name;  /* "render" */
+    const char *usage; /* the --help text */
+    const Opt *opts;
+    int nopts;
+    int maxpos;       /* positional arguments, at most */
+    size_t args_size; /* the command's argument struct */
+    void (*defaults)(void *args); /* NULL: all zero */
+    int (*run)(void *args, const char **pos, int npos);
+} Command;
+
+extern const Command cmd_render, cmd_export_pov, cmd_diff, cmd_bench;
+
+/* Prints "lancer CMD: message" and a pointer to --help; returns 2. */
+int cli_usage_error(const char *cmd, const char *fmt, ...)
+#ifdef __GNUC__
+    __attribute__((format(printf, 2, 3)))
+#endif
+    ;
+
+/* The whole number s, if it is one from lo to hi: 0, else -1 (*out kept). */
+int cli_parse_int(const char *s, int lo, int hi, int *out);
+
+/* "out/<basename of path without extension><ext>" into buf, creating out/.
+ * Returns 0, or -1 after a message. */
+int cli_default_output(const char *path, const char *ext, char *buf, size_t len);
+
+/* 0 when path (NULL: none) can be written, else -1 after a message. */
+int cli_check_output(const char *path);
+
+#endif

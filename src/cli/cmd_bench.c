@@ -1,0 +1,207 @@
+/*
+ * cmd_bench.c - lancer bench: benchmark rays for a mesh, timed ray casting,
+ * and the BVH's build series.
+ */
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "bench.h"
+#include "cli.h"
+#include "clock.h"
+#include "lancer/afile.h"
+#include "lancer/image.h"
+#include "lancer/rayfile.h"
+
+static const char usage[] =
+    "usage: lancer bench --gen-rays MESH OUTDIR [W H]\n"
+    "       lancer bench --mesh MESH --rays FILE --kind closest|any [--passes N] [--classic]\n"
+    "       lancer bench --build-series MESH [--max-mtris M]\n"
+    "\n"
+    "The first form writes OUTDIR/primary.rays, shadow.rays and diffuse.rays\n"
+    "for a W x H camera framing the mesh (default 1024 x 1024): one ray per\n"
+    "pixel; from each hit, one to a point light and one in a random direction\n"
+    "of the hemisphere, shuffled. Ray files: \"LNCRAYS1\", a uint64 count, and\n"
+    "per ray 8 little-endian float32 ox oy oz dx dy dz tmin tmax.\n"
+    "\n"
+    "The second builds the BVH over the mesh, traces every ray of FILE on one\n"
+    "thread (closest hit, or any hit) for one warm-up and N timed passes\n"
+    "(default 3), and prints one line:\n"
+    "  mrays=<best Mrays/s> hits=<hits> sumt=<sum of t over hits> build_ms=<build> rays=<count>\n"
+    "\n"
+    "The third builds the BVH over the mesh, then splits every triangle in two\n"
+    "and builds again, up to M million triangles (default 10), printing build\n"
+    "times on 1 and 2 threads and memory per triangle for each size.\n"
+    "\n"
+    "options:\n"
+    "      --passes N   timed passes (default 3)\n"
+    "      --classic    the classic intersection routines, not the robust ones\n"
+    "      --threads N  threads for the BVH build (default 1)\n"
+    "  -h, --help       show this help\n";
+
+typedef struct {
+    const char *gen, *mesh, *rays, *kind, *series;
+    int passes, classic, threads, max_mtris;
+} Args;
+
+static void defaults(void *args)
+{
+    Args *a = args;
+    a->passes = 3;
+    a->threads = 1;
+    a->max_mtris = 10;
+}
+
+/* A scene of the mesh's flat triangles, one plain material. */
+static int mesh_scene(const char *path, Scene *s)
+{
+    Mesh m;
+    char err[1024];
+    memset(s, 0, sizeof *s);
+    if (mesh_load(path, &m, err, sizeof err) != 0) {
+        fprintf(stderr, "%s\n", err);
+        return -1;
+    }
+    int rc = scene_from_mesh(s, &m);
+    mesh_free(&m);
+    if (rc != 0)
+        fprintf(stderr, "lancer: %s: out of memory\n", path);
+    return rc;
+}
+
+static int write_rays(const char *dir, const char *name, const RaySet *set)
+{
+    char path[AFILE_PATH_MAX], err[512];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    if (rayfile_write(path, set->rays, set->n, err, sizeof err) != 0) {
+        fprintf(stderr, "lancer: %s\n", err);
+        return -1;
+    }
+    return 0;
+}
+
+/* Build time and memory of the BVH as the mesh is split again and again
+ * (scene_split_triangles) up to max_tris. */
+static int build_series(Scene *s, PrimVariant v, long max_tris)
+{
+    printf("| triangles | build ms, 1 thread | build ms, 2 threads | ns per triangle (1 thread) | BVH bytes per "
+           "triangle |\n| --- | --- | --- | --- | --- |\n");
+    for (;;) {
+        double ms[2];
+        size_t bytes = 0;
+        for (int t = 0; t < 2; t++) {
+            double t0 = clock_now();
+            Accel *acc = accel_build(s, v, t + 1);
+            if (!acc) {
+                fprintf(stderr, "lancer: out of memory building the BVH\n");
+                return 1;
+            }
+            ms[t] = 1e3 * (clock_now() - t0);
+            bytes = accel_bytes(acc);
+            accel_free(acc);
+        }
+        printf("| %d | %.1f | %.1f | %.0f | %.1f |\n", s->nprims, ms[0], ms[1], 1e6 * ms[0] / s->nprims,
+               (double)bytes / s->nprims);
+        fflush(stdout);
+        if (2L * s->nprims > max_tris)
+            return 0;
+        if (scene_split_triangles(s) != 0) {
+            fprintf(stderr, "lancer: out of memory splitting the mesh\n");
+            return 1;
+        }
+    }
+}
+
+/* --gen-rays: the three ray files of a w x h camera. */
+static int gen_rays(const Scene *s, const Accel *acc, const char *mesh, const char *dir, int w, int h)
+{
+    RaySet p, sh, d;
+    if (bench_gen_rays(s, acc, w, h, 1, &p, &sh, &d) != 0) {
+        fprintf(stderr, "lancer: %s: no triangles to frame, or out of memory\n", mesh);
+        return 1;
+    }
+    int rc = 0;
+    if (write_rays(dir, "primary.rays", &p) || write_rays(dir, "shadow.rays", &sh) ||
+        write_rays(dir, "diffuse.rays", &d))
+        rc = 1;
+    else
+        printf("primary=%zu shadow=%zu diffuse=%zu\n", p.n, sh.n, d.n);
+    bench_free(&p);
+    bench_free(&sh);
+    bench_free(&d);
+    return rc;
+}
+
+/* --mesh: timed passes over a ray file. */
+static int trace_rays(const Accel *acc, const Args *a, double build_ms)
+{
+    Ray *r;
+    size_t n;
+    char err[512];
+    if (rayfile_read(a->rays, &r, &n, err, sizeof err) != 0) {
+        fprintf(stderr, "lancer: %s\n", err);
+        return 1;
+    }
+    BenchResult res;
+    bench_trace(acc, r, n, !strcmp(a->kind, "any"), a->passes, &res);
+    printf("mrays=%.3f hits=%zu sumt=%.6g build_ms=%.2f rays=%zu\n", res.mrays, res.hits, res.sumt, build_ms, n);
+    free(r);
+    return 0;
+}
+
+static int run(void *args, const char **pos, int npos)
+{
+    Args *a = args;
+    PrimVariant v = a->classic ? PRIM_CLASSIC : PRIM_ROBUST;
+    Scene s;
+    int rc;
+    if (a->series) {
+        if (npos != 0)
+            return cli_usage_error("bench", "--build-series takes no other arguments");
+        if (mesh_scene(a->series, &s) != 0)
+            return 1;
+        rc = build_series(&s, v, 1000000L * a->max_mtris);
+        scene_free(&s);
+        return rc;
+    }
+    if (!a->gen == !a->mesh)
+        return cli_usage_error("bench", "give either --gen-rays MESH OUTDIR or --mesh MESH --rays FILE --kind K");
+    int w = 1024, h = 1024;
+    if (a->gen && (npos != 1 && npos != 3))
+        return cli_usage_error("bench", "--gen-rays needs MESH OUTDIR [W H]");
+    if (a->gen && npos == 3 &&
+        (cli_parse_int(pos[1], 1, IMAGE_MAX_SIDE, &w) != 0 || cli_parse_int(pos[2], 1, IMAGE_MAX_SIDE, &h) != 0))
+        return cli_usage_error("bench", "W and H must be whole numbers from 1 to %d", IMAGE_MAX_SIDE);
+    if (a->mesh &&
+        (!a->rays || !a->kind || (strcmp(a->kind, "closest") != 0 && strcmp(a->kind, "any") != 0) || npos != 0))
+        return cli_usage_error("bench", "--mesh needs --rays FILE and --kind closest or any");
+    if (mesh_scene(a->gen ? a->gen : a->mesh, &s) != 0)
+        return 1;
+    double t0 = clock_now();
+    Accel *acc = accel_build(&s, v, a->threads);
+    if (!acc) {
+        fprintf(stderr, "lancer: out of memory building the BVH\n");
+        scene_free(&s);
+        return 1;
+    }
+    double build_ms = 1e3 * (clock_now() - t0);
+    rc = a->gen ? gen_rays(&s, acc, a->gen, pos[0], w, h) : trace_rays(acc, a, build_ms);
+    accel_free(acc);
+    scene_free(&s);
+    return rc;
+}
+
+static const Opt opts[] = {
+    {"--gen-rays", NULL, OPT_STRING, offsetof(Args, gen), 0, 0},
+    {"--mesh", NULL, OPT_STRING, offsetof(Args, mesh), 0, 0},
+    {"--rays", NULL, OPT_STRING, offsetof(Args, rays), 0, 0},
+    {"--kind", NULL, OPT_STRING, offsetof(Args, kind), 0, 0},
+    {"--passes", NULL, OPT_INT, offsetof(Args, passes), 1, 1000},
+    {"--classic", NULL, OPT_FLAG, offsetof(Args, classic), 0, 0},
+    {"--threads", NULL, OPT_INT, offsetof(Args, threads), 1, 1024},
+    {"--build-series", NULL, OPT_STRING, offsetof(Args, series), 0, 0},
+    {"--max-mtris", NULL, OPT_INT, offsetof(Args, max_mtris), 1, 100},
+};
+
+const Command cmd_bench = {"bench", usage, opts, (int)(sizeof opts / sizeof opts[0]), 3, sizeof(Args), defaults, run};

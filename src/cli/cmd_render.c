@@ -1,0 +1,278 @@
+/*
+ * cmd_render.c - lancer render: a scene file to an EXR image, with an
+ * optional PNG preview and statistics.
+ */
+#include <stddef.h>
+#include <stdio.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "cli.h"
+#include "clock.h"
+#include "lancer/afile.h"
+#include "lancer/render.h"
+
+static const char usage[] =
+    "usage: lancer render SCENE [options]\n"
+    "\n"
+    "Renders SCENE (lancer's scene format, see README.md) to a linear OpenEXR\n"
+    "image. Outputs are written to a temporary file and renamed into place, so\n"
+    "an existing file is only replaced by a complete new one.\n"
+    "\n"
+    "options:\n"
+    "  -o, --output OUT.exr  the EXR to write (default: out/<scene name>.exr)\n"
+    "      --png OUT.png     also write an 8-bit sRGB PNG preview\n"
+    "      --width W         image width in pixels (overrides the scene)\n"
+    "      --height H        image height in pixels (overrides the scene)\n"
+    "      --spp K           K x K samples per pixel, box-filtered (overrides the scene)\n"
+    "      --threads N       render threads (default: every core)\n"
+    "      --float           write 32-bit float channels (default: half)\n"
+    "      --classic         use the classic intersection routines instead of the\n"
+    "                        robust ones (to compare their cost and error)\n"
+    "      --scale S         scale the whole scene, camera and lights included\n"
+    "      --translate X,Y,Z then move it: the picture should not change\n"
+    "      --stats FILE.json write the render plan, timings and ray counts as JSON\n"
+    "  -q, --quiet           no progress bar or summary on stderr\n"
+    "  -h, --help            show this help\n";
+
+typedef struct {
+    const char *exr, *png, *stats;
+    int width, height, spp, threads, quiet, use_float, classic;
+    double scale;
+    const char *translate;
+} Args;
+
+static void defaults(void *args)
+{
+    Args *a = args;
+    long cores = sysconf(_SC_NPROCESSORS_ONLN);
+    a->threads = cores > 0 ? (int)(cores < 1024 ? cores : 1024) : 1;
+}
+
+typedef struct {
+    int last_percent, shown;
+    double start;
+} Progress;
+
+/* Seconds a render must run before the bar appears: short renders stay quiet. */
+#define PROGRESS_DELAY 0.3
+
+static void on_progress(void *ctx, int done, int total)
+{
+    Progress *p = ctx;
+    int percent = (int)(100LL * done / total);
+    if (percent == p->last_percent)
+        return;
+    if (!p->shown && clock_now() - p->start < PROGRESS_DELAY)
+        return;
+    p->shown = 1;
+    p->last_percent = percent;
+    char bar[41];
+    int filled = percent * 40 / 100;
+    for (int i = 0; i < 40; i++)
+        bar[i] = i < filled ? '#' : '.';
+    bar[40] = '\0';
+    double el = clock_now() - p->start;
+    double eta = done > 0 ? el * (total - done) / done : 0.0;
+    fprintf(stderr, "\rrendering [%s] %3d%%  %.1fs elapsed, %.1fs left ", bar, percent, el, eta);
+    if (done == total)
+        fputc('\n', stderr);
+}
+
+/* Appends s to f as a JSON string. */
+static void json_string(FILE *f, const char *s)
+{
+    fputc('"', f);
+    for (; *s; s++) {
+        unsigned char c = (unsigned char)*s;
+        if (c == '"' || c == '\\')
+            fprintf(f, "\\%c", c);
+        else if (c < 0x20)
+            fprintf(f, "\\u%04x", c);
+        else
+            fputc(c, f);
+    }
+    fputc('"', f);
+}
+
+static const char *json_bool(int b) { return b ? "true" : "false"; }
+
+/* The plan as a JSON object, what the renderer decided to do. */
+static void write_plan(FILE *f, const RenderPlan *p)
+{
+    static const char *const shadows[] = {"none", "opaque", "filtered"};
+    const Scene *s = p->scene;
+    fprintf(f,
+            "{\"width\": %d, \"height\": %d, \"spp\": %d, \"max_depth\": %d, \"threads\": %d, "
+            "\"intersect\": \"%s\",\n",
+            p->width, p->height, p->spp, p->max_depth, p->threads, p->variant == PRIM_CLASSIC ? "classic" : "robust");
+    fprintf(f, "           \"camera_offset\": [%.9g, %.9g, %.9g], \"camera_inside\": [", (double)p->offset.x,
+            (double)p->offset.y, (double)p->offset.z);
+    for (int i = 0; i < p->camera_in.n; i++)
+        fprintf(f, "%s%d", i ? ", " : "", p->camera_in.prim[i]);
+    fprintf(f, "],\n           \"transparent\": %s, \"reflective\": %s,\n           \"lights\": [",
+            json_bool(p->transparent), json_bool(p->reflective));
+    for (int i = 0; i < s->nlights; i++)
+        fprintf(f, "%s{\"shadows\": \"%s\", \"samples\": %d}", i ? ", " : "", shadows[p->shadow[i]],
+                s->lights[i].area_n1 * s->lights[i].area_n2);
+    fprintf(f, "]}");
+}
+
+static int write_stats(const char *path, const char *scene, const RenderPlan *p, const double phase[4],
+                       const RayStats *st)
+{
+    char tmp[AFILE_PATH_MAX], err[512];
+    FILE *f = afile_fopen(path, tmp, sizeof tmp, err, sizeof err);
+    if (!f) {
+        fprintf(stderr, "lancer: %s\n", err);
+        return -1;
+    }
+    fprintf(f, "{\n  \"scene\": ");
+    json_string(f, scene);
+    fprintf(f, ",\n  \"plan\": ");
+    write_plan(f, p);
+    fprintf(f, ",\n  \"primitives\": %d,\n  \"degenerate_triangles\": %d,\n", p->scene->nprims,
+            p->scene->degenerate);
+    fprintf(f, "  \"phases_s\": {\"parse\": %.6f, \"build\": %.6f, \"render\": %.6f, \"write\": %.6f},\n",
+            phase[0], phase[1], phase[2], phase[3]);
+    fprintf(f,
+            "  \"rays\": {\"camera\": %llu, \"shadow\": %llu, \"reflection\": %llu, \"refraction\": %llu, "
+            "\"total\": %llu},\n",
+            st->camera, st->shadow, st->reflection, st->refraction,
+            st->camera + st->shadow + st->reflection + st->refraction);
+    fprintf(f, "  \"intersection_tests\": %llu\n}\n", st->isect_tests);
+    if (afile_fclose(f, tmp, path, err, sizeof err) != 0) {
+        fprintf(stderr, "lancer: %s\n", err);
+        return -1;
+    }
+    return 0;
+}
+
+/* The plan's options from the command line. Returns 0, or 2 after a usage
+ * message. */
+static int plan_options_of(const Args *a, PlanOptions *o)
+{
+    *o = plan_options();
+    o->width = a->width;
+    o->height = a->height;
+    o->spp = a->spp;
+    o->classic = a->classic;
+    o->threads = a->threads;
+    if (a->scale > 0.0 || a->translate) {
+        char tail;
+        o->move = 1;
+        o->scale = a->scale > 0.0 ? (float)a->scale : 1.0f;
+        if (a->translate && sscanf(a->translate, "%f,%f,%f%c", &o->translate.x, &o->translate.y,
+                                   &o->translate.z, &tail) != 3)
+            return cli_usage_error("render", "--translate needs X,Y,Z, not '%s'", a->translate);
+    }
+    return 0;
+}
+
+static int run(void *args, const char **pos, int npos)
+{
+    Args *a = args;
+    if (npos == 0)
+        return cli_usage_error("render", "missing SCENE");
+    const char *scene = pos[0];
+    PlanOptions po;
+    int rc = plan_options_of(a, &po);
+    if (rc)
+        return rc;
+
+    char exr_default[AFILE_PATH_MAX], err[1024];
+    double phase[4] = {0, 0, 0, 0}, t0 = clock_now();
+    Scene s;
+    if (scene_load(scene, &s, err, sizeof err) != 0) {
+        fprintf(stderr, "%s\n", err);
+        return 1;
+    }
+    phase[0] = clock_now() - t0;
+    RenderPlan plan;
+    if (plan_build(&plan, &s, &po, err, sizeof err) != 0) {
+        fprintf(stderr, "lancer: %s: %s\n", scene, err);
+        scene_free(&s);
+        return 1;
+    }
+    if (!a->exr) {
+        if (cli_default_output(scene, ".exr", exr_default, sizeof exr_default) != 0) {
+            plan_free(&plan);
+            scene_free(&s);
+            return 1;
+        }
+        a->exr = exr_default;
+    }
+    /* Fail on an unwritable output before spending time on the render. */
+    if (cli_check_output(a->exr) || cli_check_output(a->png) || cli_check_output(a->stats)) {
+        plan_free(&plan);
+        scene_free(&s);
+        return 1;
+    }
+
+    Image img;
+    RayStats st = {0, 0, 0, 0, 0};
+    if (image_init(&img, plan.width, plan.height) != 0) {
+        fprintf(stderr, "lancer: out of memory for a %dx%d image\n", plan.width, plan.height);
+        plan_free(&plan);
+        scene_free(&s);
+        return 1;
+    }
+    t0 = clock_now();
+    Accel *acc = accel_build(&s, plan.variant, plan.threads);
+    if (!acc) {
+        fprintf(stderr, "lancer: out of memory building the acceleration structure\n");
+        image_free(&img);
+        plan_free(&plan);
+        scene_free(&s);
+        return 1;
+    }
+    phase[1] = clock_now() - t0;
+
+    Progress prog = {-1, 0, clock_now()};
+    RenderOptions opt = {NULL, &prog};
+    if (!a->quiet && isatty(STDERR_FILENO))
+        opt.progress = on_progress;
+    t0 = clock_now();
+    rc = render_image(&plan, acc, &opt, &img, &st);
+    phase[2] = clock_now() - t0;
+    if (rc != 0)
+        fprintf(stderr, "lancer: could not set up the render threads\n");
+
+    t0 = clock_now();
+    if (rc == 0 && image_write_exr(&img, a->exr, a->use_float ? IMAGE_FLOAT : IMAGE_HALF, err, sizeof err) != 0) {
+        fprintf(stderr, "lancer: %s\n", err);
+        rc = 1;
+    }
+    if (rc == 0 && a->png && image_write_png(&img, a->png, err, sizeof err) != 0) {
+        fprintf(stderr, "lancer: %s\n", err);
+        rc = 1;
+    }
+    phase[3] = clock_now() - t0;
+    if (rc == 0 && a->stats && write_stats(a->stats, scene, &plan, phase, &st) != 0)
+        rc = 1;
+    if (rc == 0 && !a->quiet)
+        fprintf(stderr, "lancer: wrote %s%s%s (%dx%d, %d thread%s, render %.3f s)\n", a->exr, a->png ? " and " : "",
+                a->png ? a->png : "", plan.width, plan.height, plan.threads, plan.threads > 1 ? "s" : "", phase[2]);
+    accel_free(acc);
+    image_free(&img);
+    plan_free(&plan);
+    scene_free(&s);
+    return rc ? 1 : 0;
+}
+
+static const Opt opts[] = {
+    {"--output", "-o", OPT_STRING, offsetof(Args, exr), 0, 0},
+    {"--png", NULL, OPT_STRING, offsetof(Args, png), 0, 0},
+    {"--stats", NULL, OPT_STRING, offsetof(Args, stats), 0, 0},
+    {"--width", NULL, OPT_INT, offsetof(Args, width), 1, IMAGE_MAX_SIDE},
+    {"--height", NULL, OPT_INT, offsetof(Args, height), 1, IMAGE_MAX_SIDE},
+    {"--spp", NULL, OPT_INT, offsetof(Args, spp), 1, SCENE_MAX_SPP},
+    {"--threads", NULL, OPT_INT, offsetof(Args, threads), 1, 1024},
+    {"--float", NULL, OPT_FLAG, offsetof(Args, use_float), 0, 0},
+    {"--classic", NULL, OPT_FLAG, offsetof(Args, classic), 0, 0},
+    {"--scale", NULL, OPT_DOUBLE, offsetof(Args, scale), 0, 0},
+    {"--translate", NULL, OPT_STRING, offsetof(Args, translate), 0, 0},
+    {"--quiet", "-q", OPT_FLAG, offsetof(Args, quiet), 0, 0},
+};
+
+const Command cmd_render = {"render", usage, opts, (int)(sizeof opts / sizeof opts[0]), 1, sizeof(Args), defaults, run};
