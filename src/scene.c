@@ -25,6 +25,7 @@
 
 #include "lancer/afile.h"
 #include "lancer/image.h"
+#include "lex.h"
 
 typedef struct {
     int line, col;
@@ -52,23 +53,19 @@ typedef struct {
     int have_image, have_camera;
 } Parser;
 
-static int fail(Parser *P, Loc loc, const char *fmt, ...)
+LEX_PRINTF(3, 4) static int fail(Parser *P, Loc loc, const char *fmt, ...)
 {
-    int n = snprintf(P->err, P->errlen, "%s:%d:%d: ", P->name, loc.line, loc.col);
-    if (n >= 0 && (size_t)n < P->errlen) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(P->err + n, P->errlen - (size_t)n, fmt, ap);
-        va_end(ap);
-    }
+    va_list ap;
+    va_start(ap, fmt);
+    lex_verror(P->err, P->errlen, P->name, loc.line, loc.col, fmt, ap);
+    va_end(ap);
     return -1;
 }
 
 /* ---- lexer ---- */
 
 static int is_ident_start(int c) { return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || c == '_'; }
-static int is_digit(int c) { return c >= '0' && c <= '9'; }
-static int is_ident_char(int c) { return is_ident_start(c) || is_digit(c); }
+static int is_ident_char(int c) { return is_ident_start(c) || lex_is_digit(c); }
 
 static void advance(Parser *P, size_t n)
 {
@@ -81,35 +78,6 @@ static void advance(Parser *P, size_t n)
         }
         P->p++;
     }
-}
-
-/* Length of a number at s: [+-] digits [. digits] [e [+-] digits], or 0. */
-static size_t number_len(const char *s, const char *end)
-{
-    const char *q = s;
-    size_t digits = 0;
-    if (q < end && (*q == '+' || *q == '-'))
-        q++;
-    while (q < end && is_digit(*q))
-        q++, digits++;
-    if (q < end && *q == '.') {
-        q++;
-        while (q < end && is_digit(*q))
-            q++, digits++;
-    }
-    if (digits == 0)
-        return 0;
-    if (q < end && (*q == 'e' || *q == 'E')) {
-        const char *e = q + 1;
-        if (e < end && (*e == '+' || *e == '-'))
-            e++;
-        if (e < end && is_digit(*e)) {
-            while (e < end && is_digit(*e))
-                e++;
-            q = e;
-        }
-    }
-    return (size_t)(q - s);
 }
 
 static int next(Parser *P)
@@ -148,7 +116,7 @@ static int next(Parser *P)
         advance(P, n);
         return 0;
     }
-    size_t n = number_len(P->p, P->end);
+    size_t n = lex_number_len(P->p, P->end);
     if (n > 0) {
         size_t m = n;
         /* "1.2.3", "3x" and "1-2" are typos, not a number and something after it. */
@@ -191,7 +159,8 @@ static int next(Parser *P)
 
 static int tok_is(const Token *t, const char *word)
 {
-    return t->kind == TOK_IDENT && t->len == strlen(word) && memcmp(t->start, word, t->len) == 0;
+    LexTok w = {t->start, t->len};
+    return t->kind == TOK_IDENT && lex_tok_is(w, word);
 }
 
 /* A quoted description of the current token, for messages. */

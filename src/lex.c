@@ -1,0 +1,227 @@
+/*
+ * lex.c - the text reading that the scene parser and the mesh readers
+ * share (see lex.h).
+ */
+#include "lex.h"
+
+#include <float.h>
+#include <limits.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+/* ---- lines, tokens and errors ---- */
+
+int lex_verror(char *err, size_t errlen, const char *name, long line, long col, const char *fmt, va_list ap)
+{
+    if (errlen == 0)
+        return -1;
+    int n = col > 0 ? snprintf(err, errlen, "%s:%ld:%ld: ", name, line, col) : snprintf(err, errlen, "%s:%ld: ", name, line);
+    if (n >= 0 && (size_t)n < errlen)
+        vsnprintf(err + n, errlen - (size_t)n, fmt, ap);
+    return -1;
+}
+
+int lex_fail(const LexReader *R, long line, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    lex_verror(R->err, R->errlen, R->name, line, 0, fmt, ap);
+    va_end(ap);
+    return -1;
+}
+
+int lex_fail_at(const LexReader *R, long line, size_t off, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    lex_verror(R->err, R->errlen, R->name, line, 0, fmt, ap);
+    va_end(ap);
+    if (R->errlen > 0) {
+        size_t n = strlen(R->err);
+        if (n + 1 < R->errlen)
+            snprintf(R->err + n, R->errlen - n, " at byte offset %zu", off);
+    }
+    return -1;
+}
+
+long lex_eof_line(const LexReader *R) { return R->line > 0 ? R->line : 1; }
+
+int lex_next_line(LexReader *R, const char **ls, const char **le)
+{
+    if (R->p >= R->end)
+        return 0;
+    const char *s = R->p;
+    const char *nl = memchr(s, '\n', (size_t)(R->end - s));
+    const char *e = nl ? nl : R->end;
+    R->p = nl ? nl + 1 : R->end;
+    R->line++;
+    if (e > s && e[-1] == '\r')
+        e--;
+    *ls = s;
+    *le = e;
+    return 1;
+}
+
+int lex_next_tok(const char **q, const char *e, LexTok *t)
+{
+    const char *p = *q;
+    while (p < e && lex_is_blank(*p))
+        p++;
+    if (p >= e) {
+        *q = p;
+        return 0;
+    }
+    t->s = p;
+    while (p < e && !lex_is_blank(*p))
+        p++;
+    t->len = (size_t)(p - t->s);
+    *q = p;
+    return 1;
+}
+
+int lex_split(const char *s, const char *e, LexTok *tk, int max)
+{
+    int n = 0;
+    LexTok t;
+    while (lex_next_tok(&s, e, &t)) {
+        if (n < max)
+            tk[n] = t;
+        if (n < INT_MAX)
+            n++;
+    }
+    return n;
+}
+
+int lex_next_text_line(LexReader *R, const char **ls, const char **le, int comments)
+{
+    const char *s, *e;
+    while (lex_next_line(R, &s, &e)) {
+        if (comments) {
+            const char *h = memchr(s, '#', (size_t)(e - s));
+            if (h)
+                e = h;
+        }
+        const char *q = s;
+        LexTok t;
+        if (lex_next_tok(&q, e, &t)) {
+            *ls = s;
+            *le = e;
+            return 1;
+        }
+    }
+    return 0;
+}
+
+/* t for a message: at most 40 bytes, bytes other than printable ASCII as '?'. */
+const char *lex_quote(LexTok t, char buf[LEX_QUOTE_LEN])
+{
+    size_t n = t.len > 40 ? 40 : t.len, i;
+    for (i = 0; i < n; i++) {
+        unsigned char c = (unsigned char)t.s[i];
+        buf[i] = c >= 0x20 && c < 0x7f ? (char)c : '?';
+    }
+    if (n < t.len)
+        memcpy(buf + i, "...", 3), i += 3;
+    buf[i] = '\0';
+    return buf;
+}
+
+/* ---- numbers ---- */
+
+size_t lex_number_len(const char *s, const char *end)
+{
+    const char *q = s;
+    size_t digits = 0;
+    if (q < end && (*q == '+' || *q == '-'))
+        q++;
+    while (q < end && lex_is_digit(*q))
+        q++, digits++;
+    if (q < end && *q == '.') {
+        q++;
+        while (q < end && lex_is_digit(*q))
+            q++, digits++;
+    }
+    if (digits == 0)
+        return 0;
+    if (q < end && (*q == 'e' || *q == 'E')) {
+        const char *e = q + 1;
+        if (e < end && (*e == '+' || *e == '-'))
+            e++;
+        if (e < end && lex_is_digit(*e)) {
+            while (e < end && lex_is_digit(*e))
+                e++;
+            q = e;
+        }
+    }
+    return (size_t)(q - s);
+}
+
+int lex_is_decimal(LexTok t) { return t.len > 0 && lex_number_len(t.s, t.s + t.len) == t.len; }
+
+int lex_is_nonfinite_word(LexTok t)
+{
+    static const char *const words[] = {"nan", "inf", "infinity"};
+    size_t i = t.len > 0 && (t.s[0] == '+' || t.s[0] == '-');
+    for (size_t w = 0; w < 3; w++) {
+        size_t n = strlen(words[w]), k;
+        if (t.len - i != n)
+            continue;
+        for (k = 0; k < n; k++)
+            if ((t.s[i + k] | 0x20) != words[w][k])
+                break;
+        if (k == n)
+            return 1;
+    }
+    return 0;
+}
+
+int lex_parse_int(LexTok t, long long *out)
+{
+    size_t i = 0;
+    int neg = 0;
+    long long v = 0;
+    if (i < t.len && (t.s[i] == '+' || t.s[i] == '-'))
+        neg = t.s[i++] == '-';
+    if (i == t.len)
+        return -1;
+    for (; i < t.len; i++) {
+        if (!lex_is_digit(t.s[i]))
+            return -1;
+        v = v > LEX_INT_SAT / 10 ? LEX_INT_SAT : v * 10 + (t.s[i] - '0');
+    }
+    if (v > LEX_INT_SAT)
+        v = LEX_INT_SAT;
+    *out = neg ? -v : v;
+    return 0;
+}
+
+int lex_to_float(double d, float *f)
+{
+    /* Values below FLT_MAX + half an ulp round to FLT_MAX; the halfway point
+     * rounds to even, which is infinity (FLT_MAX's significand is odd). */
+    const double lim = (double)FLT_MAX + 0x1p103;
+    if (isnan(d) || fabs(d) >= lim)
+        return -1;
+    *f = fabs(d) > FLT_MAX ? (d > 0 ? FLT_MAX : -FLT_MAX) : (float)d;
+    return 0;
+}
+
+int lex_parse_float(LexTok t, float *out)
+{
+    if (!lex_is_decimal(t))
+        return lex_is_nonfinite_word(t) ? LEX_NUM_NONFINITE : LEX_NUM_MALFORMED;
+    if (t.len > LEX_NUM_MAX)
+        return LEX_NUM_LONG;
+    char buf[LEX_NUM_MAX + 1], *end;
+    memcpy(buf, t.s, t.len);
+    buf[t.len] = '\0';
+    float f = strtof(buf, &end);
+    if (end != buf + t.len) /* a locale whose decimal point is not '.' */
+        return LEX_NUM_MALFORMED;
+    if (!isfinite(f))
+        return LEX_NUM_NONFINITE;
+    *out = f;
+    return LEX_NUM_OK;
+}
+
