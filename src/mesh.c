@@ -288,6 +288,9 @@ int mesh_parse(const char *name, const char *data, size_t len, MeshFormat fmt, M
     case MESH_PLY:
         rc = mesh_read_ply(&R, &B);
         break;
+    case MESH_STL:
+        rc = mesh_read_stl(&R, &B);
+        break;
     default:
         rc = lex_fail(&R, 1, "unknown mesh format %d", (int)fmt);
         break;
@@ -305,7 +308,7 @@ int mesh_format_from_path(const char *path, MeshFormat *fmt)
     static const struct {
         const char *ext;
         MeshFormat fmt;
-    } exts[] = {{"off", MESH_OFF}, {"obj", MESH_OBJ}, {"ply", MESH_PLY}};
+    } exts[] = {{"off", MESH_OFF}, {"obj", MESH_OBJ}, {"ply", MESH_PLY}, {"stl", MESH_STL}};
     const char *dot = strrchr(path, '.');
     if (!dot || strchr(dot, '/') || strlen(dot + 1) != 3)
         return -1;
@@ -329,7 +332,7 @@ int mesh_load(const char *path, Mesh *m, char *err, size_t errlen)
     size_t len;
     memset(m, 0, sizeof *m);
     if (mesh_format_from_path(path, &fmt) != 0) {
-        snprintf(err, errlen, "%s: unknown mesh format (the name must end in .off, .obj or .ply)", path);
+        snprintf(err, errlen, "%s: unknown mesh format (the name must end in .off, .obj, .ply or .stl)", path);
         return -1;
     }
     if (afile_read(path, MESH_MAX_BYTES, "meshes", &buf, &len, err, errlen) != 0)

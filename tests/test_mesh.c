@@ -1,12 +1,13 @@
 /*
- * Tests of the mesh readers (mesh.h): good OFF, OBJ and PLY (ASCII and
+ * Tests of the mesh readers (mesh.h): good OFF, OBJ, PLY and STL (ASCII and
  * binary) inputs with their exact counts, coordinates and fan triangulation;
  * every class of bad input, for each format, with its exact "file:line:
  * message"; exact dropping of zero-area triangles; angle-weighted vertex
  * normals; mesh_load on files the test writes into a temporary directory;
  * and every good input truncated at every byte and mutated byte by byte,
  * which must fail cleanly or load a valid mesh (under ASan, never read out
- * of bounds). Self-contained: needs no files from the tree.
+ * of bounds). Self-contained, but for CGAL's two STL files, which it reads
+ * from build/cgal-data when `make cgal-data` has put them there.
  */
 #include <stdarg.h>
 #include <stddef.h>
@@ -28,7 +29,11 @@
 
 /* ---- helpers ---- */
 
-static const char *fmt_name(MeshFormat f) { return f == MESH_OFF ? "t.off" : f == MESH_OBJ ? "t.obj" : "t.ply"; }
+static const char *fmt_name(MeshFormat f)
+{
+    static const char *const names[] = {"t.off", "t.obj", "t.ply", "t.stl"};
+    return names[f];
+}
 
 /* Parses len bytes copied to a heap block of exactly that size, so that ASan
  * sees any read past the end. */
@@ -539,6 +544,144 @@ static void test_ply_types(void **state)
     mesh_free(&m);
 }
 
+/* An ASCII STL tetrahedron, as writers vary it: keywords in any case,
+ * tokens split across lines, -0 beside 0, CRLF, and a second solid. */
+static const char stl_ascii[] = "solid tetra made by hand\n"
+                                "  facet normal 0 0 -1\n"
+                                "    outer loop\n"
+                                "      vertex 0 0 0\n"
+                                "      vertex 0 1 0\n"
+                                "      vertex 1 0 0\n"
+                                "    endloop\n"
+                                "  endfacet\n"
+                                "  FACET NORMAL 0 -1 0 OUTER LOOP VERTEX -0 0 0 VERTEX 1 0 0 VERTEX 0 0 1\r\n"
+                                "  ENDLOOP ENDFACET\n"
+                                "  facet normal nan 0 0\n" /* normals are not read */
+                                "    outer loop vertex 0 0 0 vertex\n0 0 1\nvertex 0 1 0 endloop\n"
+                                "  endfacet\n"
+                                "endsolid tetra\n"
+                                "solid second\n"
+                                "  facet normal 1 1 1 outer loop vertex 1 0 0 vertex 0 1 0 vertex 0 0 1 endloop endfacet\n"
+                                "endsolid\n";
+
+/* A binary STL of n triangles t (9 floats each), its header beginning with
+ * "solid" as many writers' do. */
+static void binary_stl(Buf *B, const float (*t)[9], uint32_t n)
+{
+    B->n = 0;
+    char header[80];
+    memset(header, ' ', sizeof header);
+    memcpy(header, "solid binary, all the same", 26);
+    put(B, header, sizeof header);
+    put_u32(B, n);
+    for (uint32_t i = 0; i < n; i++) {
+        for (int k = 0; k < 3; k++)
+            put_f32(B, 0); /* the facet normal */
+        for (int k = 0; k < 9; k++)
+            put_f32(B, t[i][k]);
+        put_u16(B, 0);
+    }
+}
+
+/* A unit square in z = 0 as two triangles sharing the diagonal. */
+static const float stl_square[2][9] = {{0, 0, 0, 1, 0, 0, 1, 1, 0}, {0, 0, 0, 1, 1, 0, 0, 1, 0}};
+
+static void test_stl(void **state)
+{
+    (void)state;
+    Mesh m;
+    parse_ok(MESH_STL, stl_ascii, &m);
+    assert_int_equal(m.nv, 4); /* twelve vertices welded into four */
+    assert_int_equal(m.nt, 4);
+    assert_null(m.n);
+    assert_vec(m.v[0], 0, 0, 0, 0);
+    assert_vec(m.v[1], 0, 1, 0, 0);
+    assert_vec(m.v[2], 1, 0, 0, 0);
+    assert_vec(m.v[3], 0, 0, 1, 0);
+    assert_tri(m.tri[0], 0, 1, 2);
+    assert_tri(m.tri[1], 0, 2, 3);
+    assert_tri(m.tri[2], 0, 3, 1);
+    assert_tri(m.tri[3], 2, 1, 3);
+    mesh_free(&m);
+
+    Buf B;
+    binary_stl(&B, stl_square, 2);
+    assert_int_equal(B.n, 84 + 2 * 50);
+    parse_ok_n(MESH_STL, (const char *)B.b, B.n, &m);
+    assert_int_equal(m.nv, 4);
+    assert_int_equal(m.nt, 2);
+    assert_vec(m.v[3], 0, 1, 0, 0);
+    assert_tri(m.tri[0], 0, 1, 2);
+    assert_tri(m.tri[1], 0, 2, 3);
+    mesh_free(&m);
+
+    /* no triangles: an empty mesh, binary or ASCII */
+    binary_stl(&B, stl_square, 0);
+    parse_ok_n(MESH_STL, (const char *)B.b, B.n, &m);
+    assert_int_equal(m.nt, 0);
+    assert_null(m.v);
+    mesh_free(&m);
+    parse_ok(MESH_STL, "solid nothing\nendsolid nothing\n", &m);
+    assert_int_equal(m.nt, 0);
+    mesh_free(&m);
+
+    /* a polygon of four vertices is fanned, as in the other formats */
+    parse_ok(MESH_STL, "solid q\nfacet normal 0 0 1 outer loop vertex 0 0 0 vertex 1 0 0 vertex 1 1 0 vertex 0 1 0 "
+                       "endloop endfacet endsolid q\n",
+             &m);
+    assert_int_equal(m.nt, 2);
+    assert_tri(m.tri[1], 0, 2, 3);
+    mesh_free(&m);
+}
+
+/* CGAL's STL files (Debian's libcgal-demo; `make cgal-data` unpacks them):
+ * pig.stl is binary, with its triangle count in its header, and
+ * sphere.stl a binary closed surface, which welding must close: every
+ * edge then belongs to exactly two triangles. */
+static void test_stl_cgal(void **state)
+{
+    (void)state;
+    static const char *const files[] = {"build/cgal-data/meshes/pig.stl", "build/cgal-data/meshes/sphere.stl"};
+    for (int f = 0; f < 2; f++) {
+        Mesh m;
+        char err[512];
+        FILE *fp = fopen(files[f], "rb");
+        if (!fp) {
+            print_message("%s is missing: run make cgal-data\n", files[f]);
+            skip();
+        }
+        unsigned char head[84];
+        assert_int_equal(fread(head, 1, 84, fp), 84);
+        fclose(fp);
+        uint32_t n = head[80] | (uint32_t)head[81] << 8 | (uint32_t)head[82] << 16 | (uint32_t)head[83] << 24;
+        if (mesh_load(files[f], &m, err, sizeof err) != 0)
+            fail_msg("%s", err);
+        assert_int_equal(mesh_validate(&m, err, sizeof err), 0);
+        assert_int_equal(m.nt + m.degenerate, (int)n);
+        assert_true(m.nv < 3 * m.nt / 2); /* shared: about half as many vertices as triangles */
+        if (f == 1) { /* each directed edge once, and its reverse once */
+            int ne = 3 * m.nt, *key = malloc(sizeof(int) * 2 * (size_t)ne);
+            assert_non_null(key);
+            for (int i = 0; i < m.nt; i++)
+                for (int k = 0; k < 3; k++) {
+                    key[2 * (3 * i + k)] = m.tri[i][k];
+                    key[2 * (3 * i + k) + 1] = m.tri[i][(k + 1) % 3];
+                }
+            for (int e = 0; e < ne; e++) {
+                int a = key[2 * e], b = key[2 * e + 1], same = 0, rev = 0;
+                for (int g = 0; g < ne; g++) {
+                    same += key[2 * g] == a && key[2 * g + 1] == b;
+                    rev += key[2 * g] == b && key[2 * g + 1] == a;
+                }
+                assert_int_equal(same, 1);
+                assert_int_equal(rev, 1);
+            }
+            free(key);
+        }
+        mesh_free(&m);
+    }
+}
+
 /* ---- degenerate triangles ---- */
 
 static void test_degenerate(void **state)
@@ -839,6 +982,42 @@ static const BadCase bad_cases[] = {
     BAD("obj unknown statement", MESH_OBJ, "v 0 0 0\n3 0 1 2\n", "t.obj:2: unknown statement '3'"),
     BAD("obj NUL byte", MESH_OBJ, "v 0 0 0\n\0 1 2\n", "t.obj:2: unknown statement '?'"),
 
+    /* ---- STL, ASCII ---- */
+    BAD("stl empty", MESH_STL, "", "t.stl:1: not an STL file: 0 bytes, and no 'solid' for ASCII STL (binary STL "
+                                   "takes at least 84 bytes)"),
+    BAD("stl not stl", MESH_STL, "OFF\n3 1 0\n", "t.stl:1: not an STL file: 10 bytes, and no 'solid' for ASCII STL "
+                                                 "(binary STL takes at least 84 bytes)"),
+    BAD("stl no endsolid", MESH_STL, "solid a\nfacet normal 0 0 1 outer loop vertex 0 0 0 vertex 1 0 0 vertex 0 1 0\n"
+                                     "endloop endfacet\n",
+        "t.stl:3: file ends before 'endsolid'"),
+    BAD("stl no facet", MESH_STL, "solid a\nfacets normal 0 0 1\n",
+        "t.stl:2: expected 'facet' or 'endsolid', got 'facets'"),
+    BAD("stl no normal", MESH_STL, "solid a\nfacet outer loop\n", "t.stl:2: expected 'normal' after 'facet', got 'outer'"),
+    BAD("stl short normal", MESH_STL, "solid a\nfacet normal 0 0 outer loop\n", "t.stl:2: malformed number 'outer'"),
+    BAD("stl no loop", MESH_STL, "solid a\nfacet normal 0 0 1 outer\nvertex 0 0 0\n",
+        "t.stl:3: expected 'loop' after 'outer', got 'vertex'"),
+    BAD("stl bad vertex", MESH_STL, "solid a\nfacet normal 0 0 1 outer loop\nvertex 0 0 0\nvertex 1 0\nvertex 0 1 0\n",
+        "t.stl:5: malformed number 'vertex'"),
+    BAD("stl nan vertex", MESH_STL, "solid a\nfacet normal 0 0 1 outer loop\nvertex 0 0 0\nvertex 1 0 nan\n",
+        "t.stl:4: non-finite coordinate 'nan'"),
+    BAD("stl 1e39 vertex", MESH_STL, "solid a\nfacet normal 0 0 1 outer loop\nvertex 0 0 0\nvertex 1e39 0 0\n",
+        "t.stl:4: non-finite coordinate '1e39'"),
+    BAD("stl two vertices", MESH_STL, "solid a\nfacet normal 0 0 1 outer loop\nvertex 0 0 0\nvertex 1 0 0\nendloop\n"
+                                      "endfacet\nendsolid a\n",
+        "t.stl:5: facet with 2 vertices (at least 3 needed)"),
+    BAD("stl no endloop", MESH_STL, "solid a\nfacet normal 0 0 1 outer loop\nvertex 0 0 0\nvertex 1 0 0\n"
+                                    "vertex 0 1 0\nendfacet\n",
+        "t.stl:6: expected 'vertex' or 'endloop', got 'endfacet'"),
+    BAD("stl no endfacet", MESH_STL, "solid a\nfacet normal 0 0 1 outer loop\nvertex 0 0 0\nvertex 1 0 0\n"
+                                     "vertex 0 1 0\nendloop\nendsolid a\n",
+        "t.stl:7: expected 'endfacet' after 'endloop', got 'endsolid'"),
+    BAD("stl junk after", MESH_STL, "solid a\nendsolid a\n\njunk\n",
+        "t.stl:4: expected 'solid' or the end of the file, got 'junk'"),
+    BAD("stl truncated", MESH_STL, "solid a\nfacet normal 0 0 1 outer loop\nvertex 0 0",
+        "t.stl:3: file ends inside 'vertex' (3 numbers)"),
+    BAD("stl NUL byte", MESH_STL, "solid a\nfacet normal 0 0 1 outer loop\nvertex 0 \0 0\n",
+        "t.stl:3: malformed number '?'"),
+
     /* ---- PLY, ASCII ---- */
     BAD("ply empty", MESH_PLY, "", "t.ply:1: not a PLY file (the first line must be 'ply')"),
     BAD("ply not ply", MESH_PLY, "OFF\n3 1 0\n", "t.ply:1: not a PLY file (the first line must be 'ply')"),
@@ -1073,6 +1252,40 @@ static void test_bad_binary(void **state)
     mesh_free(&m);
 }
 
+/* Binary STL faults: the size that the count does not match, and
+ * non-finite coordinates, with the byte offset of the value. */
+static void test_bad_binary_stl(void **state)
+{
+    (void)state;
+    Buf B;
+    binary_stl(&B, stl_square, 2);
+    memcpy(B.b, "mesh", 4); /* no 'solid': binary or nothing */
+    expect_error_n(MESH_STL, (const char *)B.b, B.n - 1,
+                   "t.stl:1: binary STL announces 2 triangles, which take 184 bytes, but the file has 183 (and it does "
+                   "not begin with 'solid' for ASCII STL)");
+    expect_error_n(MESH_STL, (const char *)B.b, 83,
+                   "t.stl:1: not an STL file: 83 bytes, and no 'solid' for ASCII STL (binary STL takes at least 84 "
+                   "bytes)");
+    Buf C = B;
+    put_u8(&C, 0);
+    expect_error_n(MESH_STL, (const char *)C.b, C.n,
+                   "t.stl:1: binary STL announces 2 triangles, which take 184 bytes, but the file has 185 (and it does "
+                   "not begin with 'solid' for ASCII STL)");
+    /* a count of 4e9 in 184 bytes: refused before anything is allocated */
+    C = B;
+    C.b[83] = 0xee;
+    expect_error_n(MESH_STL, (const char *)C.b, C.n,
+                   "t.stl:1: binary STL announces 3992977410 triangles, which take 199648870584 bytes, but the file "
+                   "has 184 (and it does not begin with 'solid' for ASCII STL)");
+    /* the second triangle's third vertex's y */
+    C = B;
+    float inf = INFINITY;
+    size_t off = 84 + 50 + 12 + 2 * 12 + 4;
+    memcpy(C.b + off, &inf, 4);
+    expect_error_n(MESH_STL, (const char *)C.b, C.n, "t.stl:1: non-finite coordinate in triangle 1 at byte offset 174");
+    assert_int_equal(off, 174);
+}
+
 /* Messages are cut to the buffer, never overrun it; a zero-size buffer is fine. */
 static void test_error_buffer(void **state)
 {
@@ -1123,6 +1336,14 @@ static void test_load(void **state)
     mesh_free(&m);
     remove(path);
 
+    binary_stl(&B, stl_square, 2);
+    snprintf(path, sizeof path, "%s/square.stl", tmpdir);
+    write_file(path, B.b, B.n);
+    assert_int_equal(mesh_load(path, &m, err, sizeof err), 0);
+    assert_int_equal(m.nt, 2);
+    mesh_free(&m);
+    remove(path);
+
     snprintf(path, sizeof path, "%s/t.Obj", tmpdir);
     write_file(path, obj_sample, strlen(obj_sample));
     assert_int_equal(mesh_load(path, &m, err, sizeof err), 0);
@@ -1146,8 +1367,8 @@ static void test_load(void **state)
     assert_int_equal(mesh_load(path, &m, err, sizeof err), -1);
     snprintf(want, sizeof want, "%s: cannot open: No such file or directory", path);
     assert_string_equal(err, want);
-    assert_int_equal(mesh_load("mesh.stl", &m, err, sizeof err), -1);
-    assert_string_equal(err, "mesh.stl: unknown mesh format (the name must end in .off, .obj or .ply)");
+    assert_int_equal(mesh_load("mesh.3ds", &m, err, sizeof err), -1);
+    assert_string_equal(err, "mesh.3ds: unknown mesh format (the name must end in .off, .obj, .ply or .stl)");
     assert_int_equal(mesh_load("off", &m, err, sizeof err), -1);
     assert_int_equal(mesh_load("dir.ply/x", &m, err, sizeof err), -1);
     snprintf(path, sizeof path, "%s/dir.off", tmpdir);
@@ -1204,9 +1425,10 @@ static void parse_anything(MeshFormat f, const char *text, size_t len)
 static void test_fuzz(void **state)
 {
     (void)state;
-    Buf B;
+    Buf B, S;
     size_t face2;
     binary_sample(&B, &face2);
+    binary_stl(&S, stl_square, 2);
     const struct {
         MeshFormat fmt;
         const char *text;
@@ -1217,6 +1439,8 @@ static void test_fuzz(void **state)
         {MESH_OBJ, obj_normals, sizeof obj_normals - 1},
         {MESH_PLY, ply_ascii, sizeof ply_ascii - 1},
         {MESH_PLY, (const char *)B.b, B.n},
+        {MESH_STL, stl_ascii, sizeof stl_ascii - 1},
+        {MESH_STL, (const char *)S.b, S.n},
     };
     static const unsigned char subst[] = {0, '\n', ' ', '0', '9', '-', '.', '/', '#', 'e', 0x7f, 0xff};
     for (size_t s = 0; s < sizeof samples / sizeof samples[0]; s++) {
@@ -1262,12 +1486,15 @@ int main(void)
         cmocka_unit_test(test_ply_ascii),
         cmocka_unit_test(test_ply_binary),
         cmocka_unit_test(test_ply_types),
+        cmocka_unit_test(test_stl),
+        cmocka_unit_test(test_stl_cgal),
         cmocka_unit_test(test_degenerate),
         cmocka_unit_test(test_normals_tetra),
         cmocka_unit_test(test_normals_cube),
         cmocka_unit_test(test_normals_flat_and_edge_cases),
         cmocka_unit_test(test_bad_inputs),
         cmocka_unit_test(test_bad_binary),
+        cmocka_unit_test(test_bad_binary_stl),
         cmocka_unit_test(test_error_buffer),
         cmocka_unit_test(test_load),
         cmocka_unit_test(test_fuzz),

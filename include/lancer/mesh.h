@@ -1,5 +1,5 @@
 /*
- * mesh.h - triangle meshes read from OFF, OBJ and PLY files.
+ * mesh.h - triangle meshes read from OFF, OBJ, PLY and STL files.
  *
  *     Mesh m;
  *     char err[512];
@@ -66,12 +66,19 @@
  *   float64. In ASCII each element instance is one line (blank lines are
  *   skipped); an element without properties takes no bytes and no lines.
  *   Elements may come in any order; data after the last one is an error.
+ * - STL: binary (80-byte header, uint32 count, 50-byte records, and a size
+ *   of exactly 84 + 50 count) or ASCII ("solid", then "facet normal n n n",
+ *   "outer loop", three or more "vertex x y z" (more are fanned), "endloop",
+ *   "endfacet", and "endsolid"; keywords in any case; one solid after
+ *   another allowed). Facet normals are checked to be numbers and then
+ *   ignored. Vertices with the same coordinates are welded into one, so a
+ *   closed solid loads as a closed mesh.
  *
  * Errors read "file:line: message". For binary PLY data, which has no lines,
  * the line is that of the header's "element" line describing the offending
  * data, and the message ends with "at byte offset N" (offset of the bad value
  * from the start of the file, 0-based; for data that runs out, the file's
- * length). Errors that concern the whole file
+ * length); binary STL's messages give line 1 and the byte offset likewise. Errors that concern the whole file
  * (cannot open, too large) read "file: message". Every count in a header is
  * checked against what the bytes that follow can hold before anything is
  * allocated from it.
@@ -92,7 +99,7 @@
 /* Files larger than this are refused by mesh_load before being read. */
 #define MESH_MAX_BYTES ((unsigned long long)4 << 30)
 
-typedef enum { MESH_OFF, MESH_OBJ, MESH_PLY } MeshFormat;
+typedef enum { MESH_OFF, MESH_OBJ, MESH_PLY, MESH_STL } MeshFormat;
 
 typedef struct {
     Vec3 *v;           /* vertex positions */
@@ -106,7 +113,7 @@ typedef struct {
 } Mesh;
 
 /* Reads and parses a mesh file; the format comes from the extension .off,
- * .obj or .ply (any case). Returns 0, or -1 with "path:line: message" (or
+ * .obj, .ply or .stl (any case). Returns 0, or -1 with "path:line: message" (or
  * "path: message") in err and m left empty. On success the caller owns the
  * arrays in m and releases them with mesh_free. err may be NULL when errlen
  * is 0. */
@@ -119,7 +126,7 @@ int mesh_parse(const char *name, const char *data, size_t len, MeshFormat fmt, M
                size_t errlen);
 
 /* The format that mesh_load would pick for path. Returns 0, or -1 when the
- * extension is none of .off .obj .ply (*fmt is then unchanged). */
+ * extension is none of .off .obj .ply .stl (*fmt is then unchanged). */
 int mesh_format_from_path(const char *path, MeshFormat *fmt);
 
 /* Releases every array of m and leaves it empty. Safe on an empty Mesh and
