@@ -45,6 +45,16 @@
  * any primitive count) = BVH_MAX_DEPTH. */
 #define BVH_SAH_DEPTH (BVH_MAX_DEPTH - 32)
 
+/* bvh.h's pads, P = 1 + p u and R = 1 + r u with u = 2^-24, checked by the
+ * compiler. The slab pad needs P (1 - u)^4 >= (1 + u)^3; the left side is
+ * at least 1 + (p - 4) u - 4 p u^2 and the right at most 1 + 3u + 4u^2, so
+ * p >= 8 is enough while (4p + 4) u < 1. The reach needs R (1 - u) >=
+ * (1 + 2^-18)(1 + u)^3, with 2^-18 = 64u: the left side is 1 + (r - 1) u -
+ * r u^2 and the right at most 1 + 67u + 197u^2, so r >= 69 is enough while
+ * (r + 197) u < 1. */
+typedef char bvh_slab_pad_suffices[BVH_SLAB_PAD_U >= 8 && BVH_SLAB_PAD_U < 1024 ? 1 : -1];
+typedef char bvh_reach_suffices[BVH_REACH_U >= 69 && BVH_REACH_U < 1024 ? 1 : -1];
+
 /* A primitive's bounds, as four lanes (the fourth is 0); the builder
  * works on lo + hi, twice the centroid, which bins the same. */
 typedef struct {

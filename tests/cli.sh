@@ -138,7 +138,14 @@ has "$T/err" "cannot be averaged in 7x7 blocks"
 # --classic, --scale and --translate, and the scene's intersect setting
 expect 0 "$LANCER" render "$T/tiny.scn" -o "$T/c.exr" --classic --stats "$T/c.json" -q
 has "$T/c.json" '"intersect": "classic"'
-expect 0 "$LANCER" render "$T/tiny.scn" -o "$T/s.exr" --scale 1e-3 --translate 5,6,7 -q
+# a moved scene renders the same picture: no pixel over the parity threshold
+expect 0 "$LANCER" render "$T/tiny.scn" -o "$T/u.exr" -q
+for move in "--scale 1e-3 --translate 5,6,7" "--scale 1e5" "--translate 1e5,-3e4,2e5"; do
+    # shellcheck disable=SC2086
+    expect 0 "$LANCER" render "$T/tiny.scn" -o "$T/s.exr" $move -q
+    expect 0 "$LANCER" diff "$T/u.exr" "$T/s.exr"
+    if grep -q " over=0 pixels=768" "$T/out"; then ok; else bad "$move changed the picture: $(cat "$T/out")"; fi
+done
 expect 2 "$LANCER" render "$T/tiny.scn" --translate 1,2
 has "$T/err" "--translate needs X,Y,Z"
 expect 2 "$LANCER" render "$T/tiny.scn" --scale 0

@@ -564,6 +564,24 @@ static const char full_scene[] =
     "box { min -1 -2 -3 max 1 2 3 material plain }\n"
     "obox { center 1 1 1 u 0.4 0 0.25 v 0 0.35 0 w -0.15 0 0.24 material full }\n";
 
+/* Every field of m is want's, exactly. */
+static void assert_material(const Material *m, const Material *w)
+{
+    const struct {
+        const char *key;
+        float got, want;
+    } f[] = {{"color.x", m->color.x, w->color.x}, {"color.y", m->color.y, w->color.y},
+             {"color.z", m->color.z, w->color.z}, {"ambient", m->ambient, w->ambient},
+             {"diffuse", m->diffuse, w->diffuse}, {"phong", m->phong, w->phong},
+             {"phong_size", m->phong_size, w->phong_size}, {"specular", m->specular, w->specular},
+             {"roughness", m->roughness, w->roughness}, {"reflection", m->reflection, w->reflection},
+             {"filter", m->filter, w->filter}, {"transmit", m->transmit, w->transmit}, {"ior", m->ior, w->ior}};
+    assert_string_equal(m->name, w->name);
+    for (size_t i = 0; i < sizeof f / sizeof f[0]; i++)
+        if (f[i].got != f[i].want)
+            fail_msg("material '%s': %s is %g, expected %g", w->name, f[i].key, (double)f[i].got, (double)f[i].want);
+}
+
 static void test_full_scene(void **state)
 {
     (void)state;
@@ -594,34 +612,16 @@ static void test_full_scene(void **state)
     assert_float_equal(s.lights[2].fade_distance, 3, 0); /* a distance alone: still no fade */
     assert_float_equal(s.lights[2].fade_power, 0, 0);
 
+    /* the second is all POV-Ray 3.7's defaults; zero is allowed wherever
+     * negative is the limit */
+    const Material want[3] = {
+        {"full", {0.9f, 0.5f, 0.1f}, 0.2f, 0.7f, 0.5f, 60, 0.3f, 0.02f, 0.25f, 0, 0, 1},
+        {"plain", {1, 1, 1}, 0.1f, 0.6f, 0, 40, 0, 0.05f, 0, 0, 0, 1},
+        {"zero", {0, 0, 0}, 0, 0, 0, 0, 0, 0.05f, 0, 0, 0, 1},
+    };
     assert_int_equal(s.nmaterials, 3);
-    const Material *m = &s.materials[0];
-    assert_string_equal(m->name, "full");
-    assert_vec(m->color, 0.9f, 0.5f, 0.1f, 0);
-    assert_float_equal(m->ambient, 0.2f, 0);
-    assert_float_equal(m->diffuse, 0.7f, 0);
-    assert_float_equal(m->phong, 0.5f, 0);
-    assert_float_equal(m->phong_size, 60, 0);
-    assert_float_equal(m->specular, 0.3f, 0);
-    assert_float_equal(m->roughness, 0.02f, 0);
-    assert_float_equal(m->reflection, 0.25f, 0);
-    m = &s.materials[1]; /* POV-Ray 3.7's defaults */
-    assert_string_equal(m->name, "plain");
-    assert_vec(m->color, 1, 1, 1, 0);
-    assert_float_equal(m->ambient, 0.1f, 0);
-    assert_float_equal(m->diffuse, 0.6f, 0);
-    assert_float_equal(m->phong, 0, 0);
-    assert_float_equal(m->phong_size, 40, 0);
-    assert_float_equal(m->specular, 0, 0);
-    assert_float_equal(m->roughness, 0.05f, 0);
-    assert_float_equal(m->reflection, 0, 0);
-    m = &s.materials[2]; /* zero is allowed wherever negative is the limit */
-    assert_string_equal(m->name, "zero");
-    assert_vec(m->color, 0, 0, 0, 0);
-    assert_float_equal(m->ambient, 0, 0);
-    assert_float_equal(m->diffuse, 0, 0);
-    assert_float_equal(m->phong_size, 0, 0);
-    assert_float_equal(m->roughness, 0.05f, 0);
+    for (int i = 0; i < 3; i++)
+        assert_material(&s.materials[i], &want[i]);
 
     assert_int_equal(s.nprims, 7);
     const Prim *p = s.prims;
@@ -1023,6 +1023,51 @@ static void test_load_default_scene(void **state)
     scene_free(&s);
 }
 
+/* scene_split_triangles halves every triangle across its longest edge:
+ * the halves share the corner opposite it and the edge's midpoint, keep
+ * the winding, and cover the triangle exactly; other primitives stay. */
+static void test_split_triangles(void **state)
+{
+    (void)state;
+    Scene s;
+    parse_ok("camera { eye 0 1 -5 target 0 0 0 fov 40 }\n"
+             "material m { }\nmaterial n { }\n"
+             "sphere { center 0 0 0 radius 1 material m }\n"
+             "triangle { a 0 0 0 b 4 0 0 c 0 2 0 material n }\n" /* longest edge b-c */
+             "smooth_triangle { a 0 0 1 b 2 0 1 c 0 2 1 na 0 0 1 nb 1 0 0 nc 0 1 0 material m }\n",
+             &s);
+    assert_int_equal(scene_split_triangles(&s), 0);
+    assert_int_equal(s.nprims, 5);
+    assert_int_equal(s.prims[0].kind, PRIM_SPHERE);
+    const Triangle *t0 = &s.prims[1].g.tri, *t1 = &s.prims[2].g.tri;
+    assert_int_equal(s.prims[1].kind, PRIM_TRIANGLE);
+    assert_int_equal(s.prims[2].material, 1);
+    assert_vec(t0->a, 0, 0, 0, 0);
+    assert_vec(t0->b, 4, 0, 0, 0);
+    assert_vec(t0->c, 2, 1, 0, 0); /* the midpoint of b-c */
+    assert_vec(t1->a, 0, 0, 0, 0);
+    assert_vec(t1->b, 2, 1, 0, 0);
+    assert_vec(t1->c, 0, 2, 0, 0);
+    /* the same winding: both normals along +z, their areas summing to 4 */
+    Vec3 n0 = vec_cross(vec_sub(t0->b, t0->a), vec_sub(t0->c, t0->a));
+    Vec3 n1 = vec_cross(vec_sub(t1->b, t1->a), vec_sub(t1->c, t1->a));
+    assert_true(n0.z > 0 && n1.z > 0);
+    assert_float_equal(0.5f * (n0.z + n1.z), 4, 0);
+    /* a smooth triangle's midpoint takes the normalised mean of its edge's normals */
+    const Triangle *s0 = &s.prims[3].g.tri, *s1 = &s.prims[4].g.tri;
+    assert_int_equal(s.prims[3].kind, PRIM_SMOOTH_TRIANGLE);
+    assert_vec(s0->c, 1, 1, 1, 0);
+    float h = 1 / sqrtf(2);
+    assert_vec(s0->nc, h, h, 0, 1e-6f);
+    assert_vec(s0->na, 0, 0, 1, 0);
+    assert_vec(s1->nb, h, h, 0, 1e-6f);
+    assert_vec(s1->nc, 0, 1, 0, 0);
+    /* again: twice as many triangles once more */
+    assert_int_equal(scene_split_triangles(&s), 0);
+    assert_int_equal(s.nprims, 9);
+    scene_free(&s);
+}
+
 static void test_scene_from_mesh(void **state)
 {
     (void)state;
@@ -1062,6 +1107,7 @@ int main(void)
         cmocka_unit_test(test_load_bad_file),
         cmocka_unit_test(test_load_default_scene),
         cmocka_unit_test(test_scene_from_mesh),
+        cmocka_unit_test(test_split_triangles),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -436,50 +436,6 @@ static void test_traced_is_trace(void **state)
     scene_free(&s);
 }
 
-/* accel_occluded_packet is accel_occluded ray by ray: shadow rays towards
- * a point above a floor (a plane, outside the BVH) with spheres on it, from
- * points above the floor (blocked by spheres or not) and below it (blocked
- * by the plane), in packets of every size and in more than one. */
-static void test_occluded_packet_is_occluded(void **state)
-{
-    (void)state;
-    Scene s;
-    load(&s, "sphere { center 0 1 0 radius 1 material m }\n"
-             "sphere { center 2.5 0.5 1 radius 0.5 material m }\n"
-             "sphere { center -2 0.7 -1 radius 0.7 material m }\n");
-    Accel *a = accel_build(&s, PRIM_ROBUST, 1);
-    assert_non_null(a);
-    unsigned long long g = 12345;
-    const Vec3 light = vec3(0.5f, 6, -0.5f);
-    int blocked = 0, by_plane = 0, free_rays = 0;
-    for (int k = 0; k < 4000; k++) {
-        int n = 1 + k % (2 * ACCEL_PACKET + 3); /* more than a packet too */
-        Vec3 c = test_rvec(&g, -4, 4);
-        Ray r[2 * ACCEL_PACKET + 3];
-        for (int j = 0; j < n; j++) {
-            Vec3 o = vec_add(c, test_rvec(&g, -0.5f, 0.5f));
-            o.y = k % 5 == 0 && j == 0 ? -0.5f : fabsf(o.y) * 0.3f + 1e-3f;
-            Vec3 d = vec_sub(light, o);
-            float len = vec_length(d);
-            r[j] = ray_make(o, vec_scale(d, 1.0f / len), len);
-        }
-        RayStats st = {0, 0, 0, 0, 0};
-        unsigned got = accel_occluded_packet(a, r, n, &st);
-        assert_true(got >> n == 0);
-        for (int j = 0; j < n; j++) {
-            int want = accel_occluded(a, &r[j], &st);
-            assert_int_equal((int)(got >> j & 1), want);
-            blocked += want;
-            by_plane += want && r[j].o.y < 0.0f;
-            free_rays += !want;
-        }
-    }
-    /* every kind of verdict was met */
-    assert_true(blocked > 1000 && by_plane > 100 && free_rays > 1000);
-    accel_free(a);
-    scene_free(&s);
-}
-
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -491,7 +447,7 @@ int main(void)
         cmocka_unit_test(test_area_light_penumbra), cmocka_unit_test(test_transparent_surface),
         cmocka_unit_test(test_shadow_through_glass), cmocka_unit_test(test_refraction_through_slab),
         cmocka_unit_test(test_total_internal_reflection), cmocka_unit_test(test_no_self_shadowing_on_spheres),
-        cmocka_unit_test(test_traced_is_trace),      cmocka_unit_test(test_occluded_packet_is_occluded),
+        cmocka_unit_test(test_traced_is_trace),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

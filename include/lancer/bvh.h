@@ -44,16 +44,20 @@
  * (exact near <= exact far) keeps it when BVH_SLAB_PAD >= (1 + u)^3 / (1 -
  * u)^4, about 1 + 7u: 1 + 8u, 1 + 2 gamma(4) rounded. (Ize's 1 + 2 gamma(3)
  * is short by one rounding for a ray through a box's edge: found by
- * review.) */
-#define BVH_SLAB_PAD (1.0f + 0x1p-21f)
+ * review.) The pads are written as whole numbers of u, so that bvh.c can
+ * check these conditions at compile time. */
+#define BVH_SLAB_PAD_U 8
+#define BVH_SLAB_PAD (1.0f + BVH_SLAB_PAD_U * 0x1p-24f)
 /* Boxes are entered up to the ray's tmax grown by this much: a hit the
  * primitive's routine places just before tmax may have its box's entry
  * computed just after it, by the three roundings above (a triangle in an
- * axis plane, whose box face is its plane, lost 7% of the hits placed one
- * float before tmax). It covers those roundings, tmax * BVH_REACH's own,
- * and a hit's error of up to 2^-18 of its t; a hit less certain than that
- * may lie on either side of tmax anyway. */
-#define BVH_REACH (1.0f + 0x1p-17f)
+ * axis plane, whose box face is its plane, lost hits placed one float
+ * before tmax). It covers those roundings, tmax * BVH_REACH's own, and a
+ * hit's error of up to 2^-18 of its t; a hit less certain than that may
+ * lie on either side of tmax anyway: BVH_REACH (1 - u) >= (1 + 2^-18) (1 +
+ * u)^3. */
+#define BVH_REACH_U 128
+#define BVH_REACH (1.0f + BVH_REACH_U * 0x1p-24f)
 
 /* Children per node: 8, one AVX register or two SSE ones per plane. */
 #define BVH_WIDTH 8

@@ -1,0 +1,298 @@
+/* Tests for accel.c: the queries over a whole scene, bounded primitives in
+ * the BVH and planes beside it, against brute force over every primitive;
+ * the tie rule across the two; the packet queries ray by ray; and the
+ * accessors. */
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <setjmp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "testutil.h"
+
+#include "lancer/accel.h"
+#include "lancer/bvh.h"
+
+/* A scene of n primitives: spheres, triangles, boxes scattered in
+ * [-4, 4]^3, and every hundredth a plane at 4 to 6 from the origin. */
+static void random_scene(Scene *s, int n, unsigned long long *g)
+{
+    memset(s, 0, sizeof *s);
+    s->prims = calloc((size_t)n, sizeof(Prim));
+    assert_non_null(s->prims);
+    s->nprims = n;
+    for (int i = 0; i < n; i++) {
+        Prim *p = &s->prims[i];
+        Vec3 c = test_rvec(g, -4, 4);
+        switch (i % 100 == 50 ? 3 : i % 3) {
+        case 0:
+            p->kind = PRIM_SPHERE;
+            p->g.sphere.c = c;
+            p->g.sphere.r = test_uniform(g, 0.1f, 0.6f);
+            break;
+        case 1:
+            p->kind = PRIM_TRIANGLE;
+            p->g.tri.a = c;
+            p->g.tri.b = vec_add(c, test_rvec(g, -1, 1));
+            p->g.tri.c = vec_add(c, test_rvec(g, -1, 1));
+            break;
+        case 2:
+            p->kind = PRIM_BOX;
+            p->g.box.lo = c;
+            p->g.box.hi = vec_add(c, test_rvec(g, 0.05f, 0.8f));
+            break;
+        default:
+            p->kind = PRIM_PLANE;
+            p->g.plane.n = vec_normalize(test_rvec(g, -1, 1));
+            p->g.plane.d = test_uniform(g, 4, 6);
+            break;
+        }
+    }
+}
+
+/* The fields of a hit that primitive p's routines set: t and terr, the
+ * barycentrics of a triangle, the face of a box. */
+static void assert_same_hit(const Prim *p, const PrimHit *a, const PrimHit *b)
+{
+    assert_memory_equal(&a->t, &b->t, sizeof a->t);
+    assert_memory_equal(&a->terr, &b->terr, sizeof a->terr);
+    if (p->kind == PRIM_TRIANGLE) {
+        assert_memory_equal(&a->u, &b->u, sizeof a->u);
+        assert_memory_equal(&a->v, &b->v, sizeof a->v);
+    }
+    if (p->kind == PRIM_BOX)
+        assert_int_equal(a->face, b->face);
+}
+
+/* The closest hit by testing every primitive, with the tie rule. */
+static int brute_closest(const Scene *s, const Ray *r, PrimVariant v, PrimHit *best_h)
+{
+    int best = -1;
+    PrimHit h;
+    for (int i = 0; i < s->nprims; i++)
+        if (prim_intersect(&s->prims[i], r, v, &h) && prim_hit_wins(h.t, i, best_h->t, best)) {
+            best = i;
+            *best_h = h;
+        }
+    return best;
+}
+
+static Ray random_ray(unsigned long long *g)
+{
+    Vec3 o = test_rvec(g, -6, 6), d = vec_normalize(test_rvec(g, -1, 1));
+    float tmax = test_uniform(g, 0, 1) < 0.3f ? test_uniform(g, 0.5f, 10) : INFINITY;
+    return ray_make(o, d, tmax);
+}
+
+static void test_closest_and_occluded_match_brute_force(void **state)
+{
+    (void)state;
+    unsigned long long g = 99;
+    for (int v = 0; v < 2; v++) {
+        PrimVariant var = v ? PRIM_CLASSIC : PRIM_ROBUST;
+        Scene s;
+        random_scene(&s, 300, &g);
+        Accel *a = accel_build(&s, var, 2);
+        assert_non_null(a);
+        assert_int_equal(accel_variant(a), var);
+        int hits = 0, plane_hits = 0;
+        for (int k = 0; k < 20000; k++) {
+            Ray r = random_ray(&g);
+            RayStats st = {0, 0, 0, 0, 0};
+            PrimHit h, w;
+            int got = accel_closest(a, &r, &h, &st), want = brute_closest(&s, &r, var, &w);
+            assert_int_equal(got, want);
+            if (want >= 0) {
+                assert_same_hit(&s.prims[want], &h, &w);
+                hits++;
+                plane_hits += s.prims[want].kind == PRIM_PLANE;
+            }
+            assert_int_equal(accel_occluded(a, &r, &st), want >= 0);
+            assert_true(st.isect_tests > 0);
+        }
+        /* both the BVH and the planes gave answers */
+        assert_true(hits > 5000 && plane_hits > 1000 && hits - plane_hits > 1000);
+        accel_free(a);
+        scene_free(&s);
+    }
+}
+
+/* A triangle lying in a plane: both are hit at exactly the same t, and the
+ * lower scene index wins, whichever of the two it is. */
+static void test_ties_between_planes_and_the_bvh(void **state)
+{
+    (void)state;
+    for (int order = 0; order < 2; order++) {
+        Scene s;
+        memset(&s, 0, sizeof s);
+        s.prims = calloc(2, sizeof(Prim));
+        assert_non_null(s.prims);
+        s.nprims = 2;
+        Prim *pl = &s.prims[order], *tr = &s.prims[1 - order];
+        pl->kind = PRIM_PLANE;
+        pl->g.plane.n = vec3(0, 1, 0);
+        pl->g.plane.d = 0;
+        tr->kind = PRIM_TRIANGLE;
+        tr->g.tri.a = vec3(-1, 0, -1);
+        tr->g.tri.b = vec3(1, 0, -1);
+        tr->g.tri.c = vec3(0, 0, 2);
+        Accel *a = accel_build(&s, PRIM_ROBUST, 1);
+        assert_non_null(a);
+        Ray r[3];
+        for (int k = 0; k < 3; k++)
+            r[k] = ray_make(vec3(0.1f * (float)k, 2, 0), vec3(0, -1, 0), INFINITY);
+        RayStats st = {0, 0, 0, 0, 0};
+        PrimHit h[3];
+        int best[3];
+        assert_int_equal(accel_closest(a, &r[0], &h[0], &st), 0);
+        assert_float_equal(h[0].t, 2, 0);
+        accel_closest_packet(a, r, 3, h, best, &st);
+        for (int k = 0; k < 3; k++)
+            assert_int_equal(best[k], 0);
+        accel_free(a);
+        scene_free(&s);
+    }
+}
+
+/* accel_closest_packet is accel_closest ray by ray, in packets of any size. */
+static void test_closest_packet_is_closest(void **state)
+{
+    (void)state;
+    unsigned long long g = 7;
+    Scene s;
+    random_scene(&s, 200, &g);
+    Accel *a = accel_build(&s, PRIM_ROBUST, 1);
+    assert_non_null(a);
+    for (int k = 0; k < 3000; k++) {
+        int n = 1 + k % (2 * ACCEL_PACKET + 3);
+        Ray r[2 * ACCEL_PACKET + 3];
+        Vec3 o = test_rvec(&g, -6, 6), d = test_rvec(&g, -1, 1);
+        for (int j = 0; j < n; j++) /* neighbours from one origin, as camera rays */
+            r[j] = ray_make(o, vec_normalize(vec_add(d, test_rvec(&g, -0.05f, 0.05f))), INFINITY);
+        PrimHit h[2 * ACCEL_PACKET + 3], w;
+        int best[2 * ACCEL_PACKET + 3];
+        RayStats st = {0, 0, 0, 0, 0};
+        accel_closest_packet(a, r, n, h, best, &st);
+        for (int j = 0; j < n; j++) {
+            assert_int_equal(best[j], accel_closest(a, &r[j], &w, &st));
+            if (best[j] >= 0)
+                assert_same_hit(&s.prims[best[j]], &h[j], &w);
+        }
+    }
+    accel_free(a);
+    scene_free(&s);
+}
+
+/* accel_occluded_packet is accel_occluded ray by ray: shadow rays towards
+ * a point above a floor (a plane, outside the BVH) with spheres on it, from
+ * points above the floor (blocked by spheres or not) and below it (blocked
+ * by the plane), in packets of every size and in more than one. */
+static void test_occluded_packet_is_occluded(void **state)
+{
+    (void)state;
+    Scene s;
+    memset(&s, 0, sizeof s);
+    s.prims = calloc(4, sizeof(Prim));
+    assert_non_null(s.prims);
+    s.nprims = 4;
+    s.prims[0].kind = PRIM_PLANE;
+    s.prims[0].g.plane.n = vec3(0, 1, 0);
+    const float sph[3][4] = {{0, 1, 0, 1}, {2.5f, 0.5f, 1, 0.5f}, {-2, 0.7f, -1, 0.7f}};
+    for (int i = 0; i < 3; i++) {
+        s.prims[1 + i].kind = PRIM_SPHERE;
+        s.prims[1 + i].g.sphere.c = vec3(sph[i][0], sph[i][1], sph[i][2]);
+        s.prims[1 + i].g.sphere.r = sph[i][3];
+    }
+    Accel *a = accel_build(&s, PRIM_ROBUST, 1);
+    assert_non_null(a);
+    unsigned long long g = 12345;
+    const Vec3 light = vec3(0.5f, 6, -0.5f);
+    int blocked = 0, by_plane = 0, free_rays = 0;
+    for (int k = 0; k < 4000; k++) {
+        int n = 1 + k % (2 * ACCEL_PACKET + 3); /* more than a packet too */
+        Vec3 c = test_rvec(&g, -4, 4);
+        Ray r[2 * ACCEL_PACKET + 3];
+        for (int j = 0; j < n; j++) {
+            Vec3 o = vec_add(c, test_rvec(&g, -0.5f, 0.5f));
+            o.y = k % 5 == 0 && j == 0 ? -0.5f : fabsf(o.y) * 0.3f + 1e-3f;
+            Vec3 d = vec_sub(light, o);
+            float len = vec_length(d);
+            r[j] = ray_make(o, vec_scale(d, 1.0f / len), len);
+        }
+        RayStats st = {0, 0, 0, 0, 0};
+        unsigned got = accel_occluded_packet(a, r, n, &st);
+        assert_true(got >> n == 0);
+        for (int j = 0; j < n; j++) {
+            int want = accel_occluded(a, &r[j], &st);
+            assert_int_equal((int)(got >> j & 1), want);
+            blocked += want;
+            by_plane += want && r[j].o.y < 0.0f;
+            free_rays += !want;
+        }
+    }
+    /* every kind of verdict was met */
+    assert_true(blocked > 1000 && by_plane > 100 && free_rays > 1000);
+    accel_free(a);
+    scene_free(&s);
+}
+
+static void test_accessors(void **state)
+{
+    (void)state;
+    unsigned long long g = 3;
+    Scene s;
+    random_scene(&s, 50, &g);
+    Accel *a = accel_build(&s, PRIM_ROBUST, 1);
+    assert_non_null(a);
+    Vec3 lo, hi;
+    assert_int_equal(accel_bounds(a, &lo, &hi), 0);
+    for (int i = 0; i < s.nprims; i++) { /* the box holds every bounded primitive */
+        float plo[3], phi[3];
+        if (!bvh_prim_bounds(&s.prims[i], plo, phi))
+            continue;
+        for (int k = 0; k < 3; k++) {
+            assert_true(vec_comp(lo, k) <= plo[k]);
+            assert_true(vec_comp(hi, k) >= phi[k]);
+        }
+    }
+    assert_true(accel_bytes(a) >= sizeof(BvhWideNode));
+    accel_free(a);
+    accel_free(NULL); /* safe, as free */
+    /* planes alone, and nothing at all: no bounds, every query a miss or the plane */
+    s.nprims = 0;
+    a = accel_build(&s, PRIM_ROBUST, 1);
+    assert_non_null(a);
+    assert_int_equal(accel_bounds(a, &lo, &hi), -1);
+    Ray r = ray_make(vec3(0, 0, 0), vec3(0, 0, 1), INFINITY);
+    PrimHit h;
+    RayStats st = {0, 0, 0, 0, 0};
+    assert_int_equal(accel_closest(a, &r, &h, &st), -1);
+    assert_int_equal(accel_occluded(a, &r, &st), 0);
+    accel_free(a);
+    s.prims[0].kind = PRIM_PLANE;
+    s.prims[0].g.plane.n = vec3(0, 0, 1);
+    s.prims[0].g.plane.d = 3;
+    s.nprims = 1;
+    a = accel_build(&s, PRIM_ROBUST, 1);
+    assert_non_null(a);
+    assert_int_equal(accel_bounds(a, &lo, &hi), -1);
+    assert_int_equal(accel_closest(a, &r, &h, &st), 0);
+    assert_float_equal(h.t, 3, 0);
+    accel_free(a);
+    scene_free(&s);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_closest_and_occluded_match_brute_force),
+        cmocka_unit_test(test_ties_between_planes_and_the_bvh),
+        cmocka_unit_test(test_closest_packet_is_closest),
+        cmocka_unit_test(test_occluded_packet_is_occluded),
+        cmocka_unit_test(test_accessors),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,235 @@
+/* Tests for plan.c: the settings the plan resolves from the scene and the
+ * options, the coordinates it puts the scene in, and the decisions it
+ * derives (camera interiors, transparency, reflection, shadow modes). */
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <setjmp.h>
+#include <stdio.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "testutil.h"
+
+#include "lancer/image.h"
+#include "lancer/plan.h"
+
+static const char *base =
+    "image { width 200 height 100 spp 2 max_depth 4 }\n"
+    "camera { eye 1 2 -8 target 1 2 0 fov 40 }\n"
+    "light { position 3 4 -5 }\n"
+    "light { position 0 9 0 shadowless }\n"
+    "light { position 0 9 9 area_u 1 0 0 area_v 0 0 1 area_samples 3 2 }\n"
+    "material m { }\n"
+    "sphere { center 1 2 -8 radius 0.5 material m }\n"
+    "box { min -1 -1 -1 max 1 1 1 material m }\n"
+    "plane { normal 0 1 0 offset -2 material m }\n";
+
+/* The base scene plus `extra`, parsed. */
+static void load(Scene *s, const char *extra)
+{
+    char text[2048], err[512];
+    snprintf(text, sizeof text, "%s%s", base, extra);
+    int rc = scene_parse("t.scn", text, strlen(text), s, err, sizeof err);
+    if (rc)
+        print_error("%s\n", err);
+    assert_int_equal(rc, 0);
+}
+
+static void build_ok(RenderPlan *p, Scene *s, const PlanOptions *o)
+{
+    char err[256];
+    int rc = plan_build(p, s, o, err, sizeof err);
+    if (rc)
+        print_error("%s\n", err);
+    assert_int_equal(rc, 0);
+}
+
+static void test_settings(void **state)
+{
+    (void)state;
+    Scene s;
+    RenderPlan p;
+    PlanOptions o = plan_options();
+    /* the scene's own settings */
+    load(&s, "");
+    build_ok(&p, &s, &o);
+    assert_int_equal(p.width, 200);
+    assert_int_equal(p.height, 100);
+    assert_int_equal(p.spp, 2);
+    assert_int_equal(p.max_depth, 4);
+    assert_int_equal(p.threads, 1);
+    assert_int_equal(p.variant, PRIM_ROBUST);
+    assert_ptr_equal(p.scene, &s);
+    plan_free(&p);
+    scene_free(&s);
+    /* each option that is set wins */
+    load(&s, "");
+    o.width = 33;
+    o.height = 44;
+    o.spp = 5;
+    o.threads = 3;
+    o.classic = 1;
+    build_ok(&p, &s, &o);
+    assert_int_equal(p.width, 33);
+    assert_int_equal(p.height, 44);
+    assert_int_equal(p.spp, 5);
+    assert_int_equal(p.threads, 3);
+    assert_int_equal(p.variant, PRIM_CLASSIC);
+    plan_free(&p);
+    scene_free(&s);
+    /* the scene's intersect setting */
+    load(&s, "");
+    s.image.classic = 1;
+    o = plan_options();
+    build_ok(&p, &s, &o);
+    assert_int_equal(p.variant, PRIM_CLASSIC);
+    plan_free(&p);
+    scene_free(&s);
+}
+
+static void test_errors(void **state)
+{
+    (void)state;
+    Scene s;
+    RenderPlan p;
+    char err[256];
+    PlanOptions o = plan_options();
+    load(&s, "");
+    o.width = IMAGE_MAX_SIDE;
+    o.height = IMAGE_MAX_SIDE;
+    assert_int_equal(plan_build(&p, &s, &o, err, sizeof err), -1);
+    assert_string_equal(err, "a 32768x32768 image has more than the 268435456 pixels lancer renders");
+    o = plan_options();
+    o.spp = SCENE_MAX_SPP + 1;
+    assert_int_equal(plan_build(&p, &s, &o, err, sizeof err), -1);
+    assert_string_equal(err, "spp must be a whole number from 1 to 16");
+    o = plan_options();
+    o.move = 1;
+    o.translate = vec3(0, INFINITY, 0);
+    assert_int_equal(plan_build(&p, &s, &o, err, sizeof err), -1);
+    assert_string_equal(err, "the scene degenerates at that scale or offset");
+    o.translate = vec3(0, 0, 0);
+    o.scale = 0;
+    assert_int_equal(plan_build(&p, &s, &o, err, sizeof err), -1);
+    scene_free(&s);
+    /* an oriented box too thin for float once scaled down */
+    load(&s, "obox { center 0 0 0 u 1e-10 0 0 v 0 1e-10 0 w 0 0 1e-10 material m }\n");
+    o = plan_options();
+    o.move = 1;
+    o.scale = 1e-30f;
+    assert_int_equal(plan_build(&p, &s, &o, err, sizeof err), -1);
+    assert_string_equal(err, "the scene degenerates at that scale or offset");
+    scene_free(&s);
+}
+
+/* Robust plans put the eye at the origin and keep the offset; classic
+ * plans and world plans keep the scene's coordinates. */
+static void test_coordinates(void **state)
+{
+    (void)state;
+    Scene s;
+    RenderPlan p;
+    PlanOptions o = plan_options();
+    load(&s, "");
+    build_ok(&p, &s, &o);
+    assert_vec(p.offset, 1, 2, -8, 0);
+    assert_vec(s.camera.eye, 0, 0, 0, 0);
+    assert_vec(s.camera.target, 0, 0, 8, 0);
+    assert_vec(s.lights[0].pos, 2, 2, 3, 0);
+    assert_vec(s.prims[0].g.sphere.c, 0, 0, 0, 0);
+    assert_vec(s.prims[1].g.box.lo, -2, -3, 7, 0);
+    assert_float_equal(s.prims[2].g.plane.d, -4, 0); /* y = -2 moves to y = -4 */
+    plan_free(&p);
+    scene_free(&s);
+
+    load(&s, "");
+    o.classic = 1;
+    build_ok(&p, &s, &o);
+    assert_vec(p.offset, 0, 0, 0, 0);
+    assert_vec(s.camera.eye, 1, 2, -8, 0);
+    plan_free(&p);
+    scene_free(&s);
+
+    load(&s, "");
+    o = plan_options();
+    o.world = 1;
+    build_ok(&p, &s, &o);
+    assert_vec(p.offset, 0, 0, 0, 0);
+    assert_vec(s.camera.eye, 1, 2, -8, 0);
+    plan_free(&p);
+    scene_free(&s);
+
+    /* the options' move first, then camera-relative: p -> 2p + (10, 0, 0), less the moved eye (12, 4, -16) */
+    load(&s, "");
+    o = plan_options();
+    o.move = 1;
+    o.scale = 2;
+    o.translate = vec3(10, 0, 0);
+    build_ok(&p, &s, &o);
+    assert_vec(p.offset, 12, 4, -16, 0);
+    assert_vec(s.camera.eye, 0, 0, 0, 0);
+    assert_vec(s.lights[0].pos, 4, 4, 6, 0);
+    assert_float_equal(s.prims[0].g.sphere.r, 1, 0);
+    plan_free(&p);
+    scene_free(&s);
+}
+
+static void test_decisions(void **state)
+{
+    (void)state;
+    Scene s;
+    RenderPlan p;
+    PlanOptions o = plan_options();
+    /* opaque, no mirror: any-hit shadows for the lights that cast them */
+    load(&s, "");
+    build_ok(&p, &s, &o);
+    assert_false(p.transparent);
+    assert_false(p.reflective);
+    assert_int_equal(p.shadow[0], PLAN_SHADOW_OPAQUE);
+    assert_int_equal(p.shadow[1], PLAN_SHADOW_NONE);
+    assert_int_equal(p.shadow[2], PLAN_SHADOW_OPAQUE);
+    /* the camera sits at the sphere's centre, inside it, and outside the box */
+    assert_int_equal(p.camera_in.n, 1);
+    assert_int_equal(p.camera_in.prim[0], 0);
+    plan_free(&p);
+    assert_null(p.shadow);
+    scene_free(&s);
+
+    /* a glass material anywhere: shadows are filtered, through every surface */
+    load(&s, "material g { filter 0.5 }\nmaterial r { reflection 0.1 }\n");
+    build_ok(&p, &s, &o);
+    assert_true(p.transparent);
+    assert_true(p.reflective);
+    assert_int_equal(p.shadow[0], PLAN_SHADOW_FILTERED);
+    assert_int_equal(p.shadow[1], PLAN_SHADOW_NONE);
+    assert_int_equal(p.shadow[2], PLAN_SHADOW_FILTERED);
+    plan_free(&p);
+    scene_free(&s);
+
+    /* nested solids, in scene order, and none: a scene without lights */
+    const char *nested = "camera { eye 0 0 0 target 0 0 1 fov 40 }\nmaterial m { }\n"
+                         "sphere { center 0 0 0 radius 2 material m }\n"
+                         "sphere { center 5 0 0 radius 1 material m }\n"
+                         "obox { center 0 0 0.5 u 1 0 0 v 0 1 0 w 0 0 1 material m }\n";
+    char err[256];
+    assert_int_equal(scene_parse("n.scn", nested, strlen(nested), &s, err, sizeof err), 0);
+    build_ok(&p, &s, &o);
+    assert_int_equal(p.camera_in.n, 2);
+    assert_int_equal(p.camera_in.prim[0], 0);
+    assert_int_equal(p.camera_in.prim[1], 2);
+    assert_null(p.shadow);
+    plan_free(&p);
+    scene_free(&s);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_settings),
+        cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_coordinates),
+        cmocka_unit_test(test_decisions),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
