@@ -52,7 +52,7 @@ endif
 TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/%)
 
-.PHONY: all run test tests deps-run deps-test clean exact exact-judge stress cgal-data bench
+.PHONY: all run test tests deps-run deps-test clean exact exact-judge stress cgal-data bench install uninstall
 .DEFAULT_GOAL := all
 
 all: $(BUILD)/lancer
@@ -178,6 +178,20 @@ exact-judge: cgal-data
 
 cgal-data:
 	sh scripts/cgal-data.sh build/cgal-data
+
+# Installs the binary and the manual page (docs/lancer.1) under PREFIX;
+# DESTDIR stages them for a package.
+PREFIX ?= /usr/local
+BINDIR := $(PREFIX)/bin
+MAN1DIR := $(PREFIX)/share/man/man1
+
+install: all
+	install -d $(DESTDIR)$(BINDIR) $(DESTDIR)$(MAN1DIR)
+	install -m 755 $(BUILD)/lancer $(DESTDIR)$(BINDIR)/lancer
+	install -m 644 docs/lancer.1 $(DESTDIR)$(MAN1DIR)/lancer.1
+
+uninstall:
+	rm -f $(DESTDIR)$(BINDIR)/lancer $(DESTDIR)$(MAN1DIR)/lancer.1
 
 deps-run:
 	sh scripts/deps.sh run

@@ -21,6 +21,7 @@ for t in "$dir"/test_*; do
     run "$t" "$t"
 done
 run tests/cli.sh sh tests/cli.sh "$dir/lancer"
+run tests/install.sh sh tests/install.sh
 run scripts/parity.sh sh scripts/parity.sh "$dir/lancer"
 run scripts/stability.sh sh scripts/stability.sh "$dir/lancer"
 if [ -n "$judge" ]; then
