@@ -25,8 +25,8 @@
 #include <string.h>
 
 /* 8 bins: Wald reports SAH quality within a few percent of a full sweep
- * from 8-32 bins; on bunny00, diffuse rays visit 13.0 nodes with 8 bins and
- * 12.8 with 32, and the build takes 20% less. */
+ * from 8-32 bins, and more bins cost build time without saving node visits
+ * (docs/performance.md). */
 #define BVH_BINS 8
 /* Leaves of up to BVH_LEAF_MAX = 8 primitives, the lanes of one AVX2
  * triangle test. The SAH counts primitives in blocks of 8, as Embree counts
@@ -34,8 +34,8 @@
  * does. So a node of at most 8 is always a leaf (splitting it would add a
  * box test and save no triangle test), and a larger one is always split,
  * where sum(area(child) * blocks(child)) is least; the traversal and
- * intersection costs of the SAH then drop out. (Leaves of 4 made bunny00's
- * diffuse rays visit 8.7 nodes each; leaves of 8, 7.8.) */
+ * intersection costs of the SAH then drop out. (Leaves of 8 also make rays
+ * visit fewer nodes than leaves of 4: docs/performance.md.) */
 #define BVH_BLOCKS(n) (((n) + BVH_LEAF_MAX - 1) / BVH_LEAF_MAX)
 /* Below this many primitives a subtree is built on the calling thread:
  * starting a thread costs more than it saves. */
@@ -548,8 +548,8 @@ static double share(const Plan *a, const Plan *b, int slots, uint8_t *left)
  * leaves up. Every binary leaf stays a leaf whatever the collapse, and a
  * wide node costs one box test of all its slots, however many are used;
  * so the cost is the sum of the wide nodes' areas (the chance that a ray
- * enters each). Greedily opening the largest child left a third of the
- * nodes with two children on bunny00. Children follow their parents in
+ * enters each). Greedily opening the largest child left many nodes with two
+ * children of eight. Children follow their parents in
  * bin[], so one backward pass sees children first. */
 static void plan_collapse(const BvhNode *bin, int nbin, Plan *plan)
 {
@@ -650,8 +650,8 @@ static int build_wide(Bvh *b, const BvhNode *bin, int nbin)
     Collapse C = {b, bin, plan};
     /* Every binary leaf is a leaf here; the wide nodes are counted first,
      * so that both arrays are allocated once at their size, aligned to
-     * cache lines (a copy into exact arrays afterwards wrote 4 MB more on
-     * bunny00, into fresh pages, a page fault each). */
+     * cache lines: a copy into exact arrays afterwards would write the tree
+     * twice, into fresh pages, a page fault each (docs/performance.md). */
     const int root = 0, nwide = bin[0].count > 0 ? 1 : count_wide(&C, 0);
     void *nodes = NULL, *leaves = NULL;
     if (posix_memalign(&nodes, 64, sizeof(BvhWideNode) * (size_t)nwide) != 0 ||

@@ -364,10 +364,10 @@ int OCCLUDED(const Bvh *b, const Ray *r, unsigned long long *tests)
     RayPre p;
     ray_pre(r, &p);
     /* The triangle test's set-up now, not at the first leaf as for closest
-     * hits: nearly every shadow ray reaches a leaf (its own surface's).
-     * Shadow rays 2.6 to 4.6% faster, and 0.7 to 3.2% more with the set-up
-     * inline in its AVX2 form (tri4.h); closest-hit camera rays were 6 to
-     * 10% slower either way. */
+     * hits: nearly every shadow ray reaches a leaf (its own surface's), so
+     * the set-up is never wasted and leaves the leaf's critical path.
+     * Closest-hit camera rays, which often reach no leaf, lose by it
+     * (docs/performance.md). */
     TriPre tp;
     tri_ray_init(&tp.tri, r);
     tp.ready = 1;
@@ -390,8 +390,7 @@ int OCCLUDED(const Bvh *b, const Ray *r, unsigned long long *tests)
         /* A branch per slot, not a loop over the mask's set bits nor a
          * branch-free push: the branches are predicted, so the next node's
          * address is known before the box test ends and its load can start
-         * (by set bit, or without branches, shadow rays were 24% and 32%
-         * slower on bunny00). */
+         * (both other forms were slower: docs/performance.md). */
         for (int i = 0; i < BVH_WIDTH; i++)
             if (mask >> i & 1)
                 stack[sp++] = n->child[i];
@@ -586,9 +585,9 @@ void bvh_closest_packet_avx2(const Bvh *b, const Ray *r, int n, PrimHit *h, int 
  * ray k. The packet's box test picks the slots some ray may enter, and each
  * is then visited by the rays that enter it by their own single-ray test,
  * so a ray reaches every leaf it would reach alone, tests it on its own,
- * and leaves the packet at its first hit: the same verdict. On bunny.scn,
- * the shadow rays of a packet of camera rays visit 6.6 times fewer nodes
- * and 3.7 times fewer leaves together than one by one. */
+ * and leaves the packet at its first hit: the same verdict. Together, the
+ * shadow rays of a packet of camera rays visit far fewer nodes and leaves
+ * than one by one. */
 unsigned bvh_occluded_packet_avx2(const Bvh *b, const Ray *r, int n, unsigned long long *tests)
 {
     PacketPre p;
@@ -658,8 +657,8 @@ static inline int has_avx2(void) { return __builtin_cpu_supports("avx2") && __bu
 /* 1 when the ray certainly misses the root box (b->lo, b->hi) by
  * slots_enter's own test. Every slot of the root node lies inside that box,
  * and each slab distance rounds monotonically in its plane, so such a ray
- * misses every slot, and the traversal and its set-up are saved. More than
- * half the rays of a camera framing a mesh miss its box (bunny00: 55%).
+ * misses every slot, and the traversal and its set-up are saved: about
+ * half the rays of a camera framing a mesh miss its box.
  * A ray from inside the box (shadow and secondary rays) is not tested. */
 static inline int misses_root(const Bvh *b, const Ray *r)
 {

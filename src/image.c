@@ -56,10 +56,9 @@ static int image_valid(const Image *img)
 }
 
 /* zlib's level for the EXR's ZIP chunks and the PNG, instead of its default
- * 6 (OpenEXR 3.1 compresses with zlib; later versions with libdeflate):
- * bunny.scn's 1024^2 EXR took 0.17 s at 6 and takes 0.075 s at 4, 6%
- * larger (the PNG 0.12 s against 0.08 s, 5% larger). At 6, writing took
- * about as long as rendering on two threads. */
+ * 6 (OpenEXR 3.1 compresses with zlib; later versions with libdeflate): at
+ * 6, writing took about as long as rendering on two threads, and 4 takes
+ * half of that for files a few percent larger (docs/performance.md). */
 #define IMAGE_ZIP_LEVEL 4
 
 /* ---- OpenEXR ------------------------------------------------------------ */

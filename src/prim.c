@@ -324,6 +324,36 @@ int prim_box_hit_robust(const Box *b, const Ray *r, PrimHit *h)
     return 1;
 }
 
+/* x moved away from zero (up) or towards it (!up) by a relative 2^-50:
+ * more than the three roundings of a quotient of two differences. */
+static double outward(double x, int up) { return x * (up == (x > 0.0) ? 1.0 + 0x1p-50 : 1.0 - 0x1p-50); }
+
+/* Narrows [*lo, *hi] to the t with a t <= b: t <= b / a when a > 0, t >=
+ * b / a when a < 0, every t or none when a == 0; each bound rounded
+ * outwards (widen) or inwards (!widen). */
+static void slab_side(double a, double b, int widen, double *lo, double *hi)
+{
+    if (a > 0.0)
+        *hi = fmin(*hi, outward(b / a, widen));
+    else if (a < 0.0)
+        *lo = fmax(*lo, outward(b / a, !widen));
+    else if (b < 0.0)
+        *lo = INFINITY;
+}
+
+/* The t with |so + t sd| <= w + k t e_sd, where so and sd carry errors up to
+ * e_so and e_sd: k = 1 and w = the slab's half-width plus its error bounds
+ * gives an interval that holds the exact slab's, k = -1 and w less them
+ * one that it holds. In slab units, so that a slab nearly parallel to the
+ * ray widens by what its rounding allows and no more. */
+static void slab_interval(double so, double sd, double w, double e_sd, int k, double *lo, double *hi)
+{
+    *lo = -INFINITY;
+    *hi = INFINITY;
+    slab_side(sd - k * e_sd, w - so, k > 0, lo, hi);  /* so + t sd <= w + k t e_sd */
+    slab_side(-sd - k * e_sd, w + so, k > 0, lo, hi); /* -(so + t sd) <= w + k t e_sd */
+}
+
 int prim_obox_hit_robust(const OBox *b, const Ray *r, PrimHit *h)
 {
     /* Slab i holds the points p with |(p - c).N| <= |det|, N the cross
@@ -333,14 +363,18 @@ int prim_obox_hit_robust(const OBox *b, const Ray *r, PrimHit *h)
     double oc[3], dd[3] = {r->d.x, r->d.y, r->d.z};
     for (int i = 0; i < 3; i++)
         oc[i] = (double)vec_comp(r->o, i) - vec_comp(b->c, i);
-    /* Per slab: the interval [t0, t1] and its error bounds. The verdict
-     * uses each slab widened by its own bounds; a nearly parallel slab has
-     * a huge bound and so constrains nothing, as it should. */
+    /* The verdict takes each slab widened in slab units by its error
+     * bounds (slab_interval). The distance takes each slab's ends as
+     * quotients with their error bounds; those bounds grow without limit
+     * as the ray turns parallel to the slab, so a slab nearly parallel to
+     * the ray (grazed) gives the brackets of its widened and narrowed
+     * interval instead. */
     double tnear = -INFINITY, tfar = INFINITY;       /* unwidened, for t */
     double wnear = -INFINITY, wfar = INFINITY;       /* widened, for the verdict */
     double near_up = -INFINITY, far_down = INFINITY; /* how far the exact ends may reach */
     double tn_err = 0.0, tf_err = 0.0;
-    int near_axis = 0, far_axis = 0;
+    double g_lw = -INFINITY, g_ln = -INFINITY, g_hn = INFINITY, g_hw = INFINITY; /* grazed slabs' brackets */
+    int near_axis = 0, far_axis = 0, g_near_axis = 0, g_far_axis = 0, grazing = 0;
     for (int i = 0; i < 3; i++) {
         Vec3 P = ax[(i + 1) % 3], Q = ax[(i + 2) % 3];
         double n[3] = {(double)P.y * Q.z - (double)P.z * Q.y, (double)P.z * Q.x - (double)P.x * Q.z,
@@ -356,10 +390,25 @@ int prim_obox_hit_robust(const OBox *b, const Ray *r, PrimHit *h)
         }
         /* n: 1 rounding; oc: 1; products and sums: 4 more */
         double e_det = gamma_d(6) * m_det, e_so = gamma_d(6) * m_so, e_sd = gamma_d(6) * m_sd;
-        double half = fabs(det);
-        if (!(fabs(sd) > e_sd)) { /* parallel to the slab to working precision */
-            if (fabs(so) > half + e_det + e_so)
-                return 0;
+        double half = fabs(det), lo, hi, nlo, nhi;
+        /* (the bounds grown by 2^-48 for the roundings of these sums) */
+        double e_w = (e_det + e_so) * (1.0 + 0x1p-48), e_s = e_sd * (1.0 + 0x1p-48);
+        slab_interval(so, sd, (half + e_w) * (1.0 + 0x1p-50), e_s, 1, &lo, &hi);
+        wnear = fmax(wnear, lo);
+        wfar = fmin(wfar, hi);
+        if (!(fabs(sd) > 4.0 * e_sd)) { /* grazed: the quotients below would not bound t */
+            slab_interval(so, sd, (half - e_w) * (1.0 - 0x1p-50), e_s, -1, &nlo, &nhi);
+            grazing = 1;
+            if (lo > g_lw) {
+                g_lw = lo;
+                g_near_axis = i;
+            }
+            if (hi < g_hw) {
+                g_hw = hi;
+                g_far_axis = i;
+            }
+            g_ln = fmax(g_ln, nlo);
+            g_hn = fmin(g_hn, nhi);
             continue;
         }
         double e_num = e_det + e_so + gamma_d(1) * (half + fabs(so));
@@ -383,18 +432,47 @@ int prim_obox_hit_robust(const OBox *b, const Ray *r, PrimHit *h)
             tf_err = e1;
             far_axis = i;
         }
-        wnear = fmax(wnear, t0 - e0);
-        wfar = fmin(wfar, t1 + e1);
         near_up = fmax(near_up, t0 + e0);
         far_down = fmin(far_down, t1 - e1);
     }
     if (!(wnear <= wfar)) /* the widened slabs do not overlap */
         return 0;
     /* The exact entry is the largest exact near distance: it lies within
-     * tn_err below tnear and at most near_up above it (likewise the exit). */
-    int inside = !(tnear > 0.0);
-    double t = inside ? tfar : tnear;
-    double err = inside ? fmax(tf_err, tfar - far_down) : fmax(tn_err, near_up - tnear);
+     * tn_err below tnear and at most near_up above it (likewise the exit),
+     * or within a grazed slab's brackets. */
+    int inside;
+    double t, err;
+    if (!grazing) {
+        inside = !(tnear > 0.0);
+        t = inside ? tfar : tnear;
+        err = inside ? fmax(tf_err, tfar - far_down) : fmax(tn_err, near_up - tnear);
+    } else {
+        double in_lo = fmax(tnear - tn_err, g_lw), in_hi = fmax(near_up, g_ln);
+        double out_lo = fmin(far_down, g_hn), out_hi = fmin(tfar + tf_err, g_hw);
+        inside = !(in_lo > 0.0);
+        /* a hit's t is past 0; the quotients' estimate where it lies in the
+         * bracket, else the bracket's middle */
+        double lo = inside ? fmax(out_lo, 0.0) : in_lo, hi = inside ? out_hi : in_hi, est = inside ? tfar : tnear;
+        if (est >= lo && est <= hi) {
+            t = est;
+            err = fmax(est - lo, hi - est);
+        } else if (isfinite(lo) && isfinite(hi)) {
+            t = 0.5 * lo + 0.5 * hi;
+            err = 0.5 * (hi - lo) * (1.0 + 0x1p-50);
+        } else {
+            t = isfinite(lo) ? lo : hi;
+            err = INFINITY;
+        }
+        /* From inside the widened box the entry may still lie in (0,
+         * in_hi]: the bound then reaches it, so that the exact t is within
+         * it of 0, as at every routine's origin. */
+        if (inside && in_hi > 0.0)
+            err = fmax(err, in_hi);
+        if (g_lw > tnear - tn_err)
+            near_axis = g_near_axis;
+        if (g_hw < tfar + tf_err)
+            far_axis = g_far_axis;
+    }
     float tf = round_t(t, err, &h->terr);
     if (!(tf > 0.0f && tf < r->tmax))
         return 0;

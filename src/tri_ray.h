@@ -43,8 +43,7 @@ TRI_INLINE void tri_ray_init(PrimTriRay *p, const Ray *r)
     static const uint8_t axes[8] = {0x24, 0x24, 0x12, 0x24, 0x24, 0x09, 0x12, 0x09}; /* kx | ky << 2 | kz << 4 */
     /* With AVX2, the comparisons four lanes at once and the three
      * divisions in one (each lane rounds as alone). Built for SSE2 alone,
-     * this form takes more instructions than the scalar one
-     * (docs/performance.md). */
+     * this form would take more instructions than the scalar one. */
     const __m128 ad = _mm_andnot_ps(_mm_set1_ps(-0.0f), _mm_setr_ps(d[0], d[1], d[2], 0.0f));
     int ac = _mm_movemask_ps(_mm_cmpgt_ps(ad, _mm_shuffle_ps(ad, ad, _MM_SHUFFLE(3, 2, 2, 1)))) & 3;
     int b = _mm_movemask_ps(_mm_cmpgt_ps(ad, _mm_shuffle_ps(ad, ad, _MM_SHUFFLE(3, 2, 2, 2)))) & 1;

@@ -9,7 +9,7 @@
  * For pixel coordinates (x, y) the direction is
  *     f + (2x/W - 1) * t * a * r + (1 - 2y/H) * t * u,   t = tan(fovy/2), a = W/H,
  * with f the unit view direction, r = f x up and u = r x f (both unit). This is
- * exactly POV-Ray's `right -x*a, angle 2*atan(a*t)` mapping (REFERENCE.md 1),
+ * exactly POV-Ray's `right -x*a, angle 2*atan(a*t)` mapping (docs/povray-rules.md, section 0),
  * and the direction is normalised so that t along a camera ray is distance.
  */
 #ifndef LANCER_CAMERA_H

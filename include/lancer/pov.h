@@ -3,9 +3,9 @@
  * picture, so that POV-Ray can serve as the reference renderer.
  *
  *     FILE *f = ...;
- *     if (pov_export(&scene, f) != 0) ... a write failed ...
+ *     if (pov_export(&scene, 0, 0, f) != 0) ... a write failed ...
  *
- * The mapping follows REFERENCE.md section 1: linear output (assumed_gamma
+ * The mapping follows docs/povray-rules.md, section 0: linear output (assumed_gamma
  * 1), no ambient light beyond each finish's own, adc_bailout 0 so that no
  * reflection is cut early, max_trace_level = max_depth, and the right-handed
  * camera as `right -x*a` with the horizontal angle. Every finish value is

@@ -189,8 +189,16 @@ int prim_box_hit_robust(const Box *b, const Ray *r, PrimHit *h);
  * 1 + 8u is 1 + 2 gamma(4) rounded to double. (Ize's 1 + 2 gamma(3) is one
  * rounding short where the subtraction rounds.) */
 #define PRIM_BOX_PAD (1.0 + 0x1p-50)
-/* Oriented box: the six face planes in world space, in double, each slab
- * widened by its rounding bound. Band: as for the box, relative 1e-12. */
+/* Oriented box: the six face planes in world space, in double. The verdict
+ * takes each slab |(p - c).N| <= |det| widened in slab units by the
+ * rounding bounds of its terms, so a slab nearly parallel to the ray widens
+ * by what its rounding allows and no more; t comes from the slabs' ends as
+ * quotients with their error bounds, or, for a slab the ray grazes, from
+ * the brackets of its widened and narrowed interval. Band: false hits
+ * only, for rays that pass within 2^-48 (|o - c| + |u| + |v| + |w|) of the
+ * box along a face's normal. The margin grows with the box's size and the
+ * origin's distance from c, not with |c| or t; relative to t it has no
+ * bound, for a ray that grazes a face (docs/robustness.md). */
 int prim_obox_hit_robust(const OBox *b, const Ray *r, PrimHit *h);
 
 /* Computes b->inv from u, v, w. Returns 0, or -1 when the axes are linearly

@@ -38,7 +38,7 @@
 /* Largest area-light grid side. */
 #define SCENE_MAX_AREA_SAMPLES 64
 
-/* POV-Ray's classic finish with a plain pigment (REFERENCE.md section 1),
+/* POV-Ray's classic finish with a plain pigment (docs/povray-rules.md),
  * plus POV-Ray's filter and transmit and an index of refraction. */
 typedef struct {
     char name[SCENE_NAME_MAX];

@@ -645,9 +645,29 @@ void case_box_edge(int rid, Rng &g, Stats &st, uint64_t i, bool v)
                     tgt = tgt + L3{{ax[j].v[0] / m * num, ax[j].v[1] / m * num, ax[j].v[2] / m * num}};
                 }
             }
-            L3 O = g.coin(0.15) ? (k == K_BOX ? L3{{(lo.v[0] + hi.v[0]) / 2, (lo.v[1] + hi.v[1]) / 2, (lo.v[2] + hi.v[2]) / 2}} : c)
+            // Grazing (oriented boxes, a quarter of the time): a direction in
+            // the plane of a face, d.N = 0 exactly with a zero component,
+            // which then takes a tiny float: the ray turns off the plane by
+            // a few rounding units of the slab's d.N.
+            int graze = k == K_OBOX && g.coin(0.25) ? 1 + (int)g.below(3) : 0; // the grazed slab, plus 1
+            L3 gd{};
+            int gzero = 0;
+            if (graze) {
+                W3 N = crossl(ax[graze % 3], ax[(graze + 1) % 3]); // the normal of slab graze - 1
+                gzero = (int)g.below(3);                           // d's zero component
+                int a1 = (gzero + 1) % 3, a2 = (gzero + 2) % 3;   // d = (N_a2, -N_a1) there: d.N = 0
+                if (N.v[a1] == 0 && N.v[a2] == 0)
+                    continue;
+                gd.v[gzero] = 0;
+                gd.v[a1] = (int64_t)N.v[a2];
+                gd.v[a2] = -(int64_t)N.v[a1];
+                if (maxabs(gd) > ((int64_t)1 << 20))
+                    continue;
+            }
+            L3 O = graze ? tgt - gd * g.ibetween(1, 64) + lrand(g, g.coin(0.5) ? 0 : 1)
+                 : g.coin(0.15) ? (k == K_BOX ? L3{{(lo.v[0] + hi.v[0]) / 2, (lo.v[1] + hi.v[1]) / 2, (lo.v[2] + hi.v[2]) / 2}} : c)
                                 : tgt + lrand(g, (int64_t)1 << g.ibetween(1, 18));
-            L3 d = tgt - O;
+            L3 d = graze ? gd : tgt - O;
             if (zerol(d))
                 continue;
             int64_t mag = std::max({maxabs(O), maxabs(tgt), maxabs(lo), maxabs(hi), maxabs(c) + maxabs(ax[0]) + maxabs(ax[1]) + maxabs(ax[2])});
@@ -668,7 +688,12 @@ void case_box_edge(int rid, Rng &g, Stats &st, uint64_t i, bool v)
             r = ray_make(L.pt(O), L.vec(d, dir_exp(g, L, d)), INFINITY);
             if (!L.ok)
                 continue;
-            st.c[C_EXACTAIM]++;
+            if (graze) { // the tilt: 2^-60 to 2^-40 of the direction's length, either way
+                float m = std::max({std::fabs(r.d.x), std::fabs(r.d.y), std::fabs(r.d.z)});
+                setf(r.d, gzero, (float)(g.sgn() * std::ldexp((double)m, -(int)g.ibetween(40, 60))));
+            } else {
+                st.c[C_EXACTAIM]++;
+            }
         } else {
             // Float: random boxes, targets on edges and corners in float.
             Scene S = scene(g);
