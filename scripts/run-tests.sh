@@ -22,6 +22,7 @@ for t in "$dir"/test_*; do
 done
 run tests/cli.sh sh tests/cli.sh "$dir/lancer"
 run tests/install.sh sh tests/install.sh
+run scripts/check-links.sh sh scripts/check-links.sh
 run scripts/parity.sh sh scripts/parity.sh "$dir/lancer"
 run scripts/stability.sh sh scripts/stability.sh "$dir/lancer"
 if [ -n "$judge" ]; then
