@@ -309,7 +309,7 @@ static void test_hits_just_before_tmax(void **state)
     /* Triangles in axis planes, whose box face is the triangle's plane, and
      * rays ending one float past a hit: the box's entry distance, rounded
      * on its own, may land after tmax where the triangle's t lands before
-     * it. The tree must still find the hit (7% were lost before boxes were
+     * it. The tree must still find the hit (some were lost before boxes were
      * entered up to a grown tmax). */
     const int n = 200, rays = 40000;
     Prim *p = random_triangles(n);
