@@ -45,6 +45,19 @@ static void build_ok(RenderPlan *p, Scene *s, const PlanOptions *o)
     assert_int_equal(rc, 0);
 }
 
+/* The base scene plus `extra`, and its plan for options o. */
+static void load_plan(Scene *s, RenderPlan *p, const char *extra, const PlanOptions *o)
+{
+    load(s, extra);
+    build_ok(p, s, o);
+}
+
+static void done(Scene *s, RenderPlan *p)
+{
+    plan_free(p);
+    scene_free(s);
+}
+
 static void test_settings(void **state)
 {
     (void)state;
@@ -52,8 +65,7 @@ static void test_settings(void **state)
     RenderPlan p;
     PlanOptions o = plan_options();
     /* the scene's own settings */
-    load(&s, "");
-    build_ok(&p, &s, &o);
+    load_plan(&s, &p, "", &o);
     assert_int_equal(p.width, 200);
     assert_int_equal(p.height, 100);
     assert_int_equal(p.spp, 2);
@@ -61,8 +73,7 @@ static void test_settings(void **state)
     assert_int_equal(p.threads, 1);
     assert_int_equal(p.variant, PRIM_ROBUST);
     assert_ptr_equal(p.scene, &s);
-    plan_free(&p);
-    scene_free(&s);
+    done(&s, &p);
     /* each option that is set wins */
     load(&s, "");
     o.width = 33;
@@ -76,16 +87,14 @@ static void test_settings(void **state)
     assert_int_equal(p.spp, 5);
     assert_int_equal(p.threads, 3);
     assert_int_equal(p.variant, PRIM_CLASSIC);
-    plan_free(&p);
-    scene_free(&s);
+    done(&s, &p);
     /* the scene's intersect setting */
     load(&s, "");
     s.image.classic = 1;
     o = plan_options();
     build_ok(&p, &s, &o);
     assert_int_equal(p.variant, PRIM_CLASSIC);
-    plan_free(&p);
-    scene_free(&s);
+    done(&s, &p);
 }
 
 static void test_errors(void **state)
@@ -131,8 +140,7 @@ static void test_coordinates(void **state)
     Scene s;
     RenderPlan p;
     PlanOptions o = plan_options();
-    load(&s, "");
-    build_ok(&p, &s, &o);
+    load_plan(&s, &p, "", &o);
     assert_vec(p.offset, 1, 2, -8, 0);
     assert_vec(s.camera.eye, 0, 0, 0, 0);
     assert_vec(s.camera.target, 0, 0, 8, 0);
@@ -140,39 +148,29 @@ static void test_coordinates(void **state)
     assert_vec(s.prims[0].g.sphere.c, 0, 0, 0, 0);
     assert_vec(s.prims[1].g.box.lo, -2, -3, 7, 0);
     assert_float_equal(s.prims[2].g.plane.d, -4, 0); /* y = -2 moves to y = -4 */
-    plan_free(&p);
-    scene_free(&s);
+    done(&s, &p);
 
-    load(&s, "");
-    o.classic = 1;
-    build_ok(&p, &s, &o);
-    assert_vec(p.offset, 0, 0, 0, 0);
-    assert_vec(s.camera.eye, 1, 2, -8, 0);
-    plan_free(&p);
-    scene_free(&s);
-
-    load(&s, "");
-    o = plan_options();
-    o.world = 1;
-    build_ok(&p, &s, &o);
-    assert_vec(p.offset, 0, 0, 0, 0);
-    assert_vec(s.camera.eye, 1, 2, -8, 0);
-    plan_free(&p);
-    scene_free(&s);
+    for (int k = 0; k < 2; k++) { /* classic, then robust in world coordinates */
+        o = plan_options();
+        o.classic = k == 0;
+        o.world = k == 1;
+        load_plan(&s, &p, "", &o);
+        assert_vec(p.offset, 0, 0, 0, 0);
+        assert_vec(s.camera.eye, 1, 2, -8, 0);
+        done(&s, &p);
+    }
 
     /* the options' move first, then camera-relative: p -> 2p + (10, 0, 0), less the moved eye (12, 4, -16) */
-    load(&s, "");
     o = plan_options();
     o.move = 1;
     o.scale = 2;
     o.translate = vec3(10, 0, 0);
-    build_ok(&p, &s, &o);
+    load_plan(&s, &p, "", &o);
     assert_vec(p.offset, 12, 4, -16, 0);
     assert_vec(s.camera.eye, 0, 0, 0, 0);
     assert_vec(s.lights[0].pos, 4, 4, 6, 0);
     assert_float_equal(s.prims[0].g.sphere.r, 1, 0);
-    plan_free(&p);
-    scene_free(&s);
+    done(&s, &p);
 }
 
 static void test_decisions(void **state)
@@ -182,8 +180,7 @@ static void test_decisions(void **state)
     RenderPlan p;
     PlanOptions o = plan_options();
     /* opaque, no mirror: any-hit shadows for the lights that cast them */
-    load(&s, "");
-    build_ok(&p, &s, &o);
+    load_plan(&s, &p, "", &o);
     assert_false(p.transparent);
     assert_false(p.reflective);
     assert_int_equal(p.shadow[0], PLAN_SHADOW_OPAQUE);
@@ -197,15 +194,13 @@ static void test_decisions(void **state)
     scene_free(&s);
 
     /* a glass material anywhere: shadows are filtered, through every surface */
-    load(&s, "material g { filter 0.5 }\nmaterial r { reflection 0.1 }\n");
-    build_ok(&p, &s, &o);
+    load_plan(&s, &p, "material g { filter 0.5 }\nmaterial r { reflection 0.1 }\n", &o);
     assert_true(p.transparent);
     assert_true(p.reflective);
     assert_int_equal(p.shadow[0], PLAN_SHADOW_FILTERED);
     assert_int_equal(p.shadow[1], PLAN_SHADOW_NONE);
     assert_int_equal(p.shadow[2], PLAN_SHADOW_FILTERED);
-    plan_free(&p);
-    scene_free(&s);
+    done(&s, &p);
 
     /* nested solids, in scene order, and none: a scene without lights */
     const char *nested = "camera { eye 0 0 0 target 0 0 1 fov 40 }\nmaterial m { }\n"
@@ -219,8 +214,7 @@ static void test_decisions(void **state)
     assert_int_equal(p.camera_in.prim[0], 0);
     assert_int_equal(p.camera_in.prim[1], 2);
     assert_null(p.shadow);
-    plan_free(&p);
-    scene_free(&s);
+    done(&s, &p);
 }
 
 int main(void)
