@@ -1,8 +1,9 @@
 /*
  * mesh_read.h - what the mesh readers share (private to src/): the mesh
  * being built, its one allocation point, and the checks and messages every
- * format gives alike. Each reader fills a MeshBuild from a LexReader over
- * the file's bytes and ends with mesh_finish; mesh.c picks the reader.
+ * format gives alike (mesh_build.c). Each reader fills a MeshBuild from a
+ * LexReader over the file's bytes and ends with mesh_finish; mesh.c picks
+ * the reader.
  */
 #ifndef LANCER_MESH_READ_H
 #define LANCER_MESH_READ_H
@@ -47,6 +48,9 @@ int mesh_push_tri(const LexReader *R, MeshBuild *B, const int c[3], const int nc
  * vertex v (and normal n, when nc is given) into c (nc); from the third
  * corner on, each closes a triangle. */
 int mesh_fan_corner(const LexReader *R, MeshBuild *B, long long j, int v, int n, int c[3], int nc[3]);
+/* 1 when triangle c of vertices v has zero area: two corners repeated, or
+ * all three collinear, decided exactly on the float coordinates. */
+int mesh_tri_degenerate(const Vec3 *v, const int c[3]);
 /* Frees the normals: the mesh has none. */
 void mesh_drop_normals(Mesh *m);
 /* Drops degenerate triangles, trims the arrays, and with vertex_normals
