@@ -99,61 +99,77 @@ int afile_check_writable(const char *path, char *err, size_t errlen)
     return 0;
 }
 
-int afile_read(const char *path, unsigned long long max_bytes, const char *what, char **out, size_t *outlen, char *err,
-               size_t errlen)
+int afile_open_read(const char *path, unsigned long long max_bytes, const char *what, unsigned long long *size,
+                    char *err, size_t errlen)
 {
-    const unsigned long long limit = max_bytes < SIZE_MAX / 2 ? max_bytes : SIZE_MAX / 2;
-    FILE *f = fopen(path, "rb");
-    if (!f) {
+    /* O_NONBLOCK: opening a FIFO for reading would otherwise wait for a
+     * writer, forever; the check below then refuses it. */
+    int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0) {
         snprintf(err, errlen, "%s: cannot open: %s", path, strerror(errno));
         return -1;
     }
     struct stat st;
-    size_t cap = 1 << 16, len = 0;
-    if (fstat(fileno(f), &st) == 0 && S_ISREG(st.st_mode)) {
-        if ((unsigned long long)st.st_size > limit) {
-            snprintf(err, errlen, "%s: file of %lld bytes is larger than the %llu MiB limit for %s", path,
-                     (long long)st.st_size, limit >> 20, what);
-            fclose(f);
-            return -1;
-        }
-        cap = (size_t)st.st_size + 1; /* + 1: reaching EOF needs no second allocation */
+    if (fstat(fd, &st) != 0) {
+        snprintf(err, errlen, "%s: cannot open: %s", path, strerror(errno));
+        close(fd);
+        return -1;
     }
+    if (!S_ISREG(st.st_mode)) {
+        snprintf(err, errlen, "%s: not a regular file (%s)", path,
+                 S_ISDIR(st.st_mode) ? "a directory" : S_ISFIFO(st.st_mode) ? "a FIFO" : "a device or socket");
+        close(fd);
+        return -1;
+    }
+    if ((unsigned long long)st.st_size > max_bytes) {
+        snprintf(err, errlen, "%s: file of %lld bytes is larger than the %llu MiB limit for %s", path,
+                 (long long)st.st_size, max_bytes >> 20, what);
+        close(fd);
+        return -1;
+    }
+    int flags = fcntl(fd, F_GETFL);
+    if (flags >= 0)
+        fcntl(fd, F_SETFL, flags & ~O_NONBLOCK);
+    *size = (unsigned long long)st.st_size;
+    return fd;
+}
+
+int afile_read(const char *path, unsigned long long max_bytes, const char *what, char **out, size_t *outlen, char *err,
+               size_t errlen)
+{
+    const unsigned long long limit = max_bytes < SIZE_MAX / 2 ? max_bytes : SIZE_MAX / 2;
+    unsigned long long size;
+    int fd = afile_open_read(path, limit, what, &size, err, errlen);
+    if (fd < 0)
+        return -1;
+    /* One byte more than the size: a file that grew since fstat shows it. */
+    size_t cap = (size_t)size + 1, len = 0;
     char *buf = malloc(cap);
     if (!buf) {
         snprintf(err, errlen, "%s: out of memory reading %zu bytes", path, cap);
-        fclose(f);
+        close(fd);
         return -1;
     }
     int rc = 0;
     for (;;) {
-        if (len == cap) {
-            if (cap > limit) {
-                snprintf(err, errlen, "%s: file larger than the %llu MiB limit for %s", path, limit >> 20, what);
-                rc = -1;
-                break;
-            }
-            size_t ncap = cap > limit / 2 ? (size_t)limit + 1 : cap * 2;
-            char *nb = realloc(buf, ncap);
-            if (!nb) {
-                snprintf(err, errlen, "%s: out of memory reading %zu bytes", path, ncap);
-                rc = -1;
-                break;
-            }
-            buf = nb;
-            cap = ncap;
+        ssize_t n = read(fd, buf + len, cap - len);
+        if (n < 0 && errno == EINTR)
+            continue;
+        if (n < 0) {
+            snprintf(err, errlen, "%s: read error: %s", path, strerror(errno));
+            rc = -1;
+            break;
         }
-        size_t n = fread(buf + len, 1, cap - len, f);
-        len += n;
-        if (n == 0) {
-            if (ferror(f)) {
-                snprintf(err, errlen, "%s: read error: %s", path, strerror(errno));
-                rc = -1;
-            }
+        if (n == 0)
+            break;
+        len += (size_t)n;
+        if (len == cap) { /* it grew while being read */
+            snprintf(err, errlen, "%s: the file changed while it was read", path);
+            rc = -1;
             break;
         }
     }
-    fclose(f);
+    close(fd);
     if (rc != 0) {
         free(buf);
         return -1;

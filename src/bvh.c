@@ -602,6 +602,11 @@ static void fill_node(Collapse *C, const int *kids, int nk, int at)
     for (int i = 0; i < BVH_WIDTH; i++) {
         const BvhNode *c = i < nk ? &C->bin[kids[i]] : NULL;
         slot_box(&b->nodes[at], i, c);
+        /* An unused slot's box is never entered, but a ray of NaNs enters
+         * every box: its child is leaf 0, which is harmless to test, and
+         * not node 0, whose revisits would grow the traversal's stack
+         * without end. Every other child lies below its parent. */
+        b->nodes[at].child[i] = -1;
         if (c && c->count > 0) {
             b->nodes[at].child[i] = add_leaf(b, c);
         } else if (c) {
@@ -811,6 +816,10 @@ int bvh_validate(const Bvh *b, char *err, size_t errlen)
             int empty = 1;
             for (int a = 0; a < 3; a++)
                 empty &= slo[k][a] == INFINITY && shi[k][a] == -INFINITY;
+            if (empty && n->child[k] != -1) {
+                snprintf(err, errlen, "unused slot %d of node %d leads to %d, not to leaf 0", k, ni, n->child[k]);
+                rc = -1;
+            }
             if (empty)
                 continue;
             if (!inside(plo, phi, slo[k], shi[k])) {

@@ -26,8 +26,8 @@ int image_init(Image *img, int width, int height)
     img->width = 0;
     img->height = 0;
     img->rgb = NULL;
-    if (width < 1 || height < 1 || width > IMAGE_MAX_SIDE || height > IMAGE_MAX_SIDE ||
-        (long)width * height > IMAGE_MAX_PIXELS)
+    if (width < 1 || height < 1 || width > LIMIT_IMAGE_SIDE || height > LIMIT_IMAGE_SIDE ||
+        (long)width * height > LIMIT_IMAGE_PIXELS)
         return -1;
     img->rgb = calloc((size_t)width * (size_t)height * 3, sizeof(float));
     if (img->rgb == NULL)
@@ -52,7 +52,7 @@ void image_free(Image *img)
 static int image_valid(const Image *img)
 {
     return img != NULL && img->rgb != NULL && img->width >= 1 && img->height >= 1 &&
-           img->width <= IMAGE_MAX_SIDE && img->height <= IMAGE_MAX_SIDE;
+           img->width <= LIMIT_IMAGE_SIDE && img->height <= LIMIT_IMAGE_SIDE;
 }
 
 /* zlib's level for the EXR's ZIP chunks and the PNG, instead of its default
@@ -60,6 +60,12 @@ static int image_valid(const Image *img)
  * 6, writing took about as long as rendering on two threads, and 4 takes
  * half of that for files a few percent larger (docs/performance.md). */
 #define IMAGE_ZIP_LEVEL 4
+
+/* The most pixels a byte of an EXR file can hold. zlib (ZIP, ZIPS and
+ * PXR24's last stage) packs at most 1032 to 1; the DCT codecs (DWAA, DWAB)
+ * keep one coefficient of a flat 8x8 block before zlib. 2^16 covers both,
+ * and still refuses a 127-byte header that asks for 16384^2 pixels. */
+#define IMAGE_EXR_PACKING 65536ULL
 
 /* ---- OpenEXR ------------------------------------------------------------ */
 
@@ -99,8 +105,8 @@ static exr_context_initializer_t image_exr_init(ImageExrErr *e)
     init.error_handler_fn = image_exr_on_error;
     init.user_data = e;
     /* Lets the header parser reject huge images before anything is read. */
-    init.max_image_width = IMAGE_MAX_SIDE;
-    init.max_image_height = IMAGE_MAX_SIDE;
+    init.max_image_width = LIMIT_IMAGE_SIDE;
+    init.max_image_height = LIMIT_IMAGE_SIDE;
     return init;
 }
 
@@ -235,12 +241,49 @@ int image_write_exr(const Image *img, const char *path, ImagePrecision prec, cha
     return afile_commit(tmp, path, err, errlen);
 }
 
+/* What reading needs beside the context: the message, the file's bytes,
+ * and room for the channels lancer does not keep. The message comes first,
+ * so that the error handler finds it at the user data's address. */
+typedef struct {
+    ImageExrErr e;
+    const unsigned char *data;
+    size_t len;
+    float *scratch; /* one chunk of one channel, as floats */
+    size_t scratch_len;
+} ImageExrRead;
+
+/* OpenEXRCore's read callback, over the bytes read beforehand: the file is
+ * never opened by the library (so a FIFO cannot block it) and every read
+ * stays inside what the file holds. */
+static int64_t image_exr_mem_read(exr_const_context_t ctxt, void *ud, void *buffer, uint64_t sz, uint64_t offset,
+                                  exr_stream_error_func_ptr_t error_cb)
+{
+    (void)ctxt;
+    (void)error_cb;
+    const ImageExrRead *m = ud;
+    if (offset >= m->len)
+        return 0;
+    size_t n = (size_t)(sz < m->len - offset ? sz : m->len - offset);
+    memcpy(buffer, m->data + offset, n);
+    return (int64_t)n;
+}
+
+static int64_t image_exr_mem_size(exr_const_context_t ctxt, void *ud)
+{
+    (void)ctxt;
+    return (int64_t)((const ImageExrRead *)ud)->len;
+}
+
 /* Decodes one chunk whose top-left pixel is (x0, y0) in image coordinates,
- * converting R, G and B to float straight into img and skipping the rest. */
+ * converting R, G and B to float straight into img. The other channels are
+ * decoded into scratch, since OpenEXR 3.1's unpackers for some channel
+ * layouts (three halves, say) write through every channel's pointer, a
+ * NULL one too. */
 static exr_result_t image_exr_decode_chunk(exr_const_context_t ctx, const exr_chunk_info_t *ci,
                                            int64_t x0, int64_t y0, Image *img,
-                                           exr_decode_pipeline_t *dec, int *started, ImageExrErr *e)
+                                           exr_decode_pipeline_t *dec, int *started, ImageExrRead *rd)
 {
+    ImageExrErr *e = &rd->e;
     /* A corrupt header or chunk table must not make us write outside img. */
     if (x0 < 0 || y0 < 0 || ci->width < 0 || ci->height < 0 ||
         x0 + ci->width > img->width || y0 + ci->height > img->height) {
@@ -262,7 +305,21 @@ static exr_result_t image_exr_decode_chunk(exr_const_context_t ctx, const exr_ch
         exr_coding_channel_info_t *ch = &dec->channels[c];
         int off = image_rgb_offset(ch->channel_name);
         if (off < 0) {
-            ch->decode_to_ptr = NULL; /* the decoder skips such channels */
+            size_t need = (size_t)ch->width * (size_t)ch->height;
+            if (need > rd->scratch_len) {
+                float *sc = realloc(rd->scratch, sizeof(float) * need);
+                if (!sc) {
+                    image_exr_note(e, "out of memory");
+                    return EXR_ERR_OUT_OF_MEMORY;
+                }
+                rd->scratch = sc;
+                rd->scratch_len = need;
+            }
+            ch->decode_to_ptr = (uint8_t *)rd->scratch;
+            ch->user_data_type = EXR_PIXEL_FLOAT;
+            ch->user_bytes_per_element = (int16_t)sizeof(float);
+            ch->user_pixel_stride = (int32_t)sizeof(float);
+            ch->user_line_stride = (int32_t)sizeof(float) * ch->width;
             continue;
         }
         ch->decode_to_ptr = (uint8_t *)(origin + off);
@@ -280,8 +337,9 @@ static exr_result_t image_exr_decode_chunk(exr_const_context_t ctx, const exr_ch
 
 static exr_result_t image_exr_read_scanlines(exr_const_context_t ctx, const exr_attr_box2i_t *dw,
                                              Image *img, exr_decode_pipeline_t *dec, int *started,
-                                             ImageExrErr *e)
+                                             ImageExrRead *rd)
 {
+    ImageExrErr *e = &rd->e;
     int32_t lpc = 0;
     exr_result_t rv = exr_get_scanlines_per_chunk(ctx, 0, &lpc);
     if (rv != EXR_ERR_SUCCESS)
@@ -301,7 +359,7 @@ static exr_result_t image_exr_read_scanlines(exr_const_context_t ctx, const exr_
             return EXR_ERR_CORRUPT_CHUNK;
         }
         rv = image_exr_decode_chunk(ctx, &ci, 0, (int64_t)ci.start_y - dw->min.y, img, dec,
-                                    started, e);
+                                    started, rd);
         if (rv != EXR_ERR_SUCCESS)
             return rv;
     }
@@ -310,8 +368,9 @@ static exr_result_t image_exr_read_scanlines(exr_const_context_t ctx, const exr_
 
 /* Reads level 0 (full resolution) of a tiled part. */
 static exr_result_t image_exr_read_tiles(exr_const_context_t ctx, Image *img,
-                                         exr_decode_pipeline_t *dec, int *started, ImageExrErr *e)
+                                         exr_decode_pipeline_t *dec, int *started, ImageExrRead *rd)
 {
+    ImageExrErr *e = &rd->e;
     uint32_t tw = 0, th = 0;
     exr_tile_level_mode_t level;
     exr_tile_round_mode_t round;
@@ -330,7 +389,7 @@ static exr_result_t image_exr_read_tiles(exr_const_context_t ctx, Image *img,
             /* For tiles, ci.start_x/start_y are tile indices, not pixels. */
             rv = exr_read_tile_chunk_info(ctx, 0, (int)tx, (int)ty, 0, 0, &ci);
             if (rv == EXR_ERR_SUCCESS)
-                rv = image_exr_decode_chunk(ctx, &ci, tx * tw, ty * th, img, dec, started, e);
+                rv = image_exr_decode_chunk(ctx, &ci, tx * tw, ty * th, img, dec, started, rd);
             if (rv != EXR_ERR_SUCCESS)
                 return rv;
         }
@@ -338,8 +397,9 @@ static exr_result_t image_exr_read_tiles(exr_const_context_t ctx, Image *img,
     return EXR_ERR_SUCCESS;
 }
 
-static exr_result_t image_exr_read_part(exr_const_context_t ctx, Image *img, ImageExrErr *e)
+static exr_result_t image_exr_read_part(exr_const_context_t ctx, Image *img, ImageExrRead *rd)
 {
+    ImageExrErr *e = &rd->e;
     exr_storage_t storage;
     exr_result_t rv = exr_get_storage(ctx, 0, &storage);
     if (rv != EXR_ERR_SUCCESS)
@@ -355,10 +415,10 @@ static exr_result_t image_exr_read_part(exr_const_context_t ctx, Image *img, Ima
         return rv;
     int64_t w = (int64_t)dw.max.x - dw.min.x + 1;
     int64_t h = (int64_t)dw.max.y - dw.min.y + 1;
-    if (w < 1 || h < 1 || w > IMAGE_MAX_SIDE || h > IMAGE_MAX_SIDE) {
+    if (w < 1 || h < 1 || w > LIMIT_IMAGE_SIDE || h > LIMIT_IMAGE_SIDE) {
         char msg[128];
         snprintf(msg, sizeof msg, "data window of %lldx%lld pixels is outside 1..%d", (long long)w,
-                 (long long)h, IMAGE_MAX_SIDE);
+                 (long long)h, LIMIT_IMAGE_SIDE);
         image_exr_note(e, msg);
         return EXR_ERR_ARGUMENT_OUT_OF_RANGE;
     }
@@ -379,6 +439,16 @@ static exr_result_t image_exr_read_part(exr_const_context_t ctx, Image *img, Ima
         wanted = 1;
     }
 
+    /* The header's size against the file's, before allocating it: no
+     * compression of OpenEXR 3.1 packs more pixels into a byte than
+     * IMAGE_EXR_PACKING. */
+    if ((unsigned long long)(w * h) > (unsigned long long)rd->len * IMAGE_EXR_PACKING) {
+        char msg[160];
+        snprintf(msg, sizeof msg, "corrupt file: %lldx%lld pixels announced, more than its %zu bytes can hold",
+                 (long long)w, (long long)h, rd->len);
+        image_exr_note(e, msg);
+        return EXR_ERR_CORRUPT_CHUNK;
+    }
     if (image_init(img, (int)w, (int)h) != 0) {
         image_exr_note(e, "out of memory");
         return EXR_ERR_OUT_OF_MEMORY;
@@ -389,9 +459,9 @@ static exr_result_t image_exr_read_part(exr_const_context_t ctx, Image *img, Ima
     exr_decode_pipeline_t dec = EXR_DECODE_PIPELINE_INITIALIZER;
     int started = 0;
     if (storage == EXR_STORAGE_SCANLINE)
-        rv = image_exr_read_scanlines(ctx, &dw, img, &dec, &started, e);
+        rv = image_exr_read_scanlines(ctx, &dw, img, &dec, &started, rd);
     else
-        rv = image_exr_read_tiles(ctx, img, &dec, &started, e);
+        rv = image_exr_read_tiles(ctx, img, &dec, &started, rd);
     if (started)
         exr_decoding_destroy(ctx, &dec);
     return rv;
@@ -402,17 +472,26 @@ int image_read_exr(const char *path, Image *img, char *err, size_t errlen)
     img->width = 0;
     img->height = 0;
     img->rgb = NULL;
-    ImageExrErr e = {{0}, 0};
-    exr_context_initializer_t init = image_exr_init(&e);
+    char *data;
+    size_t len;
+    if (afile_read(path, (unsigned long long)LIMIT_EXR_BYTES, "images", &data, &len, err, errlen) != 0)
+        return -1;
+    ImageExrRead rd = {{{0}, 0}, (const unsigned char *)data, len, NULL, 0};
+    exr_context_initializer_t init = image_exr_init(&rd.e);
+    init.user_data = &rd;
+    init.read_fn = image_exr_mem_read;
+    init.size_fn = image_exr_mem_size;
     exr_context_t ctx = NULL;
     exr_result_t rv = exr_start_read(&ctx, path, &init);
     if (rv == EXR_ERR_SUCCESS)
-        rv = image_exr_read_part(ctx, img, &e);
+        rv = image_exr_read_part(ctx, img, &rd);
     if (ctx != NULL)
         exr_finish(&ctx);
+    free(rd.scratch);
+    free(data);
     if (rv != EXR_ERR_SUCCESS) {
         image_free(img);
-        image_exr_report(err, errlen, path, "cannot read", &e, rv);
+        image_exr_report(err, errlen, path, "cannot read", &rd.e, rv);
         return -1;
     }
     return 0;

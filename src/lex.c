@@ -211,9 +211,9 @@ int lex_parse_float(LexTok t, float *out)
 {
     if (!lex_is_decimal(t))
         return lex_is_nonfinite_word(t) ? LEX_NUM_NONFINITE : LEX_NUM_MALFORMED;
-    if (t.len > LEX_NUM_MAX)
+    if (t.len > LIMIT_NUMBER_CHARS)
         return LEX_NUM_LONG;
-    char buf[LEX_NUM_MAX + 1], *end;
+    char buf[LIMIT_NUMBER_CHARS + 1], *end;
     memcpy(buf, t.s, t.len);
     buf[t.len] = '\0';
     float f = strtof(buf, &end);

@@ -18,15 +18,14 @@
 #include <stddef.h>
 #include <string.h>
 
+#include "lancer/limits.h"
+
 #if defined(__GNUC__)
 #define LEX_PRINTF(f, a) __attribute__((format(printf, f, a)))
 #else
 #define LEX_PRINTF(f, a)
 #endif
 
-/* Longest number token read; longer ones are an error rather than a heap
- * copy (round-trip output of a double, what writers print, is under 30). */
-#define LEX_NUM_MAX 255
 /* Room for a token quoted in a message: 40 bytes plus "...". */
 #define LEX_QUOTE_LEN 48
 /* Integers saturate here, so that "99999999999999999999" fails a range

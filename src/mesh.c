@@ -95,7 +95,7 @@ int mesh_load(const char *path, Mesh *m, char *err, size_t errlen)
         snprintf(err, errlen, "%s: unknown mesh format (the name must end in .off, .obj, .ply or .stl)", path);
         return -1;
     }
-    if (afile_read(path, MESH_MAX_BYTES, "meshes", &buf, &len, err, errlen) != 0)
+    if (afile_read(path, (unsigned long long)LIMIT_MESH_BYTES, "meshes", &buf, &len, err, errlen) != 0)
         return -1;
     int rc = mesh_parse(path, buf, len, fmt, m, err, errlen);
     free(buf);

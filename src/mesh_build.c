@@ -62,7 +62,7 @@ int mesh_read_coord(const LexReader *R, LexTok t, const char *what, float *out)
     case LEX_NUM_NONFINITE:
         return lex_fail(R, R->line, "non-finite %s '%s'", what, lex_quote(t, q));
     case LEX_NUM_LONG:
-        return lex_fail(R, R->line, "number longer than %d characters '%s'", LEX_NUM_MAX, lex_quote(t, q));
+        return lex_fail(R, R->line, "number longer than %d characters '%s'", LIMIT_NUMBER_CHARS, lex_quote(t, q));
     default:
         return lex_fail(R, R->line, "malformed number '%s'", lex_quote(t, q));
     }

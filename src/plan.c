@@ -22,7 +22,7 @@ PlanOptions plan_options(void)
 void plan_interiors_at(const Scene *s, Vec3 q, Interiors *in)
 {
     in->n = 0;
-    for (int i = 0; i < s->nprims && in->n < PLAN_MAX_INTERIORS; i++)
+    for (int i = 0; i < s->nprims && in->n < LIMIT_INTERIORS; i++)
         if (prim_inside(&s->prims[i], q))
             in->prim[in->n++] = i;
 }
@@ -43,14 +43,14 @@ int plan_build(RenderPlan *p, Scene *s, const PlanOptions *o, char *err, size_t 
     p->max_depth = s->image.max_depth;
     p->threads = o->threads > 0 ? o->threads : 1;
     p->variant = o->classic || s->image.classic ? PRIM_CLASSIC : PRIM_ROBUST;
-    if (p->width < 1 || p->width > IMAGE_MAX_SIDE || p->height < 1 || p->height > IMAGE_MAX_SIDE ||
-        (long)p->width * p->height > IMAGE_MAX_PIXELS) {
+    if (p->width < 1 || p->width > LIMIT_IMAGE_SIDE || p->height < 1 || p->height > LIMIT_IMAGE_SIDE ||
+        (long)p->width * p->height > LIMIT_IMAGE_PIXELS) {
         snprintf(err, errlen, "a %dx%d image has more than the %ld pixels lancer renders", p->width, p->height,
-                 IMAGE_MAX_PIXELS);
+                 LIMIT_IMAGE_PIXELS);
         return -1;
     }
-    if (p->spp < 1 || p->spp > SCENE_MAX_SPP) {
-        snprintf(err, errlen, "spp must be a whole number from 1 to %d", SCENE_MAX_SPP);
+    if (p->spp < 1 || p->spp > LIMIT_SPP) {
+        snprintf(err, errlen, "spp must be a whole number from 1 to %d", LIMIT_SPP);
         return -1;
     }
     if (o->move && (!(o->scale > 0.0f) || !vec_is_finite(o->translate) ||

@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "lancer/afile.h"
+#include "lancer/limits.h"
 
 #define RAYFILE_MAGIC "LNCRAYS1"
 #define RAYFILE_RECORD 32
@@ -69,7 +70,7 @@ int rayfile_read(const char *path, Ray **rays, size_t *n, char *err, size_t errl
     *n = 0;
     char *buf;
     size_t size;
-    if (afile_read(path, SIZE_MAX, "ray files", &buf, &size, err, errlen) != 0)
+    if (afile_read(path, (unsigned long long)LIMIT_RAYFILE_BYTES, "ray files", &buf, &size, err, errlen) != 0)
         return -1;
     const unsigned char *b = (const unsigned char *)buf;
     if (size < 16 || memcmp(b, RAYFILE_MAGIC, 8) != 0) {

@@ -143,6 +143,13 @@ static int next(Parser *P)
         while (P->p + m < P->end && P->p[m] != '"' && P->p[m] != '\n') {
             if (P->p[m] == '\\' && P->p + m + 1 < P->end && P->p[m + 1] != '\n')
                 m++;
+            /* A NUL would cut the path short without a word ("ok.off\0x"
+             * loaded ok.off); no control byte belongs in a path. */
+            unsigned char b = (unsigned char)P->p[m];
+            if (b < 0x20 && b != '\t') {
+                Loc at = {t->loc.line, t->loc.col + (int)m};
+                return fail(P, at, "byte 0x%02x in a string", b);
+            }
             m++;
         }
         if (P->p + m >= P->end || P->p[m] != '"')
@@ -445,13 +452,13 @@ static int parse_image(Parser *P, Loc at)
     if (parse_block(P, "image", f, N, v))
         return -1;
     for (int i = WIDTH; i <= HEIGHT; i++) {
-        if (v[i].set && !whole(&v[i], 0, 1, IMAGE_MAX_SIDE))
-            return fail(P, v[i].value, "image: '%s' must be a whole number from 1 to %d", f[i].key, IMAGE_MAX_SIDE);
+        if (v[i].set && !whole(&v[i], 0, 1, LIMIT_IMAGE_SIDE))
+            return fail(P, v[i].value, "image: '%s' must be a whole number from 1 to %d", f[i].key, LIMIT_IMAGE_SIDE);
     }
-    if (v[MAX_DEPTH].set && !whole(&v[MAX_DEPTH], 0, 1, 256))
-        return fail(P, v[MAX_DEPTH].value, "image: 'max_depth' must be a whole number from 1 to 256");
-    if (v[SPP].set && !whole(&v[SPP], 0, 1, SCENE_MAX_SPP))
-        return fail(P, v[SPP].value, "image: 'spp' must be a whole number from 1 to %d", SCENE_MAX_SPP);
+    if (v[MAX_DEPTH].set && !whole(&v[MAX_DEPTH], 0, 1, LIMIT_DEPTH))
+        return fail(P, v[MAX_DEPTH].value, "image: 'max_depth' must be a whole number from 1 to %d", LIMIT_DEPTH);
+    if (v[SPP].set && !whole(&v[SPP], 0, 1, LIMIT_SPP))
+        return fail(P, v[SPP].value, "image: 'spp' must be a whole number from 1 to %d", LIMIT_SPP);
     P->s->image.spp = (int)num_or(&v[SPP], (float)P->s->image.spp);
     if (v[INTERSECT].set) {
         if (strcmp(v[INTERSECT].name, "classic") != 0 && strcmp(v[INTERSECT].name, "robust") != 0)
@@ -464,9 +471,9 @@ static int parse_image(Parser *P, Loc at)
     im->height = (int)num_or(&v[HEIGHT], (float)im->height);
     im->max_depth = (int)num_or(&v[MAX_DEPTH], (float)im->max_depth);
     P->s->background = vec_or(&v[BACKGROUND], P->s->background);
-    if ((long)im->width * im->height > IMAGE_MAX_PIXELS)
+    if ((long)im->width * im->height > LIMIT_IMAGE_PIXELS)
         return fail(P, at, "image: %d x %d is more than the %ld pixels lancer renders", im->width, im->height,
-                    IMAGE_MAX_PIXELS);
+                    LIMIT_IMAGE_PIXELS);
     return 0;
 }
 
@@ -532,10 +539,10 @@ static int parse_light(Parser *P, Loc at)
     l.area_v = vec_or(&v[AREA_V], vec3(0, 0, 0));
     l.area_n1 = l.area_n2 = 1;
     if (area) {
-        if (!whole(&v[AREA_SAMPLES], 0, 1, SCENE_MAX_AREA_SAMPLES) ||
-            !whole(&v[AREA_SAMPLES], 1, 1, SCENE_MAX_AREA_SAMPLES))
+        if (!whole(&v[AREA_SAMPLES], 0, 1, LIMIT_AREA_SAMPLES) ||
+            !whole(&v[AREA_SAMPLES], 1, 1, LIMIT_AREA_SAMPLES))
             return fail(P, v[AREA_SAMPLES].value, "light: 'area_samples' must be two whole numbers from 1 to %d",
-                        SCENE_MAX_AREA_SAMPLES);
+                        LIMIT_AREA_SAMPLES);
         l.area_n1 = (int)v[AREA_SAMPLES].v[0];
         l.area_n2 = (int)v[AREA_SAMPLES].v[1];
     }
@@ -959,7 +966,91 @@ int scene_transform(Scene *s, float scale, Vec3 offset)
             break;
         }
     }
+    char err[128];
+    return scene_validate(s, err, sizeof err); /* nothing overflowed or collapsed */
+}
+
+/* 1 when v is finite and not zero. */
+static int has_length(Vec3 v) { return vec_is_finite(v) && vec_length(v) > 0.0f && isfinite(vec_length(v)); }
+
+int scene_validate(const Scene *s, char *err, size_t errlen)
+{
+#define BAD(...) return snprintf(err, errlen, __VA_ARGS__), -1
+    const SceneImage *im = &s->image;
+    if (im->width < 1 || im->width > LIMIT_IMAGE_SIDE || im->height < 1 || im->height > LIMIT_IMAGE_SIDE ||
+        (long)im->width * im->height > LIMIT_IMAGE_PIXELS)
+        BAD("image size %dx%d out of range", im->width, im->height);
+    if (im->spp < 1 || im->spp > LIMIT_SPP || im->max_depth < 1 || im->max_depth > LIMIT_DEPTH)
+        BAD("spp %d or max_depth %d out of range", im->spp, im->max_depth);
+    if (!vec_is_finite(s->background))
+        BAD("background is not finite");
+    const CameraSpec *c = &s->camera;
+    Vec3 fwd = vec_sub(c->target, c->eye);
+    if (!vec_is_finite(c->eye) || !has_length(fwd) || !has_length(c->up) ||
+        !(vec_length(vec_cross(vec_normalize(fwd), vec_normalize(c->up))) > 1e-6f) ||
+        !(c->fovy > 0.0f && c->fovy < 180.0f))
+        BAD("camera degenerates");
+    for (int i = 0; i < s->nmaterials; i++) {
+        const Material *m = &s->materials[i];
+        const float f[] = {m->color.x, m->color.y, m->color.z, m->ambient, m->diffuse, m->phong, m->phong_size,
+                           m->specular, m->roughness, m->reflection, m->filter, m->transmit, m->ior};
+        for (size_t k = 0; k < sizeof f / sizeof f[0]; k++)
+            if (!(f[k] >= 0.0f) || !isfinite(f[k]))
+                BAD("material %d: a value is negative or not finite", i);
+        if (!(m->roughness > 0.0f) || !(m->ior > 0.0f) || m->filter + m->transmit > 1.0f)
+            BAD("material %d: roughness, ior, or filter and transmit out of range", i);
+    }
+    for (int i = 0; i < s->nlights; i++) {
+        const Light *l = &s->lights[i];
+        if (!vec_is_finite(l->pos) || !vec_is_finite(l->color) || !vec_is_finite(l->area_u) ||
+            !vec_is_finite(l->area_v) || !isfinite(l->fade_distance) || !(l->fade_power >= 0.0f) ||
+            !isfinite(l->fade_power) || (l->fade_power > 0.0f && !(l->fade_distance > 0.0f)))
+            BAD("light %d is not finite or its fade is out of range", i);
+        if (l->area_n1 < 1 || l->area_n1 > LIMIT_AREA_SAMPLES || l->area_n2 < 1 ||
+            l->area_n2 > LIMIT_AREA_SAMPLES)
+            BAD("light %d: area samples out of range", i);
+    }
+    for (int i = 0; i < s->nprims; i++) {
+        const Prim *p = &s->prims[i];
+        if (p->material < 0 || p->material >= s->nmaterials)
+            BAD("primitive %d: material %d out of range", i, p->material);
+        int ok = 1;
+        switch (p->kind) {
+        case PRIM_SPHERE:
+            ok = vec_is_finite(p->g.sphere.c) && p->g.sphere.r > 0.0f && isfinite(p->g.sphere.r);
+            break;
+        case PRIM_PLANE:
+            ok = has_length(p->g.plane.n) && isfinite(p->g.plane.d);
+            break;
+        case PRIM_TRIANGLE:
+        case PRIM_SMOOTH_TRIANGLE: {
+            const Triangle *t = &p->g.tri;
+            ok = vec_is_finite(t->a) && vec_is_finite(t->b) && vec_is_finite(t->c) && tri_has_area(t->a, t->b, t->c);
+            if (p->kind == PRIM_SMOOTH_TRIANGLE)
+                ok = ok && has_length(t->na) && has_length(t->nb) && has_length(t->nc);
+            break;
+        }
+        case PRIM_BOX: {
+            const Box *b = &p->g.box;
+            ok = vec_is_finite(b->lo) && vec_is_finite(b->hi) && b->lo.x < b->hi.x && b->lo.y < b->hi.y &&
+                 b->lo.z < b->hi.z;
+            break;
+        }
+        case PRIM_OBOX: {
+            OBox b = p->g.obox;
+            ok = vec_is_finite(b.c) && prim_obox_init(&b) == 0;
+            break;
+        }
+        default:
+            ok = 0;
+        }
+        if (!ok)
+            BAD("primitive %d degenerates or is not finite", i);
+    }
+    if (s->degenerate < 0)
+        BAD("negative count of degenerate triangles");
     return 0;
+#undef BAD
 }
 
 int scene_from_mesh(Scene *s, const Mesh *m)
@@ -1063,7 +1154,7 @@ int scene_load(const char *path, Scene *s, char *err, size_t errlen)
     memset(s, 0, sizeof *s);
     char *buf;
     size_t len;
-    if (afile_read(path, (unsigned long long)SCENE_MAX_BYTES, "scenes", &buf, &len, err, errlen) != 0)
+    if (afile_read(path, (unsigned long long)LIMIT_SCENE_BYTES, "scenes", &buf, &len, err, errlen) != 0)
         return -1;
     int rc = scene_parse(path, buf, len, s, err, errlen);
     free(buf);

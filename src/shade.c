@@ -15,9 +15,6 @@
 /* POV-Ray skips a light when N.L is below this (its EPSILON). */
 #define LIGHT_EPSILON 1e-10f
 
-/* A shadow ray crosses at most this many transparent surfaces; the offset
- * origins guarantee progress, this only bounds pathological scenes. */
-#define SHADOW_MAX_CROSSINGS 256
 
 typedef struct {
     const RenderPlan *p;
@@ -86,7 +83,7 @@ static Vec3 transmittance(const Ctx *c, PlanShadow mode, const Surface *from, Ve
     if (mode == PLAN_SHADOW_OPAQUE) /* any hit will do */
         return accel_occluded(c->a, &r, c->st) ? vec3(0, 0, 0) : vec3(1, 1, 1);
     Vec3 f = vec3(1, 1, 1);
-    for (int n = 0; n < SHADOW_MAX_CROSSINGS; n++) {
+    for (int n = 0; n < LIMIT_SHADOW_CROSSINGS; n++) {
         PrimHit h;
         int i = accel_closest(c->a, &r, &h, c->st);
         if (i < 0)
@@ -113,7 +110,7 @@ static Vec3 light_visibility(const Ctx *c, int li, const Surface *sf, Vec3 L, fl
     PlanShadow mode = c->p->shadow[li];
     if (l->area_n1 * l->area_n2 == 1)
         return transmittance(c, mode, sf, l->pos, L, dist);
-    float w1[SCENE_MAX_AREA_SAMPLES], w2[SCENE_MAX_AREA_SAMPLES];
+    float w1[LIMIT_AREA_SAMPLES], w2[LIMIT_AREA_SAMPLES];
     shade_area_weights(l->area_n1, w1);
     shade_area_weights(l->area_n2, w2);
     Vec3 vis = vec3(0, 0, 0);
@@ -199,7 +196,7 @@ static int refract(const Ctx *c, int prim, const Material *m, Vec3 f, const Surf
         eta = 1.0f;
     } else { /* entering a solid nested in the current one */
         eta = material_of(c, in->prim[in->n - 1])->ior / m->ior;
-        if (out.n < PLAN_MAX_INTERIORS)
+        if (out.n < LIMIT_INTERIORS)
             out.prim[out.n++] = prim;
     }
     if (fabsf(eta - 1.0f) < 1e-10f) { /* straight through, at the same level */

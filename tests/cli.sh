@@ -149,6 +149,19 @@ done
 expect 2 "$LANCER" render "$T/tiny.scn" --translate 1,2
 has "$T/err" "--translate needs X,Y,Z"
 expect 2 "$LANCER" render "$T/tiny.scn" --scale 0
+# a move that overflows float is refused (it once crashed the traversal)
+expect 1 "$LANCER" render "$T/tiny.scn" -o "$T/big.exr" --scale 1e38
+has "$T/err" "the scene degenerates at that scale or offset"
+# a FIFO as a scene, a mesh or an image is refused, never waited on
+mkfifo "$T/fifo.scn" "$T/fifo.exr"
+expect 1 timeout 10 "$LANCER" render "$T/fifo.scn"
+has "$T/err" "not a regular file (a FIFO)"
+expect 1 timeout 10 "$LANCER" diff "$T/fifo.exr" "$T/fifo.exr"
+has "$T/err" "not a regular file (a FIFO)"
+ln -s /dev/zero "$T/zero.off"
+printf 'camera { eye 0 0 -5 target 0 0 0 fov 40 }\nmaterial m { }\nmesh { file "zero.off" material m }\n' >"$T/zero.scn"
+expect 1 timeout 10 "$LANCER" render "$T/zero.scn"
+has "$T/err" "zero.off: not a regular file"
 sed 's/^image { /image { intersect classic /' "$T/tiny.scn" >"$T/classic.scn"
 expect 0 "$LANCER" render "$T/classic.scn" -o "$T/c2.exr" --stats "$T/c2.json" -q
 has "$T/c2.json" '"intersect": "classic"'

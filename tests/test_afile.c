@@ -97,7 +97,16 @@ static void test_read_limits(void **state)
     snprintf(want, sizeof want, "%s: file of 1572864 bytes is larger than the 1 MiB limit for things", path);
     assert_string_equal(err, want);
     assert_int_equal(afile_read(dir, 1 << 20, "things", &buf, &len, err, sizeof err), -1);
-    assert_non_null(strstr(err, "read error"));
+    assert_non_null(strstr(err, "not a regular file (a directory)"));
+    /* A FIFO would block its reader forever, and /dev/zero never ends:
+     * both are refused before a byte is read. */
+    snprintf(path, sizeof path, "%s/fifo", dir);
+    assert_int_equal(mkfifo(path, 0600), 0);
+    assert_int_equal(afile_read(path, 1 << 20, "things", &buf, &len, err, sizeof err), -1);
+    assert_non_null(strstr(err, "not a regular file (a FIFO)"));
+    remove(path);
+    assert_int_equal(afile_read("/dev/zero", 1 << 20, "things", &buf, &len, err, sizeof err), -1);
+    assert_string_equal(err, "/dev/zero: not a regular file (a device or socket)");
     snprintf(path, sizeof path, "%s/none", dir);
     assert_int_equal(afile_read(path, 1 << 20, "things", &buf, &len, err, sizeof err), -1);
     snprintf(want, sizeof want, "%s: cannot open: No such file or directory", path);

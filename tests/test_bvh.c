@@ -179,11 +179,60 @@ static void test_validate_catches_damage(void **state)
     assert_int_equal(bvh_validate(&b, err, sizeof err), -1);
     assert_non_null(strstr(err, "other vertices"));
     *copied = saved;
+    /* an unused slot leading back to the root, where a ray of NaNs would
+     * loop */
+    int ni = 0, e = BVH_WIDTH;
+    for (; ni < b.nnodes && e == BVH_WIDTH; ni += e == BVH_WIDTH)
+        for (e = 0; e < BVH_WIDTH && b.nodes[ni].lo[0][e] <= b.nodes[ni].hi[0][e]; e++)
+            ;
+    assert_true(ni < b.nnodes);
+    b.nodes[ni].child[e] = 0;
+    assert_int_equal(bvh_validate(&b, err, sizeof err), -1);
+    assert_non_null(strstr(err, "not to leaf 0"));
+    b.nodes[ni].child[e] = -1;
     /* a primitive referenced twice (and so another not at all) */
     b.leaves[0].first = b.leaves[0].first == 0 ? 1 : 0;
     assert_int_equal(bvh_validate(&b, err, sizeof err), -1);
     bvh_free(&b);
     free(p);
+}
+
+/* Rays of NaNs and infinities, and primitives whose bounds overflow to
+ * infinity: the traversal answers, and its stack never overflows. (A NaN
+ * ray enters every box; unused slots once led back to the root, and such a
+ * ray crashed the renderer on a scene scaled by 1e38.) */
+static void test_non_finite_rays_and_boxes(void **state)
+{
+    (void)state;
+    const float bad[] = {NAN, INFINITY, -INFINITY};
+    for (int n = 1; n <= 2000; n += 1999) {
+        Prim *p = random_prims(n);
+        p[0].kind = PRIM_SPHERE; /* bounds beyond float: infinite */
+        p[0].g.sphere.c = vec3(0, -1e38f, 3e38f);
+        p[0].g.sphere.r = 1e38f;
+        Bvh b;
+        build_ok(&b, p, n, 1);
+        for (int k = 0; k < 3; k++)
+            for (int which = 0; which < 2; which++) {
+                Ray r[BVH_PACKET];
+                for (int j = 0; j < BVH_PACKET; j++)
+                    r[j] = ray_make(vec3(0.1f * (float)j, 0, -5), vec_normalize(vec3(0.01f * (float)j, 0.02f, 1)),
+                                    INFINITY);
+                if (which)
+                    r[0].o.y = bad[k];
+                else
+                    r[0].d.x = bad[k];
+                unsigned long long tests = 0;
+                PrimHit h[BVH_PACKET];
+                int best[BVH_PACKET];
+                bvh_closest(&b, &r[0], &h[0], &tests);
+                bvh_occluded(&b, &r[0], &tests);
+                bvh_closest_packet(&b, r, BVH_PACKET, h, best, &tests);
+                bvh_occluded_packet(&b, r, BVH_PACKET, &tests);
+            }
+        bvh_free(&b);
+        free(p);
+    }
 }
 
 /* The closest hit by brute force: each primitive tested with the ray
@@ -603,6 +652,7 @@ int main(void)
         cmocka_unit_test(test_huge_boxes),
         cmocka_unit_test(test_coincident_centroids),
         cmocka_unit_test(test_validate_catches_damage),
+        cmocka_unit_test(test_non_finite_rays_and_boxes),
         cmocka_unit_test(test_agrees_with_brute_force),
         cmocka_unit_test(test_hits_just_before_tmax),
         cmocka_unit_test(test_rays_from_outside_touching_the_root_box),

@@ -263,10 +263,10 @@ static void test_init_sizes(void **state)
     assert_int_equal(img.width, 0);
     image_free(&img);
     assert_int_equal(image_init(&img, 5, -1), -1);
-    assert_int_equal(image_init(&img, IMAGE_MAX_SIDE + 1, 1), -1);
-    assert_int_equal(image_init(&img, 1, IMAGE_MAX_SIDE + 1), -1);
-    /* each side fits, but the pixel count is over IMAGE_MAX_PIXELS */
-    assert_int_equal(image_init(&img, IMAGE_MAX_SIDE, IMAGE_MAX_SIDE), -1);
+    assert_int_equal(image_init(&img, LIMIT_IMAGE_SIDE + 1, 1), -1);
+    assert_int_equal(image_init(&img, 1, LIMIT_IMAGE_SIDE + 1), -1);
+    /* each side fits, but the pixel count is over LIMIT_IMAGE_PIXELS */
+    assert_int_equal(image_init(&img, LIMIT_IMAGE_SIDE, LIMIT_IMAGE_SIDE), -1);
     assert_null(img.rgb);
 
     assert_int_equal(image_init(&img, 7, 3), 0);
@@ -607,12 +607,17 @@ static void test_exr_read_errors(void **state)
     assert_non_null(strstr(err, y));
     assert_null(img.rgb);
 
-    /* An empty file and a directory. */
+    /* An empty file, a directory and a FIFO (which once blocked forever). */
     const char *e = join(f, "empty.exr");
     spill(e, "", 0);
     assert_int_equal(image_read_exr(e, &img, err, sizeof err), -1);
     assert_non_null(strstr(err, e));
     assert_int_equal(image_read_exr(f->dir, &img, err, sizeof err), -1);
+    const char *fifo = join(f, "fifo.exr");
+    assert_int_equal(mkfifo(fifo, 0600), 0);
+    assert_int_equal(image_read_exr(fifo, &img, err, sizeof err), -1);
+    assert_non_null(strstr(err, "not a regular file (a FIFO)"));
+    remove(fifo);
 
     /* A real file cut short: its header is fine, its pixels are not. */
     Image src;
@@ -631,6 +636,59 @@ static void test_exr_read_errors(void **state)
     assert_null(strchr(err, '\n'));
     assert_null(img.rgb);
     quiet_end(f);
+}
+
+/* Channels lancer does not keep, in layouts whose unpackers once wrote
+ * through the NULL pointer lancer gave them: three halves, one of them not
+ * R, G or B (`lancer diff` crashed on a file of its own with R renamed P),
+ * and four halves. The R, G and B that are there are read; a missing one is
+ * 0. */
+static void test_exr_read_foreign_channels(void **state)
+{
+    Fixture *f = *state;
+    const TestChan pgb[] = {{"B", EXR_PIXEL_HALF}, {"G", EXR_PIXEL_HALF}, {"P", EXR_PIXEL_HALF}};
+    const char *p = join(f, "pgb.exr");
+    write_core_exr(p, 0, 0, 0, 23, 37, EXR_COMPRESSION_ZIP, pgb, 3);
+    check_core_exr(p, 23, 37, pgb, 3);
+    const TestChan argb[] = {{"A", EXR_PIXEL_HALF}, {"B", EXR_PIXEL_HALF}, {"G", EXR_PIXEL_HALF}, {"R", EXR_PIXEL_HALF}};
+    p = join(f, "argb.exr");
+    write_core_exr(p, 0, 0, 0, 17, 9, EXR_COMPRESSION_NONE, argb, 4);
+    check_core_exr(p, 17, 9, argb, 4);
+    const TestChan tiled[] = {{"B", EXR_PIXEL_HALF}, {"G", EXR_PIXEL_HALF}, {"Z", EXR_PIXEL_HALF}};
+    p = join(f, "bgz_tiled.exr");
+    write_core_exr(p, 1, 0, 0, 33, 20, EXR_COMPRESSION_ZIP, tiled, 3);
+    check_core_exr(p, 33, 20, tiled, 3);
+}
+
+/* A header that announces more pixels than its file can hold is refused
+ * before they are allocated: a 1x1 file whose data window is patched to
+ * 16384^2 (3 GiB of float RGB). */
+static void test_exr_read_claims_checked(void **state)
+{
+    Fixture *f = *state;
+    char err[512] = "";
+    Image img;
+    const TestChan rgb[] = {{"B", EXR_PIXEL_HALF}, {"G", EXR_PIXEL_HALF}, {"R", EXR_PIXEL_HALF}};
+    const char *p = join(f, "claims.exr");
+    write_core_exr(p, 0, 0, 0, 1, 1, EXR_COMPRESSION_ZIP, rgb, 3);
+    size_t len;
+    unsigned char *b = slurp(p, &len);
+    static const char key[] = "dataWindow\0box2i";
+    unsigned char *at = NULL;
+    for (size_t i = 0; i + sizeof key < len && !at; i++)
+        if (memcmp(b + i, key, sizeof key) == 0)
+            at = b + i + sizeof key + 4; /* past the name, the type and the size */
+    assert_non_null(at);
+    const int32_t big = 16383;
+    memcpy(at + 8, &big, 4); /* xmax, ymax (little-endian, as this machine) */
+    memcpy(at + 12, &big, 4);
+    spill(p, b, len);
+    free(b);
+    quiet_begin(f);
+    assert_int_equal(image_read_exr(p, &img, err, sizeof err), -1);
+    quiet_end(f);
+    assert_non_null(strstr(err, "16384x16384 pixels announced, more than its"));
+    assert_null(img.rgb);
 }
 
 /* ---- sRGB and PNG ------------------------------------------------------- */
@@ -910,6 +968,8 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_exr_half_roundtrip, setup, teardown),
         cmocka_unit_test_setup_teardown(test_exr_read_layouts, setup, teardown),
         cmocka_unit_test_setup_teardown(test_exr_read_errors, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_exr_read_foreign_channels, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_exr_read_claims_checked, setup, teardown),
         cmocka_unit_test(test_srgb8),
         cmocka_unit_test_setup_teardown(test_png_roundtrip, setup, teardown),
         cmocka_unit_test_setup_teardown(test_write_into_missing_dir, setup, teardown),

@@ -1388,12 +1388,12 @@ static void test_load(void **state)
     snprintf(path, sizeof path, "%s/huge.off", tmpdir);
     FILE *f = fopen(path, "wb");
     assert_non_null(f);
-    int sparse = ftruncate(fileno(f), (off_t)(MESH_MAX_BYTES + 1)) == 0;
+    int sparse = ftruncate(fileno(f), (off_t)(LIMIT_MESH_BYTES + 1)) == 0;
     fclose(f);
     if (sparse) {
         assert_int_equal(mesh_load(path, &m, err, sizeof err), -1);
         snprintf(want, sizeof want, "%s: file of %llu bytes is larger than the 4096 MiB limit for meshes", path,
-                 MESH_MAX_BYTES + 1);
+                 (unsigned long long)LIMIT_MESH_BYTES + 1);
         assert_string_equal(err, want);
     }
     remove(path);

@@ -105,12 +105,12 @@ static void test_errors(void **state)
     char err[256];
     PlanOptions o = plan_options();
     load(&s, "");
-    o.width = IMAGE_MAX_SIDE;
-    o.height = IMAGE_MAX_SIDE;
+    o.width = LIMIT_IMAGE_SIDE;
+    o.height = LIMIT_IMAGE_SIDE;
     assert_int_equal(plan_build(&p, &s, &o, err, sizeof err), -1);
     assert_string_equal(err, "a 32768x32768 image has more than the 268435456 pixels lancer renders");
     o = plan_options();
-    o.spp = SCENE_MAX_SPP + 1;
+    o.spp = LIMIT_SPP + 1;
     assert_int_equal(plan_build(&p, &s, &o, err, sizeof err), -1);
     assert_string_equal(err, "spp must be a whole number from 1 to 16");
     o = plan_options();

@@ -89,6 +89,12 @@ static const BadCase bad_cases[] = {
     BAD("NUL byte",
         PRE "sphere { center 0 0 \x00" " radius 1 material m }\n",
         "t.scn:3:21: unexpected byte 0x00"),
+    BAD("NUL byte in a quoted path, which would cut it short",
+        PRE "mesh { file \"ok.off\x00/etc/passwd\" material m }\n",
+        "t.scn:3:20: byte 0x00 in a string"),
+    BAD("control byte in a quoted path",
+        PRE "mesh { file \"a\x1b[2Jb.off\" material m }\n",
+        "t.scn:3:15: byte 0x1b in a string"),
     BAD("non-ASCII byte in a name",
         PRE "material caf\xc3" "\xa9" " { }\n",
         "t.scn:3:13: unexpected byte 0xc3"),
@@ -792,6 +798,13 @@ static void test_transform(void **state)
     assert_vec(s.prims[3].g.obox.u, 2, 0, 0, 0);
     assert_float_equal(s.prims[3].g.obox.inv[0].x, 0.5f, 0); /* the inverse follows */
     assert_vec(s.prims[4].g.tri.b, 12, 20, 30, 0);
+    /* a move that overflows float, or collapses the camera, is refused:
+     * the scene scaled by 1e38 once rendered from an eye at infinity */
+    assert_int_equal(scene_transform(&s, 1e38f, vec3(0, 0, 0)), -1);
+    scene_free(&s);
+    parse_ok("camera { eye 0 1 -5 target 0 0 0 fov 40 }\nmaterial m { }\nsphere { center 0 0 0 radius 1 material m }\n",
+             &s);
+    assert_int_equal(scene_transform(&s, 1e-45f, vec3(0, 0, 0)), -1);
     scene_free(&s);
 }
 
@@ -972,7 +985,7 @@ static void test_load_directory(void **state)
     Scene s;
     char err[512];
     assert_int_equal(scene_load("scenes", &s, err, sizeof err), -1);
-    assert_string_equal(err, "scenes: read error: Is a directory");
+    assert_string_equal(err, "scenes: not a regular file (a directory)");
     assert_true(scene_is_empty(&s));
 }
 

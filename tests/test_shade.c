@@ -214,7 +214,7 @@ static void test_area_weights(void **state)
     const float w5[] = {0.125f, 0.25f, 0.25f, 0.25f, 0.125f};
     const float w6[] = {0.125f, 0.25f, 0.125f, 0.125f, 0.25f, 0.125f};
     const float *want[] = {w3, w4, w5, w6};
-    float w[SCENE_MAX_AREA_SAMPLES];
+    float w[LIMIT_AREA_SAMPLES];
     shade_area_weights(1, w);
     assert_float_equal(w[0], 1, 0);
     for (int n = 3; n <= 6; n++) {
@@ -222,9 +222,9 @@ static void test_area_weights(void **state)
         for (int i = 0; i < n; i++)
             assert_float_equal(w[i], want[n - 3][i], 0);
     }
-    shade_area_weights(SCENE_MAX_AREA_SAMPLES, w);
+    shade_area_weights(LIMIT_AREA_SAMPLES, w);
     float sum = 0;
-    for (int i = 0; i < SCENE_MAX_AREA_SAMPLES; i++)
+    for (int i = 0; i < LIMIT_AREA_SAMPLES; i++)
         sum += w[i];
     assert_float_equal(sum, 1, 1e-6);
 }

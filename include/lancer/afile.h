@@ -39,10 +39,17 @@ FILE *afile_fopen(const char *path, char *tmp, size_t tmplen, char *err, size_t 
  * otherwise removes tmp. Returns 0 or -1 with a message in err. */
 int afile_fclose(FILE *f, const char *tmp, const char *path, char *err, size_t errlen);
 
-/* Reads the whole file at path into a new buffer the caller frees (*out,
- * *outlen). Files over max_bytes are refused before being read; `what`
- * names the kind of file in that message ("meshes"). Returns 0, or -1 with
- * "path: message". */
+/* Opens path for reading if it is a regular file of at most max_bytes, and
+ * refuses anything else before reading a byte: a FIFO (which would block),
+ * a device such as /dev/zero (which never ends), a directory; `what` names
+ * the kind of file in the message ("meshes"). Returns the descriptor, with
+ * the file's size in *size, or -1 with "path: message". */
+int afile_open_read(const char *path, unsigned long long max_bytes, const char *what, unsigned long long *size,
+                    char *err, size_t errlen);
+
+/* Reads the whole file at path, opened as afile_open_read does, into a new
+ * buffer the caller frees (*out, *outlen). Returns 0, or -1 with "path:
+ * message". */
 int afile_read(const char *path, unsigned long long max_bytes, const char *what, char **out, size_t *outlen, char *err,
                size_t errlen);
 

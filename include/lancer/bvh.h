@@ -13,8 +13,8 @@
  * axis, tested at once (bvh_traverse.c: AVX2 when the processor has it,
  * else SSE where the compiler offers it, else lane by lane).
  * A slot's child is an inner node (child >= 0) or a leaf (-1 - leaf index);
- * an unused slot has an empty box (lo = +inf, hi = -inf), which no ray
- * enters. Node 0 is the root.
+ * an unused slot has an empty box (lo = +inf, hi = -inf), which no finite
+ * ray enters, and leads to leaf 0. Node 0 is the root.
  *
  * A leaf holds one to BVH_LEAF_MAX primitives, order[first .. first +
  * count - 1] in the caller's numbering; the triangles among them (robust
@@ -105,8 +105,10 @@ size_t bvh_bytes(const Bvh *b);
 
 /* Checks the invariants: every slot's box lies inside its parent slot's,
  * every leaf's box holds its primitives' bounds and its copied vertices
- * are theirs, and every primitive is referenced exactly once. Returns 0,
- * or -1 with what is wrong in err. */
+ * are theirs, every primitive is referenced exactly once, every inner
+ * child lies after its parent and every unused slot leads to leaf 0, so
+ * that no ray, not even one of NaNs, can revisit a node. Returns 0, or -1
+ * with what is wrong in err. */
 int bvh_validate(const Bvh *b, char *err, size_t errlen);
 
 /* The caller's index of the primitive with the nearest hit in (0, r->tmax),

@@ -18,6 +18,8 @@
 
 #include <stddef.h>
 
+#include "lancer/limits.h"
+
 typedef struct {
     int width, height;
     float *rgb; /* width * height * 3 floats, owned by the Image */
@@ -25,13 +27,10 @@ typedef struct {
 
 typedef enum { IMAGE_HALF, IMAGE_FLOAT } ImagePrecision;
 
-/* Largest accepted side, and largest pixel count (16384^2, 3 GiB of floats):
- * beyond that a typo in a scene would only exhaust memory. */
-#define IMAGE_MAX_SIDE 32768
-#define IMAGE_MAX_PIXELS (1L << 28)
+/* The largest image: LIMIT_IMAGE_SIDE and LIMIT_IMAGE_PIXELS (limits.h). */
 
 /* Allocates a black image. Returns 0, or -1 on a bad size (a side outside
- * 1..IMAGE_MAX_SIDE or more than IMAGE_MAX_PIXELS pixels) or no memory
+ * 1..LIMIT_IMAGE_SIDE or more than LIMIT_IMAGE_PIXELS pixels) or no memory
  * (img is then empty and image_free is still safe). */
 int image_init(Image *img, int width, int height);
 void image_free(Image *img);

@@ -94,10 +94,9 @@
 
 #include <stddef.h>
 
+#include "lancer/limits.h"
 #include "lancer/vec.h"
 
-/* Files larger than this are refused by mesh_load before being read. */
-#define MESH_MAX_BYTES ((unsigned long long)4 << 30)
 
 typedef enum { MESH_OFF, MESH_OBJ, MESH_PLY, MESH_STL } MeshFormat;
 

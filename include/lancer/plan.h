@@ -33,12 +33,13 @@
 
 #include <stddef.h>
 
+#include "lancer/limits.h"
 #include "lancer/scene.h"
 
 /* What the caller asks for; a zero (or NULL) field keeps the scene's own. */
 typedef struct {
-    int width, height; /* pixels, 1 to IMAGE_MAX_SIDE */
-    int spp;           /* 1 to SCENE_MAX_SPP */
+    int width, height; /* pixels, 1 to LIMIT_IMAGE_SIDE */
+    int spp;           /* 1 to LIMIT_SPP */
     int classic;       /* 1: the classic routines, whatever the scene says */
     int threads;       /* render and build threads; 0 means 1 */
     int world;         /* 1: keep the scene's coordinates, no camera-relative move
@@ -48,14 +49,11 @@ typedef struct {
     Vec3 translate;
 } PlanOptions;
 
-/* Nesting beyond this many interiors is not tracked (deeper entries are
- * dropped): far more than any real scene nests transparent solids. */
-#define PLAN_MAX_INTERIORS 16
 
 /* The ordered list of primitives a ray is inside, innermost last. */
 typedef struct {
     int n;
-    int prim[PLAN_MAX_INTERIORS];
+    int prim[LIMIT_INTERIORS];
 } Interiors;
 
 /* How the shadows of one light are found. */

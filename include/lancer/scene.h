@@ -25,18 +25,13 @@
 
 #include <stddef.h>
 
+#include "lancer/limits.h"
 #include "lancer/mesh.h"
 #include "lancer/prim.h"
 
-#define SCENE_NAME_MAX 64
-#define SCENE_PATH_MAX 1024
-/* Largest anti-aliasing grid: 16 x 16 samples per pixel. */
-#define SCENE_MAX_SPP 16
-/* Scene files larger than this are refused rather than read into memory. */
-#define SCENE_MAX_BYTES (64L << 20)
-
-/* Largest area-light grid side. */
-#define SCENE_MAX_AREA_SAMPLES 64
+/* Buffers for a name and a path, with their ends (limits.h). */
+#define SCENE_NAME_MAX (LIMIT_NAME_CHARS + 1)
+#define SCENE_PATH_MAX (LIMIT_PATH_CHARS + 1)
 
 /* POV-Ray's classic finish with a plain pigment (docs/povray-rules.md),
  * plus POV-Ray's filter and transmit and an index of refraction. */
@@ -118,8 +113,15 @@ int scene_split_triangles(Scene *s);
 /* Moves the whole scene, camera and lights included, by p -> p*scale +
  * offset (scale > 0). Shading does not change: fade distances scale too,
  * and every angle stays. The render plan moves scenes so (plan.h). Returns
- * 0, or -1 when an oriented box degenerates in float at the new scale. */
+ * 0, or -1 when the moved scene no longer passes scene_validate: a
+ * coordinate overflowed, or a shape or the camera degenerated in float. */
 int scene_transform(Scene *s, float scale, Vec3 offset);
+
+/* Checks what a loaded scene promises (the top of this file): settings in
+ * range, every number finite, the camera, every material, light and
+ * primitive well formed, every material index valid. Returns 0, or -1 with
+ * what is wrong in err. */
+int scene_validate(const Scene *s, char *err, size_t errlen);
 
 void scene_free(Scene *s);
 

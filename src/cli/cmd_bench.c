@@ -171,8 +171,8 @@ static int run(void *args, const char **pos, int npos)
     if (a->gen && (npos != 1 && npos != 3))
         return cli_usage_error("bench", "--gen-rays needs MESH OUTDIR [W H]");
     if (a->gen && npos == 3 &&
-        (cli_parse_int(pos[1], 1, IMAGE_MAX_SIDE, &w) != 0 || cli_parse_int(pos[2], 1, IMAGE_MAX_SIDE, &h) != 0))
-        return cli_usage_error("bench", "W and H must be whole numbers from 1 to %d", IMAGE_MAX_SIDE);
+        (cli_parse_int(pos[1], 1, LIMIT_IMAGE_SIDE, &w) != 0 || cli_parse_int(pos[2], 1, LIMIT_IMAGE_SIDE, &h) != 0))
+        return cli_usage_error("bench", "W and H must be whole numbers from 1 to %d", LIMIT_IMAGE_SIDE);
     if (a->mesh &&
         (!a->rays || !a->kind || (strcmp(a->kind, "closest") != 0 && strcmp(a->kind, "any") != 0) || npos != 0))
         return cli_usage_error("bench", "--mesh needs --rays FILE and --kind closest or any");
@@ -199,7 +199,7 @@ static const Opt opts[] = {
     {"--kind", NULL, OPT_STRING, offsetof(Args, kind), 0, 0},
     {"--passes", NULL, OPT_INT, offsetof(Args, passes), 1, 1000},
     {"--classic", NULL, OPT_FLAG, offsetof(Args, classic), 0, 0},
-    {"--threads", NULL, OPT_INT, offsetof(Args, threads), 1, 1024},
+    {"--threads", NULL, OPT_INT, offsetof(Args, threads), 1, LIMIT_THREADS},
     {"--build-series", NULL, OPT_STRING, offsetof(Args, series), 0, 0},
     {"--max-mtris", NULL, OPT_INT, offsetof(Args, max_mtris), 1, 100},
 };

@@ -6,6 +6,7 @@
 
 #include "cli.h"
 #include "lancer/compare.h"
+#include "lancer/limits.h"
 
 static const char usage[] =
     "usage: lancer diff A.exr B.exr [options]\n"
@@ -94,7 +95,7 @@ static int run(void *args, const char **pos, int npos)
 
 static const Opt opts[] = {
     {"--heatmap", NULL, OPT_STRING, offsetof(Args, heatmap), 0, 0},
-    {"--downsample", NULL, OPT_INT, offsetof(Args, down), 1, 64},
+    {"--downsample", NULL, OPT_INT, offsetof(Args, down), 1, LIMIT_DOWNSAMPLE},
     {"--threshold", NULL, OPT_DOUBLE, offsetof(Args, threshold), 0, 0},
 };
 

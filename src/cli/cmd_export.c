@@ -43,9 +43,9 @@ static int run(void *args, const char **pos, int npos)
     }
     int w = a->width ? a->width : s.image.width, h = a->height ? a->height : s.image.height;
     int rc = 0;
-    if ((long)w * h > IMAGE_MAX_PIXELS) {
+    if ((long)w * h > LIMIT_IMAGE_PIXELS) {
         fprintf(stderr, "lancer: a %dx%d image has more than the %ld pixels lancer renders\n", w, h,
-                IMAGE_MAX_PIXELS);
+                LIMIT_IMAGE_PIXELS);
         rc = 1;
     } else if (out && !strcmp(out, "-")) {
         if (pov_export(&s, w, h, stdout) != 0 || fflush(stdout) != 0) {
@@ -68,8 +68,8 @@ static int run(void *args, const char **pos, int npos)
 
 static const Opt opts[] = {
     {"--output", "-o", OPT_STRING, offsetof(Args, out), 0, 0},
-    {"--width", NULL, OPT_INT, offsetof(Args, width), 1, IMAGE_MAX_SIDE},
-    {"--height", NULL, OPT_INT, offsetof(Args, height), 1, IMAGE_MAX_SIDE},
+    {"--width", NULL, OPT_INT, offsetof(Args, width), 1, LIMIT_IMAGE_SIDE},
+    {"--height", NULL, OPT_INT, offsetof(Args, height), 1, LIMIT_IMAGE_SIDE},
 };
 
 const Command cmd_export_pov = {"export-pov", usage, opts, (int)(sizeof opts / sizeof opts[0]), 1, sizeof(Args), NULL,

@@ -46,7 +46,7 @@ static void defaults(void *args)
 {
     Args *a = args;
     long cores = sysconf(_SC_NPROCESSORS_ONLN);
-    a->threads = cores > 0 ? (int)(cores < 1024 ? cores : 1024) : 1;
+    a->threads = cores > 0 ? (int)(cores < LIMIT_THREADS ? cores : LIMIT_THREADS) : 1;
 }
 
 typedef struct {
@@ -264,10 +264,10 @@ static const Opt opts[] = {
     {"--output", "-o", OPT_STRING, offsetof(Args, exr), 0, 0},
     {"--png", NULL, OPT_STRING, offsetof(Args, png), 0, 0},
     {"--stats", NULL, OPT_STRING, offsetof(Args, stats), 0, 0},
-    {"--width", NULL, OPT_INT, offsetof(Args, width), 1, IMAGE_MAX_SIDE},
-    {"--height", NULL, OPT_INT, offsetof(Args, height), 1, IMAGE_MAX_SIDE},
-    {"--spp", NULL, OPT_INT, offsetof(Args, spp), 1, SCENE_MAX_SPP},
-    {"--threads", NULL, OPT_INT, offsetof(Args, threads), 1, 1024},
+    {"--width", NULL, OPT_INT, offsetof(Args, width), 1, LIMIT_IMAGE_SIDE},
+    {"--height", NULL, OPT_INT, offsetof(Args, height), 1, LIMIT_IMAGE_SIDE},
+    {"--spp", NULL, OPT_INT, offsetof(Args, spp), 1, LIMIT_SPP},
+    {"--threads", NULL, OPT_INT, offsetof(Args, threads), 1, LIMIT_THREADS},
     {"--float", NULL, OPT_FLAG, offsetof(Args, use_float), 0, 0},
     {"--classic", NULL, OPT_FLAG, offsetof(Args, classic), 0, 0},
     {"--scale", NULL, OPT_DOUBLE, offsetof(Args, scale), 0, 0},

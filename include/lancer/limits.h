@@ -1,0 +1,50 @@
+/*
+ * limits.h - every limit of lancer's inputs and settings, in one place; the
+ * README's table of limits gives the same values. Going past one is an
+ * error that names it, never a crash, a hang or an allocation without
+ * bound.
+ */
+#ifndef LANCER_LIMITS_H
+#define LANCER_LIMITS_H
+
+#include <stdint.h>
+
+/* Images: a side, and width x height (3 GiB of float RGB). */
+#define LIMIT_IMAGE_SIDE 32768
+#define LIMIT_IMAGE_PIXELS (1L << 28)
+/* Anti-aliasing: spp x spp samples per pixel. */
+#define LIMIT_SPP 16
+/* Trace depth: POV-Ray's max_trace_level. */
+#define LIMIT_DEPTH 256
+/* Render and build threads. */
+#define LIMIT_THREADS 1024
+/* An area light's grid, per side. */
+#define LIMIT_AREA_SAMPLES 64
+
+/* Files, refused by size before they are read. A scene is text written
+ * by hand or by a script. A mesh in the most verbose format lancer reads,
+ * ASCII STL, takes about 250 bytes a triangle: 4 GiB holds 10 million
+ * triangles and more. EXR inputs of `lancer diff` and ray files likewise. */
+#define LIMIT_SCENE_BYTES (64LL << 20)
+#define LIMIT_MESH_BYTES (4LL << 30)
+#define LIMIT_EXR_BYTES (4LL << 30)
+#define LIMIT_RAYFILE_BYTES (4LL << 30)
+
+/* Primitives in a scene, and triangles in a mesh (indices are int32). */
+#define LIMIT_PRIMITIVES INT32_MAX
+
+/* Characters of a material name, of a path in a scene file (a mesh's), and
+ * of a number in a scene or mesh file. */
+#define LIMIT_NAME_CHARS 63
+#define LIMIT_PATH_CHARS 1023
+#define LIMIT_NUMBER_CHARS 255
+
+/* Transparent solids a ray is tracked inside at once (deeper nesting is
+ * not tracked), and transparent surfaces a shadow ray crosses. */
+#define LIMIT_INTERIORS 16
+#define LIMIT_SHADOW_CROSSINGS 256
+
+/* `lancer diff --downsample`, per side. */
+#define LIMIT_DOWNSAMPLE 64
+
+#endif
