@@ -1,6 +1,7 @@
 #!/bin/sh
-# Runs every test program in a build tree, the command-line tests, the
-# POV-Ray parity suite, the stability set and, when given, the exact judge
+# Runs every test program in a build tree, the command-line and signal
+# tests, the fuzzers' regressions, the POV-Ray parity suite, the stability
+# set and, when given, the exact judge
 # (EXACT_RAYS rays per case, default 1000000), then prints one closing line:
 # "N passed, N failed".
 #   scripts/run-tests.sh build/san [build/exact/judge]
@@ -21,6 +22,14 @@ for t in "$dir"/test_*; do
     run "$t" "$t"
 done
 run tests/cli.sh sh tests/cli.sh "$dir/lancer"
+run tests/signals.sh sh tests/signals.sh "$dir/lancer"
+# every input that ever failed a fuzzer, through its harness once more
+for r in "$dir"/replay_*; do
+    name=${r##*/replay_}
+    set -- tests/fuzz/regressions/"$name"/*
+    [ -e "$1" ] || continue
+    run "$r tests/fuzz/regressions/$name ($# inputs)" "$r" "$@"
+done
 run tests/install.sh sh tests/install.sh
 run scripts/check-links.sh sh scripts/check-links.sh
 run scripts/parity.sh sh scripts/parity.sh "$dir/lancer"

@@ -184,7 +184,7 @@ static exr_result_t image_exr_encode(exr_context_t ctx, int part, const Image *i
 }
 
 static exr_result_t image_exr_write_file(const Image *img, const char *file, ImagePrecision prec,
-                                         ImageExrErr *e)
+                                         const ImageAttr *attrs, int nattrs, ImageExrErr *e)
 {
     exr_context_initializer_t init = image_exr_init(e);
     exr_context_t ctx = NULL;
@@ -208,6 +208,8 @@ static exr_result_t image_exr_write_file(const Image *img, const char *file, Ima
         rv = exr_add_channel(ctx, part, names[c], type, EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
     if (rv == EXR_ERR_SUCCESS)
         rv = exr_set_zip_compression_level(ctx, part, IMAGE_ZIP_LEVEL);
+    for (int i = 0; i < nattrs && rv == EXR_ERR_SUCCESS; i++)
+        rv = exr_attr_set_string(ctx, part, attrs[i].name, attrs[i].value);
     if (rv == EXR_ERR_SUCCESS)
         rv = exr_write_header(ctx);
     if (rv == EXR_ERR_SUCCESS)
@@ -218,21 +220,43 @@ static exr_result_t image_exr_write_file(const Image *img, const char *file, Ima
     return rv != EXR_ERR_SUCCESS ? rv : frv;
 }
 
-int image_write_exr(const Image *img, const char *path, ImagePrecision prec, char *err, size_t errlen)
+/* Checks what image_write_exr* are given. */
+static int exr_args_ok(const Image *img, const char *path, ImagePrecision prec, char *err, size_t errlen)
 {
     if (!image_valid(img)) {
         snprintf(err, errlen, "%s: cannot write: invalid image", path);
-        return -1;
+        return 0;
     }
     if (prec != IMAGE_HALF && prec != IMAGE_FLOAT) {
         snprintf(err, errlen, "%s: cannot write: invalid precision %d", path, (int)prec);
+        return 0;
+    }
+    return 1;
+}
+
+int image_write_exr_file(const Image *img, const char *file, const char *name, ImagePrecision prec,
+                         const ImageAttr *attrs, int nattrs, char *err, size_t errlen)
+{
+    if (!exr_args_ok(img, name, prec, err, errlen))
+        return -1;
+    ImageExrErr e = {{0}, 0};
+    exr_result_t rv = image_exr_write_file(img, file, prec, attrs, nattrs, &e);
+    if (rv != EXR_ERR_SUCCESS) {
+        image_exr_report(err, errlen, name, "cannot write", &e, rv);
         return -1;
     }
+    return 0;
+}
+
+int image_write_exr(const Image *img, const char *path, ImagePrecision prec, char *err, size_t errlen)
+{
+    if (!exr_args_ok(img, path, prec, err, errlen))
+        return -1;
     char tmp[AFILE_PATH_MAX];
     if (afile_temp(path, tmp, sizeof tmp, err, errlen) != 0)
         return -1;
     ImageExrErr e = {{0}, 0};
-    exr_result_t rv = image_exr_write_file(img, tmp, prec, &e);
+    exr_result_t rv = image_exr_write_file(img, tmp, prec, NULL, 0, &e);
     if (rv != EXR_ERR_SUCCESS) {
         afile_abort(tmp);
         image_exr_report(err, errlen, path, "cannot write", &e, rv);
@@ -467,6 +491,31 @@ static exr_result_t image_exr_read_part(exr_const_context_t ctx, Image *img, Ima
     return rv;
 }
 
+int image_parse_exr(const char *name, const void *data, size_t len, Image *img, char *err, size_t errlen)
+{
+    img->width = 0;
+    img->height = 0;
+    img->rgb = NULL;
+    ImageExrRead rd = {{{0}, 0}, (const unsigned char *)data, len, NULL, 0};
+    exr_context_initializer_t init = image_exr_init(&rd.e);
+    init.user_data = &rd;
+    init.read_fn = image_exr_mem_read;
+    init.size_fn = image_exr_mem_size;
+    exr_context_t ctx = NULL;
+    exr_result_t rv = exr_start_read(&ctx, name, &init);
+    if (rv == EXR_ERR_SUCCESS)
+        rv = image_exr_read_part(ctx, img, &rd);
+    if (ctx != NULL)
+        exr_finish(&ctx);
+    free(rd.scratch);
+    if (rv != EXR_ERR_SUCCESS) {
+        image_free(img);
+        image_exr_report(err, errlen, name, "cannot read", &rd.e, rv);
+        return -1;
+    }
+    return 0;
+}
+
 int image_read_exr(const char *path, Image *img, char *err, size_t errlen)
 {
     img->width = 0;
@@ -476,25 +525,9 @@ int image_read_exr(const char *path, Image *img, char *err, size_t errlen)
     size_t len;
     if (afile_read(path, (unsigned long long)LIMIT_EXR_BYTES, "images", &data, &len, err, errlen) != 0)
         return -1;
-    ImageExrRead rd = {{{0}, 0}, (const unsigned char *)data, len, NULL, 0};
-    exr_context_initializer_t init = image_exr_init(&rd.e);
-    init.user_data = &rd;
-    init.read_fn = image_exr_mem_read;
-    init.size_fn = image_exr_mem_size;
-    exr_context_t ctx = NULL;
-    exr_result_t rv = exr_start_read(&ctx, path, &init);
-    if (rv == EXR_ERR_SUCCESS)
-        rv = image_exr_read_part(ctx, img, &rd);
-    if (ctx != NULL)
-        exr_finish(&ctx);
-    free(rd.scratch);
+    int rc = image_parse_exr(path, data, len, img, err, errlen);
     free(data);
-    if (rv != EXR_ERR_SUCCESS) {
-        image_free(img);
-        image_exr_report(err, errlen, path, "cannot read", &rd.e, rv);
-        return -1;
-    }
-    return 0;
+    return rc;
 }
 
 /* ---- PNG ---------------------------------------------------------------- */
@@ -596,7 +629,9 @@ static int image_png_run(ImagePngJob *job)
     return 0;
 }
 
-int image_write_png(const Image *img, const char *path, char *err, size_t errlen)
+/* Writes the PNG into the file `file` (created or truncated), naming `path`
+ * in messages. */
+static int png_to_file(const Image *img, const char *file, const char *path, char *err, size_t errlen)
 {
     if (!image_valid(img)) {
         snprintf(err, errlen, "%s: cannot write: invalid image", path);
@@ -610,9 +645,9 @@ int image_write_png(const Image *img, const char *path, char *err, size_t errlen
         snprintf(err, errlen, "%s: cannot write: out of memory", path);
         return -1;
     }
-    char tmp[AFILE_PATH_MAX];
-    job.fp = afile_fopen(path, tmp, sizeof tmp, err, errlen);
+    job.fp = fopen(file, "wb");
     if (job.fp == NULL) {
+        snprintf(err, errlen, "%s: cannot write: %s", path, strerror(errno));
         free(job.row);
         return -1;
     }
@@ -620,12 +655,37 @@ int image_write_png(const Image *img, const char *path, char *err, size_t errlen
     if (job.png != NULL)
         png_destroy_write_struct(&job.png, &job.info);
     free(job.row);
-    if (rc != 0) {
-        fclose(job.fp);
-        afile_abort(tmp);
-        snprintf(err, errlen, "%s: cannot write: %s", path, job.msg[0] ? job.msg : "PNG encoding failed");
+    int bad = ferror(job.fp), saved = errno;
+    /* fclose flushes the last buffered bytes: a late ENOSPC shows there */
+    if (fclose(job.fp) != 0 && rc == 0) {
+        snprintf(err, errlen, "%s: cannot write: %s", path, strerror(errno));
         return -1;
     }
-    /* fclose flushes the last buffered bytes: a late ENOSPC shows there */
-    return afile_fclose(job.fp, tmp, path, err, errlen);
+    if (rc != 0 || bad) {
+        snprintf(err, errlen, "%s: cannot write: %s", path,
+                 job.msg[0] ? job.msg : bad ? strerror(saved) : "PNG encoding failed");
+        return -1;
+    }
+    return 0;
+}
+
+int image_write_png_file(const Image *img, const char *file, const char *name, char *err, size_t errlen)
+{
+    return png_to_file(img, file, name, err, errlen);
+}
+
+int image_write_png(const Image *img, const char *path, char *err, size_t errlen)
+{
+    char tmp[AFILE_PATH_MAX];
+    if (!image_valid(img)) {
+        snprintf(err, errlen, "%s: cannot write: invalid image", path);
+        return -1;
+    }
+    if (afile_temp(path, tmp, sizeof tmp, err, errlen) != 0)
+        return -1;
+    if (png_to_file(img, tmp, path, err, errlen) != 0) {
+        afile_abort(tmp);
+        return -1;
+    }
+    return afile_commit(tmp, path, err, errlen);
 }

@@ -5,6 +5,7 @@
 
 #include <pthread.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "lancer/camera.h"
 #include "lancer/shade.h"
@@ -16,6 +17,8 @@ typedef struct {
     Image *img;
     RenderProgress progress;
     void *progress_ctx;
+    const volatile sig_atomic_t *stop;
+    unsigned char *rows_done_flags;
     pthread_mutex_t lock; /* guards next_row, rows_done, stats and progress */
     int next_row, rows_done;
     RayStats stats;
@@ -61,18 +64,23 @@ static void trace_packet(const Job *job, const float *sx, const float *sy, const
     }
 }
 
+static int stopped(const Job *job) { return job->stop && *job->stop; }
+
 /* Row y into row (3 floats a pixel): each pixel the mean of spp x spp
  * camera rays through a regular grid of sub-pixel centres, the same
  * points as the pixel centres of a render at spp times the size (that
  * render, averaged in blocks, is the box-filtered reference). The camera
  * rays are traced ACCEL_PACKET at a time: neighbours share the eye and most
- * of their path through the BVH. */
-static void render_row(const Job *job, int y, float *row, RayStats *st)
+ * of their path through the BVH. Returns 0, or -1 when stopped before the
+ * row was done. */
+static int render_row(const Job *job, int y, float *row, RayStats *st)
 {
     int k = job->p->spp, w = job->img->width, n = 0;
     float sx[ACCEL_PACKET], sy[ACCEL_PACKET]; /* the samples' image-plane positions */
     int px[ACCEL_PACKET];
     for (int x = 0; x < w; x++) {
+        if (stopped(job))
+            return -1;
         row[3 * x] = row[3 * x + 1] = row[3 * x + 2] = 0.0f;
         for (int j = 0; j < k; j++)
             for (int i = 0; i < k; i++) {
@@ -91,6 +99,7 @@ static void render_row(const Job *job, int y, float *row, RayStats *st)
     if (k > 1)
         for (int x = 0; x < 3 * w; x++)
             row[x] *= 1.0f / (float)(k * k);
+    return 0;
 }
 
 static void *worker(void *arg)
@@ -100,12 +109,13 @@ static void *worker(void *arg)
     int w = job->img->width, h = job->img->height;
     for (;;) {
         pthread_mutex_lock(&job->lock);
-        int y = job->next_row < h ? job->next_row++ : -1;
+        int y = job->next_row < h && !stopped(job) ? job->next_row++ : -1;
         pthread_mutex_unlock(&job->lock);
-        if (y < 0)
+        if (y < 0 || render_row(job, y, job->img->rgb + (size_t)y * (size_t)w * 3, &st) != 0)
             break;
-        render_row(job, y, job->img->rgb + (size_t)y * (size_t)w * 3, &st);
         pthread_mutex_lock(&job->lock);
+        if (job->rows_done_flags)
+            job->rows_done_flags[y] = 1;
         job->rows_done++;
         if (job->progress)
             job->progress(job->progress_ctx, job->rows_done, h);
@@ -125,6 +135,10 @@ int render_image(const RenderPlan *p, const Accel *a, const RenderOptions *opt, 
     job.img = img;
     job.progress = opt ? opt->progress : NULL;
     job.progress_ctx = opt ? opt->progress_ctx : NULL;
+    job.stop = opt ? opt->stop : NULL;
+    job.rows_done_flags = opt ? opt->rows_done : NULL;
+    if (job.rows_done_flags)
+        memset(job.rows_done_flags, 0, (size_t)img->height);
     job.next_row = 0;
     job.rows_done = 0;
     job.stats = (RayStats){0, 0, 0, 0, 0};
@@ -143,5 +157,5 @@ int render_image(const RenderPlan *p, const Accel *a, const RenderOptions *opt, 
     free(tids);
     pthread_mutex_destroy(&job.lock);
     raystats_add(stats, &job.stats);
-    return 0;
+    return job.rows_done < img->height ? 1 : 0;
 }

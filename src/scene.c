@@ -771,6 +771,20 @@ static void xf_rotation(int axis, float deg, float r[12])
     r[3 * j + j] = c;
 }
 
+/* Records that the scene read the file at path. Returns 0, or -1 when out
+ * of memory. */
+static int add_input(Scene *s, const char *path)
+{
+    char **in = realloc(s->inputs, sizeof(char *) * (size_t)(s->ninputs + 1));
+    if (!in)
+        return -1;
+    s->inputs = in;
+    if (!(in[s->ninputs] = malloc(strlen(path) + 1)))
+        return -1;
+    strcpy(in[s->ninputs++], path);
+    return 0;
+}
+
 static int parse_mesh(Parser *P, Loc at)
 {
     enum { FILE_, MATERIAL, FLAT, SMOOTH, MATRIX, SCALE, ROTATE, TRANSLATE, N };
@@ -812,6 +826,8 @@ static int parse_mesh(Parser *P, Loc at)
         snprintf(path, sizeof path, "%s", v[FILE_].str);
     Mesh m;
     char err[512];
+    if (add_input(P->s, path) != 0)
+        return fail(P, at, "out of memory");
     if (mesh_load(path, &m, err, sizeof err) != 0)
         return fail(P, v[FILE_].value, "mesh: %s", err);
     int smooth = v[SMOOTH].set, dropped = 0;
@@ -1117,6 +1133,9 @@ void scene_free(Scene *s)
     free(s->materials);
     free(s->lights);
     free(s->prims);
+    for (int i = 0; i < s->ninputs; i++)
+        free(s->inputs[i]);
+    free(s->inputs);
     memset(s, 0, sizeof *s);
 }
 
@@ -1158,5 +1177,10 @@ int scene_load(const char *path, Scene *s, char *err, size_t errlen)
         return -1;
     int rc = scene_parse(path, buf, len, s, err, errlen);
     free(buf);
+    if (rc == 0 && add_input(s, path) != 0) {
+        snprintf(err, errlen, "%s: out of memory", path);
+        scene_free(s);
+        return -1;
+    }
     return rc;
 }

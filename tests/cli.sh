@@ -87,7 +87,7 @@ if (umask 022 && "$LANCER" render "$T/tiny.scn" -o "$T/mode.exr" -q) && ls -l "$
 else
     bad "mode.exr has mode $(ls -l "$T/mode.exr")"
 fi
-if ls "$T" | grep -q '\.tmp\.'; then bad "temporary files left: $(ls "$T")"; else ok; fi
+if ls "$T" | grep -q 'lancer-tmp'; then bad "temporary files left: $(ls "$T")"; else ok; fi
 if [ -s "$T/err" ]; then bad "-q still printed: $(cat "$T/err")"; else ok; fi
 
 # --width/--height override the scene; the default output is out/<name>.exr
@@ -166,8 +166,52 @@ sed 's/^image { /image { intersect classic /' "$T/tiny.scn" >"$T/classic.scn"
 expect 0 "$LANCER" render "$T/classic.scn" -o "$T/c2.exr" --stats "$T/c2.json" -q
 has "$T/c2.json" '"intersect": "classic"'
 
-# bench: ray files for a small mesh, tracing them, the build series
+# outputs that must not be replaced: a device, a FIFO, an input, another
+# output; each refused before rendering, and the file left as it was
+# (a device of our own, like /dev/null: were the check to regress, the
+# real one must not be what gets replaced)
+if mknod "$T/null" c 1 3 2>/dev/null; then
+    expect 1 "$LANCER" render "$T/tiny.scn" -o "$T/null" -q
+    has "$T/err" "$T/null: not a regular file"
+    if [ -c "$T/null" ]; then ok; else bad "the device was replaced by a file"; fi
+else
+    echo "cli: skipped the device output check (mknod needs root)"
+fi
+expect 1 timeout 10 "$LANCER" render "$T/tiny.scn" -o "$T/fifo.exr" -q
+if [ -p "$T/fifo.exr" ]; then ok; else bad "the FIFO was replaced"; fi
+cp "$T/tiny.scn" "$T/self.scn"
+expect 1 "$LANCER" render "$T/self.scn" -o "$T/self.scn"
+has "$T/err" "is the input '$T/self.scn'"
+if cmp -s "$T/tiny.scn" "$T/self.scn"; then ok; else bad "the scene was overwritten"; fi
+expect 1 "$LANCER" render "$T/self.scn" -o "$T/o.exr" --stats "$T/../$(basename "$T")/self.scn"
+has "$T/err" "lancer never writes over its inputs"
+expect 1 "$LANCER" export-pov "$T/self.scn" -o "$T/./self.scn"
+has "$T/err" "is the input"
+if cmp -s "$T/tiny.scn" "$T/self.scn"; then ok; else bad "export-pov overwrote the scene"; fi
+printf 'camera { eye 0 0 -5 target 0 0 0 fov 40 }\nmaterial m { }\nmesh { file "tet.off" material m }\n' >"$T/tet.scn"
 printf 'OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n' >"$T/tet.off"
+ln -s tet.off "$T/tet-link.png"
+expect 1 "$LANCER" render "$T/tet.scn" -o "$T/o.exr" --png "$T/tet-link.png"
+has "$T/err" "is the input '$T/tet.off'"
+if head -c 3 "$T/tet.off" | grep -q OFF; then ok; else bad "the mesh was overwritten"; fi
+expect 1 "$LANCER" render "$T/tiny.scn" -o "$T/same" --png "$T/same"
+has "$T/err" "--png $T/same: is also the -o output"
+if [ -e "$T/same" ]; then bad "a file was written for -o X --png X"; else ok; fi
+expect 1 "$LANCER" diff "$T/t1.exr" "$T/t2.exr" --heatmap "$T/t2.exr"
+has "$T/err" "is the input"
+expect 0 "$LANCER" diff "$T/t1.exr" "$T/t2.exr"
+mkdir "$T/rays-in" && ln -s ../tet.off "$T/rays-in/primary.rays"
+expect 1 "$LANCER" bench --gen-rays "$T/tet.off" "$T/rays-in" 4 4
+has "$T/err" "is the input '$T/tet.off'"
+if head -c 3 "$T/tet.off" | grep -q OFF; then ok; else bad "bench overwrote the mesh"; fi
+# a symbolic link as -o: its target is replaced, the link stays a link
+echo "old" >"$T/target.exr"
+ln -s target.exr "$T/link.exr"
+expect 0 "$LANCER" render "$T/tiny.scn" -o "$T/link.exr" -q
+if [ -L "$T/link.exr" ]; then ok; else bad "the link was replaced by a file"; fi
+if head -c 4 "$T/target.exr" | od -An -tx1 | grep -q "76 2f 31 01"; then ok; else bad "the link's target is not the new EXR"; fi
+
+# bench: ray files for a small mesh, tracing them, the build series
 mkdir "$T/rays"
 expect 0 "$LANCER" bench --gen-rays "$T/tet.off" "$T/rays" 16 16
 has "$T/out" "primary=256 "

@@ -48,7 +48,7 @@ static void render_scene(const char *path, int threads, int w, int h, int spp, S
     assert_non_null(*a);
     assert_int_equal(image_init(img, w, h), 0);
     memset(st, 0, sizeof *st);
-    RenderOptions opt = {log ? log_progress : NULL, log};
+    RenderOptions opt = {log ? log_progress : NULL, log, NULL, NULL};
     assert_int_equal(render_image(p, *a, &opt, img, st), 0);
 }
 
@@ -151,12 +151,75 @@ static void test_pixels_are_single_rays(void **state)
         }
 }
 
+/* Sets the stop flag once `after` rows are done, as a signal handler would. */
+typedef struct {
+    volatile sig_atomic_t stop;
+    int after;
+} StopAfter;
+
+static void stop_after(void *ctx, int done, int total)
+{
+    StopAfter *sa = ctx;
+    (void)total;
+    if (done >= sa->after)
+        sa->stop = 1;
+}
+
+/* A stopped render returns 1, marks exactly the rows it finished, and each
+ * of those rows is the full render's, bit for bit; stopped before it
+ * starts, it does no row. */
+static void test_stop_keeps_finished_rows(void **state)
+{
+    (void)state;
+    const int w = 53, h = 41;
+    Image full;
+    RayStats st;
+    render_default(1, w, h, &full, &st, NULL);
+    Scene s;
+    char err[512];
+    assert_int_equal(scene_load("scenes/default.scn", &s, err, sizeof err), 0);
+    PlanOptions o = plan_options();
+    o.width = w;
+    o.height = h;
+    for (int threads = 1; threads <= 3; threads += 2)
+        for (int after = 0; after <= 7; after += 7) {
+            o.threads = threads;
+            RenderPlan p;
+            assert_int_equal(plan_build(&p, &s, &o, err, sizeof err), 0);
+            Accel *a = accel_build(&s, p.variant, 1);
+            assert_non_null(a);
+            Image img;
+            assert_int_equal(image_init(&img, w, h), 0);
+            unsigned char done[41];
+            memset(done, 7, sizeof done);
+            StopAfter sa = {after == 0, after};
+            RenderOptions opt = {stop_after, &sa, &sa.stop, done};
+            assert_int_equal(render_image(&p, a, &opt, &img, &st), 1);
+            int ndone = 0;
+            for (int y = 0; y < h; y++) {
+                assert_true(done[y] == 0 || done[y] == 1);
+                ndone += done[y];
+                if (done[y])
+                    assert_memory_equal(&img.rgb[3 * w * y], &full.rgb[3 * w * y], sizeof(float) * 3 * (size_t)w);
+            }
+            /* every thread finishes or leaves the row it is in */
+            assert_true(ndone >= after && ndone <= after + threads);
+            assert_true(ndone < h);
+            image_free(&img);
+            accel_free(a);
+            plan_free(&p);
+        }
+    scene_free(&s);
+    image_free(&full);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_thread_count_does_not_change_pixels),
         cmocka_unit_test(test_counts_and_progress),
         cmocka_unit_test(test_pixels_are_single_rays),
+        cmocka_unit_test(test_stop_keeps_finished_rows),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -42,6 +42,17 @@ void image_free(Image *img);
  * stays NaN. */
 int image_write_exr(const Image *img, const char *path, ImagePrecision prec, char *err, size_t errlen);
 
+/* A string attribute of an EXR header, such as "lancer:rows". */
+typedef struct {
+    const char *name, *value;
+} ImageAttr;
+
+/* image_write_exr into the file `file` itself (a temporary file the caller
+ * commits, afile.h), with nattrs string attributes in its header; messages
+ * name `name`, the file the user knows. */
+int image_write_exr_file(const Image *img, const char *file, const char *name, ImagePrecision prec,
+                         const ImageAttr *attrs, int nattrs, char *err, size_t errlen);
+
 /* Reads the R, G and B channels of a scanline or tiled EXR into a new image
  * (img must be uninitialised or freed); missing channels read as 0. The
  * image is the data window (its offset is dropped); half, float and uint
@@ -50,8 +61,16 @@ int image_write_exr(const Image *img, const char *path, ImagePrecision prec, cha
  * are errors. On failure img is left empty. */
 int image_read_exr(const char *path, Image *img, char *err, size_t errlen);
 
+/* image_read_exr of an EXR held in memory (len bytes at data); messages
+ * name `name`. */
+int image_parse_exr(const char *name, const void *data, size_t len, Image *img, char *err, size_t errlen);
+
 /* 8-bit RGB PNG: each channel clamped to [0,1] and sRGB-encoded. */
 int image_write_png(const Image *img, const char *path, char *err, size_t errlen);
+
+/* image_write_png into the file `file` itself (a temporary file the caller
+ * commits); messages name `name`. */
+int image_write_png_file(const Image *img, const char *file, const char *name, char *err, size_t errlen);
 
 /* The sRGB transfer function applied to one linear value, clamped, as an
  * 8-bit code value (rounded to nearest): 0 and below, and NaN, give 0; 1 and

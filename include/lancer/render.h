@@ -2,8 +2,8 @@
  * render.h - the render loop: camera rays through every pixel, shaded, in
  * parallel.
  *
- *     RenderOptions opt = {on_progress, ctx};      or NULL: no progress calls
- *     if (render_image(&plan, accel, &opt, &img, &stats) != 0) ...
+ *     RenderOptions opt = {on_progress, ctx, &stop_flag, rows_done};  or NULL
+ *     int rc = render_image(&plan, accel, &opt, &img, &stats);
  *
  * The image size, samples per pixel and threads are the plan's (plan.h).
  * Rows are handed out to threads one at a time; every pixel is computed on
@@ -15,6 +15,11 @@
  * The progress callback, when set, is called after each finished row with
  * the number of rows done, from whichever thread finished it, one call at a
  * time (it must not call back into the renderer).
+ *
+ * A render can be stopped (by a signal handler that sets *stop): threads
+ * leave the row they are in, rows not yet started are not, and
+ * render_image returns 1. rows_done[y] is then 1 for each finished row y of
+ * the image, the rows a resumed render need not redo.
  */
 #ifndef LANCER_RENDER_H
 #define LANCER_RENDER_H
@@ -25,14 +30,19 @@
 
 typedef void (*RenderProgress)(void *ctx, int rows_done, int rows_total);
 
+#include <signal.h>
+
 typedef struct {
-    RenderProgress progress;
+    RenderProgress progress; /* NULL: none */
     void *progress_ctx;
+    const volatile sig_atomic_t *stop; /* NULL, or nonzero to stop */
+    unsigned char *rows_done;          /* NULL, or one flag per image row */
 } RenderOptions;
 
 /* Renders into img, which must already have the plan's size. Adds the ray
- * counts to *stats. Returns 0, or -1 when its lock cannot be set up (the
- * calling thread renders even when no other thread can be started). */
+ * counts to *stats. Returns 0 when every row is done, 1 when stopped, or -1
+ * when its lock cannot be set up (the calling thread renders even when no
+ * other thread can be started). */
 int render_image(const RenderPlan *p, const Accel *a, const RenderOptions *opt, Image *img, RayStats *stats);
 
 #endif

@@ -80,6 +80,8 @@ typedef struct {
     Prim *prims;
     int nprims;
     int degenerate; /* mesh triangles dropped for having no area */
+    char **inputs;  /* the files read: the scene file (scene_load), then each mesh */
+    int ninputs;
 } Scene;
 
 /* Reads and parses a scene file. Returns 0, or -1 with "path:line:col:

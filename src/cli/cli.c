@@ -61,3 +61,26 @@ int cli_check_output(const char *path)
     }
     return 0;
 }
+
+int cli_check_outputs(const CliOutput *out, int nout, const char *const *in, int nin)
+{
+    for (int i = 0; i < nout; i++) {
+        if (!out[i].path)
+            continue;
+        for (int j = 0; j < nin; j++)
+            if (afile_same(out[i].path, in[j])) {
+                fprintf(stderr, "lancer: %s %s: is the input '%s'; lancer never writes over its inputs\n",
+                        out[i].option, out[i].path, in[j]);
+                return -1;
+            }
+        for (int j = 0; j < i; j++)
+            if (out[j].path && afile_same(out[i].path, out[j].path)) {
+                fprintf(stderr, "lancer: %s %s: is also the %s output; each output needs a file of its own\n",
+                        out[i].option, out[i].path, out[j].option);
+                return -1;
+            }
+        if (cli_check_output(out[i].path) != 0)
+            return -1;
+    }
+    return 0;
+}

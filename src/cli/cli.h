@@ -58,4 +58,16 @@ int cli_default_output(const char *path, const char *ext, char *buf, size_t len)
 /* 0 when path (NULL: none) can be written, else -1 after a message. */
 int cli_check_output(const char *path);
 
+/* A file a command writes: the option that names it ("--png"), its path
+ * (NULL: not written this run). */
+typedef struct {
+    const char *option, *path;
+} CliOutput;
+
+/* 0 when every output can be written (cli_check_output), and names neither
+ * one of the run's inputs nor another output, the same file by device and
+ * inode or, for files yet to be made, by folder and name; else -1 after a
+ * message. */
+int cli_check_outputs(const CliOutput *out, int nout, const char *const *in, int nin);
+
 #endif

@@ -70,10 +70,9 @@ static int mesh_scene(const char *path, Scene *s)
     return rc;
 }
 
-static int write_rays(const char *dir, const char *name, const RaySet *set)
+static int write_rays(const char *path, const RaySet *set)
 {
-    char path[AFILE_PATH_MAX], err[512];
-    snprintf(path, sizeof path, "%s/%s", dir, name);
+    char err[512];
     if (rayfile_write(path, set->rays, set->n, err, sizeof err) != 0) {
         fprintf(stderr, "lancer: %s\n", err);
         return -1;
@@ -116,14 +115,22 @@ static int build_series(Scene *s, PrimVariant v, long max_tris)
 /* --gen-rays: the three ray files of a w x h camera. */
 static int gen_rays(const Scene *s, const Accel *acc, const char *mesh, const char *dir, int w, int h)
 {
+    static const char *const names[3] = {"primary.rays", "shadow.rays", "diffuse.rays"};
+    char paths[3][AFILE_PATH_MAX];
+    CliOutput outs[3];
+    for (int i = 0; i < 3; i++) {
+        snprintf(paths[i], sizeof paths[i], "%s/%s", dir, names[i]);
+        outs[i] = (CliOutput){"OUTDIR", paths[i]};
+    }
+    if (cli_check_outputs(outs, 3, &mesh, 1) != 0)
+        return 1;
     RaySet p, sh, d;
     if (bench_gen_rays(s, acc, w, h, 1, &p, &sh, &d) != 0) {
         fprintf(stderr, "lancer: %s: no triangles to frame, or out of memory\n", mesh);
         return 1;
     }
     int rc = 0;
-    if (write_rays(dir, "primary.rays", &p) || write_rays(dir, "shadow.rays", &sh) ||
-        write_rays(dir, "diffuse.rays", &d))
+    if (write_rays(paths[0], &p) || write_rays(paths[1], &sh) || write_rays(paths[2], &d))
         rc = 1;
     else
         printf("primary=%zu shadow=%zu diffuse=%zu\n", p.n, sh.n, d.n);

@@ -53,7 +53,8 @@ static int run(void *args, const char **pos, int npos)
     Args *a = args;
     if (npos < 2)
         return cli_usage_error("diff", "needs two images, A and B");
-    if (cli_check_output(a->heatmap))
+    const CliOutput heat_out = {"--heatmap", a->heatmap};
+    if (cli_check_outputs(&heat_out, 1, pos, 2) != 0)
         return 1;
     Image ia, ib, small, heat;
     char err[512];

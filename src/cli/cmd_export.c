@@ -56,8 +56,12 @@ static int run(void *args, const char **pos, int npos)
         rc = 1;
     } else {
         out = out ? out : path;
-        FILE *f = afile_fopen(out, tmp, sizeof tmp, err, sizeof err);
-        if (!f || (pov_export(&s, w, h, f), afile_fclose(f, tmp, out, err, sizeof err)) != 0) {
+        const CliOutput o = {"-o", out};
+        FILE *f;
+        if (cli_check_outputs(&o, 1, (const char *const *)s.inputs, s.ninputs) != 0) {
+            rc = 1;
+        } else if (!(f = afile_fopen(out, tmp, sizeof tmp, err, sizeof err)) ||
+                   (pov_export(&s, w, h, f), afile_fclose(f, tmp, out, err, sizeof err)) != 0) {
             fprintf(stderr, "lancer: %s\n", err);
             rc = 1;
         }
