@@ -52,7 +52,8 @@ endif
 TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/%)
 
-.PHONY: all run test tests deps-run deps-test clean exact exact-judge stress cgal-data bench install uninstall
+.PHONY: all run test tests deps-run deps-test clean exact exact-judge stress cgal-data bench install uninstall \
+        fuzz fuzz-build fuzzers
 .DEFAULT_GOAL := all
 
 all: $(BUILD)/lancer
@@ -117,7 +118,34 @@ $(BUILD)/obj/tests/test_prim_avx2.o: tests/test_prim.c
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) -mavx2 -mbmi $(ALLCFLAGS) -MMD -MP -c $< -o $@
 
-tests: $(BUILD)/lancer $(TEST_BIN) $(BUILD)/test_bvh_scalar $(BUILD)/test_bvh_sse $(TEST_AVX2)
+# The fuzz harnesses (tests/fuzz), one per reader; the four mesh readers
+# share one source, built once per format. In any tree a harness links with
+# replay.c into build/.../replay_NAME, which runs files through it once (make
+# test replays tests/fuzz/regressions/ so); in the clang tree build/fuzz it
+# links with libFuzzer into build/fuzz/fuzz_NAME.
+FUZZ_NAMES := scene off obj ply stl exr rays
+FUZZ_MESH  := off obj ply stl
+REPLAY_BIN := $(FUZZ_NAMES:%=$(BUILD)/replay_%)
+FUZZ_BIN   := $(FUZZ_NAMES:%=$(BUILD)/fuzz_%)
+FUZZ_SECONDS ?= 60
+
+$(BUILD)/obj/fuzz/%.o: tests/fuzz/%.c
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) $(ALLCFLAGS) -MMD -MP -c $< -o $@
+
+$(FUZZ_MESH:%=$(BUILD)/obj/fuzz/fuzz_%.o): $(BUILD)/obj/fuzz/fuzz_%.o: tests/fuzz/fuzz_mesh.c
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) -DFUZZ_FORMAT=MESH_$(shell echo $* | tr a-z A-Z) $(ALLCFLAGS) -MMD -MP -c $< -o $@
+
+$(BUILD)/replay_%: $(BUILD)/obj/fuzz/fuzz_%.o $(BUILD)/obj/fuzz/replay.o $(BUILD)/liblancer.a
+	$(CC) $(LDFLAGS) $^ $(LDLIBS) -o $@
+
+$(BUILD)/fuzz_%: $(BUILD)/obj/fuzz/fuzz_%.o $(BUILD)/liblancer.a
+	$(CC) $(LDFLAGS) -fsanitize=fuzzer $^ $(LDLIBS) -o $@
+
+fuzzers: $(FUZZ_BIN)
+
+tests: $(BUILD)/lancer $(TEST_BIN) $(BUILD)/test_bvh_scalar $(BUILD)/test_bvh_sse $(TEST_AVX2) $(REPLAY_BIN)
 
 # The exact judge (tests/exact): C++17 + CGAL, linked against the release
 # library build/liblancer.a, so it measures the very object code lancer runs
@@ -149,6 +177,16 @@ test: deps-test
 	$(MAKE) BUILD=build/san SAN=1 WERROR=1 tests
 	$(MAKE) exact-judge
 	EXACT_RAYS=$(EXACT_RAYS) sh scripts/run-tests.sh build/san $(EXACT_DIR)/judge
+
+# Fuzzing: each harness for FUZZ_SECONDS (default 60) from the seeds the
+# tests and scenes give, the corpus kept in build/fuzz-corpus between runs.
+# The fuzzers are built with clang (libFuzzer, ASan, UBSan) in build/fuzz.
+fuzz: deps-test fuzz-build
+	$(MAKE) BUILD=build/san SAN=1 WERROR=1 tests
+	sh scripts/fuzz.sh build/fuzz build/san $(FUZZ_SECONDS)
+
+fuzz-build:
+	$(MAKE) BUILD=build/fuzz SAN=1 WERROR=1 CC=clang CFLAGS=-fsanitize=fuzzer-no-link fuzzers
 
 # The exact judge alone: `make exact`, or `make stress` (STRESS_RAYS per case;
 # hours). Both build build/liblancer.a with the release flags first.
@@ -202,4 +240,4 @@ deps-test:
 clean:
 	rm -rf build
 
--include $(wildcard $(BUILD)/obj/*.d $(BUILD)/obj/cli/*.d $(BUILD)/obj/tests/*.d $(EXACT_DIR)/*.d)
+-include $(wildcard $(BUILD)/obj/*.d $(BUILD)/obj/cli/*.d $(BUILD)/obj/tests/*.d $(BUILD)/obj/fuzz/*.d $(EXACT_DIR)/*.d)

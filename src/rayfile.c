@@ -42,6 +42,12 @@ static float get_f32(const unsigned char *p)
     return f;
 }
 
+int rayfile_ray_ok(const Ray *r)
+{
+    return isfinite(r->o.x) && isfinite(r->o.y) && isfinite(r->o.z) && isfinite(r->d.x) && isfinite(r->d.y) &&
+           isfinite(r->d.z) && (r->d.x != 0.0f || r->d.y != 0.0f || r->d.z != 0.0f) && !isnan(r->tmax);
+}
+
 int rayfile_write(const char *path, const Ray *rays, size_t n, char *err, size_t errlen)
 {
     char tmp[AFILE_PATH_MAX];
@@ -64,33 +70,26 @@ int rayfile_write(const char *path, const Ray *rays, size_t n, char *err, size_t
     return afile_fclose(f, tmp, path, err, errlen);
 }
 
-int rayfile_read(const char *path, Ray **rays, size_t *n, char *err, size_t errlen)
+int rayfile_parse(const char *name, const void *data, size_t size, Ray **rays, size_t *n, char *err, size_t errlen)
 {
     *rays = NULL;
     *n = 0;
-    char *buf;
-    size_t size;
-    if (afile_read(path, (unsigned long long)LIMIT_RAYFILE_BYTES, "ray files", &buf, &size, err, errlen) != 0)
-        return -1;
-    const unsigned char *b = (const unsigned char *)buf;
+    const unsigned char *b = data;
     if (size < 16 || memcmp(b, RAYFILE_MAGIC, 8) != 0) {
-        snprintf(err, errlen, "%s: not a ray file (it must start with %s and a count)", path, RAYFILE_MAGIC);
-        free(buf);
+        snprintf(err, errlen, "%s: not a ray file (it must start with %s and a count)", name, RAYFILE_MAGIC);
         return -1;
     }
     uint64_t count = (uint64_t)get_u32(b + 8) | (uint64_t)get_u32(b + 12) << 32;
     /* The count must account for the whole file: this also bounds the
      * allocation by what is really there. */
     if (count != (size - 16) / RAYFILE_RECORD || (size - 16) % RAYFILE_RECORD) {
-        snprintf(err, errlen, "%s: the count (%llu rays) disagrees with the file size (%zu bytes)", path,
+        snprintf(err, errlen, "%s: the count (%llu rays) disagrees with the file size (%zu bytes)", name,
                  (unsigned long long)count, size);
-        free(buf);
         return -1;
     }
     Ray *r = malloc(sizeof(Ray) * (size_t)(count ? count : 1));
     if (!r) {
-        snprintf(err, errlen, "%s: %llu rays do not fit in memory", path, (unsigned long long)count);
-        free(buf);
+        snprintf(err, errlen, "%s: %llu rays do not fit in memory", name, (unsigned long long)count);
         return -1;
     }
     for (uint64_t i = 0; i < count; i++) {
@@ -99,17 +98,36 @@ int rayfile_read(const char *path, Ray **rays, size_t *n, char *err, size_t errl
         for (int k = 0; k < 8; k++) {
             v[k] = get_f32(rec + 4 * k);
             if (!isfinite(v[k]) && !(k == 7 && v[k] == INFINITY)) {
-                snprintf(err, errlen, "%s: ray %llu has a non-finite value", path, (unsigned long long)i);
+                snprintf(err, errlen, "%s: ray %llu has a non-finite value", name, (unsigned long long)i);
                 free(r);
-                free(buf);
                 return -1;
             }
         }
         Vec3 o = vec3(v[0], v[1], v[2]), d = vec3(v[3], v[4], v[5]);
         r[i] = ray_make(vec_madd(o, d, v[6]), d, v[7] - v[6]);
+        const char *bad = d.x == 0.0f && d.y == 0.0f && d.z == 0.0f ? "a zero direction"
+                          : !rayfile_ray_ok(&r[i])                     ? "a tmin that moves its origin out of float range"
+                                                                         : NULL;
+        if (bad) {
+            snprintf(err, errlen, "%s: ray %llu has %s", name, (unsigned long long)i, bad);
+            free(r);
+            return -1;
+        }
     }
-    free(buf);
     *rays = r;
     *n = (size_t)count;
     return 0;
+}
+
+int rayfile_read(const char *path, Ray **rays, size_t *n, char *err, size_t errlen)
+{
+    *rays = NULL;
+    *n = 0;
+    char *buf;
+    size_t size;
+    if (afile_read(path, (unsigned long long)LIMIT_RAYFILE_BYTES, "ray files", &buf, &size, err, errlen) != 0)
+        return -1;
+    int rc = rayfile_parse(path, buf, size, rays, n, err, errlen);
+    free(buf);
+    return rc;
 }

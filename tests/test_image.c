@@ -10,6 +10,7 @@
 #include <cmocka.h>
 
 #include "lancer/image.h"
+#include "testutil.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -960,8 +961,39 @@ static void test_failed_write_keeps_old_file(void **state)
     image_free(&small);
 }
 
-int main(void)
+/* `test_image --seeds DIR`: small EXRs of every compression that OpenEXR
+ * 3.1's C library writes (not DWAA and DWAB), tiled and scanline, with
+ * foreign and missing channels of every type, as DIR/exr: the fuzzer's
+ * seeds (tests/fuzz). */
+static int write_seeds(const char *dir)
 {
+    static const exr_compression_t comps[] = {EXR_COMPRESSION_NONE, EXR_COMPRESSION_RLE,   EXR_COMPRESSION_ZIPS,
+                                              EXR_COMPRESSION_ZIP,  EXR_COMPRESSION_PIZ,   EXR_COMPRESSION_PXR24,
+                                              EXR_COMPRESSION_B44,  EXR_COMPRESSION_B44A};
+    const TestChan rgb[] = {{"B", EXR_PIXEL_HALF}, {"G", EXR_PIXEL_HALF}, {"R", EXR_PIXEL_HALF}};
+    const TestChan mixed[] = {{"A", EXR_PIXEL_HALF}, {"B", EXR_PIXEL_FLOAT}, {"G", EXR_PIXEL_UINT}};
+    const TestChan pgb[] = {{"B", EXR_PIXEL_HALF}, {"G", EXR_PIXEL_HALF}, {"P", EXR_PIXEL_HALF}};
+    char path[512], name[32];
+    for (size_t i = 0; i < sizeof comps / sizeof comps[0]; i++) {
+        snprintf(name, sizeof name, "scan-%zu.exr", i);
+        if (test_seed_path(dir, "exr", name, path, sizeof path) != 0)
+            return 1;
+        write_core_exr(path, 0, 0, 0, 8, 6, comps[i], rgb, 3);
+        snprintf(name, sizeof name, "tiled-%zu.exr", i);
+        if (test_seed_path(dir, "exr", name, path, sizeof path) != 0)
+            return 1;
+        write_core_exr(path, 1, -3, 2, 19, 10, comps[i], mixed, 3);
+    }
+    if (test_seed_path(dir, "exr", "pgb.exr", path, sizeof path) != 0)
+        return 1;
+    write_core_exr(path, 0, 0, 0, 5, 3, EXR_COMPRESSION_ZIP, pgb, 3);
+    return 0;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc == 3 && !strcmp(argv[1], "--seeds"))
+        return write_seeds(argv[2]);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_init_sizes),
         cmocka_unit_test_setup_teardown(test_exr_float_roundtrip, setup, teardown),

@@ -1480,8 +1480,40 @@ static void test_fuzz(void **state)
     }
 }
 
-int main(void)
+/* `test_mesh --seeds DIR`: every mesh of the tables above, good and bad,
+ * and the binary samples, as DIR/off, DIR/obj, DIR/ply and DIR/stl: the
+ * fuzzers' seeds (tests/fuzz). */
+static int write_seeds(const char *dir)
 {
+    static const char *const sub[] = {"off", "obj", "ply", "stl"};
+    char name[32];
+    int rc = 0;
+    for (size_t i = 0; i < sizeof count_cases / sizeof count_cases[0]; i++) {
+        snprintf(name, sizeof name, "good-%zu", i);
+        rc |= test_write_seed(dir, sub[count_cases[i].fmt], name, count_cases[i].text, count_cases[i].len);
+    }
+    for (size_t i = 0; i < sizeof bad_cases / sizeof bad_cases[0]; i++) {
+        snprintf(name, sizeof name, "bad-%zu", i);
+        rc |= test_write_seed(dir, sub[bad_cases[i].fmt], name, bad_cases[i].text, bad_cases[i].len);
+    }
+    Buf B;
+    size_t face2;
+    binary_sample(&B, &face2);
+    rc |= test_write_seed(dir, "ply", "binary", B.b, B.n);
+    binary_stl(&B, stl_square, 2);
+    rc |= test_write_seed(dir, "stl", "binary", B.b, B.n);
+    rc |= test_write_seed(dir, "stl", "ascii", stl_ascii, sizeof stl_ascii - 1);
+    rc |= test_write_seed(dir, "obj", "sample", obj_sample, sizeof obj_sample - 1);
+    rc |= test_write_seed(dir, "obj", "normals", obj_normals, sizeof obj_normals - 1);
+    rc |= test_write_seed(dir, "ply", "ascii", ply_ascii, sizeof ply_ascii - 1);
+    rc |= test_write_seed(dir, "off", "tetra", off_tetra, sizeof off_tetra - 1);
+    return rc ? 1 : 0;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc == 3 && !strcmp(argv[1], "--seeds"))
+        return write_seeds(argv[2]);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_off_basic),
         cmocka_unit_test(test_off_fan),

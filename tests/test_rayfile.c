@@ -112,12 +112,41 @@ static void test_bad_files(void **state)
     assert_string_equal(err, want);
 }
 
+/* From memory: a zero direction, and a tmin that throws the origin out of
+ * float range, are refused by ray; rayfile_ray_ok agrees. */
+static void test_parse_refuses_untraceable_rays(void **state)
+{
+    (void)state;
+    unsigned char b[16 + 32];
+    memcpy(b, "LNCRAYS1\x01\0\0\0\0\0\0\0", 16);
+    Ray *r;
+    size_t n;
+    char err[256];
+    const float zero[8] = {1, 2, 3, 0, 0, 0, 0, 10};
+    memcpy(b + 16, zero, sizeof zero);
+    assert_int_equal(rayfile_parse("mem", b, sizeof b, &r, &n, err, sizeof err), -1);
+    assert_string_equal(err, "mem: ray 0 has a zero direction");
+    const float far[8] = {0, 0, 0, 0, 0, 3e38f, 3e38f, INFINITY};
+    memcpy(b + 16, far, sizeof far);
+    assert_int_equal(rayfile_parse("mem", b, sizeof b, &r, &n, err, sizeof err), -1);
+    assert_string_equal(err, "mem: ray 0 has a tmin that moves its origin out of float range");
+    const float fine[8] = {0, 0, 0, 0, 0, 3e38f, 0, INFINITY};
+    memcpy(b + 16, fine, sizeof fine);
+    assert_int_equal(rayfile_parse("mem", b, sizeof b, &r, &n, err, sizeof err), 0);
+    assert_int_equal(n, 1);
+    assert_true(rayfile_ray_ok(&r[0]));
+    r[0].tmax = NAN;
+    assert_false(rayfile_ray_ok(&r[0]));
+    free(r);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_round_trip_and_layout),
         cmocka_unit_test(test_tmin_moves_the_origin),
         cmocka_unit_test(test_bad_files),
+        cmocka_unit_test(test_parse_refuses_untraceable_rays),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

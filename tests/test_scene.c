@@ -1099,8 +1099,23 @@ static void test_scene_from_mesh(void **state)
     scene_free(&s);
 }
 
-int main(void)
+/* `test_scene --seeds DIR`: every bad scene of the table above as
+ * DIR/scene: the fuzzer's seeds (tests/fuzz), beside the scenes/ files. */
+static int write_seeds(const char *dir)
 {
+    char name[32];
+    int rc = 0;
+    for (size_t i = 0; i < sizeof bad_cases / sizeof bad_cases[0]; i++) {
+        snprintf(name, sizeof name, "bad-%zu", i);
+        rc |= test_write_seed(dir, "scene", name, bad_cases[i].text, bad_cases[i].len);
+    }
+    return rc ? 1 : 0;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc == 3 && !strcmp(argv[1], "--seeds"))
+        return write_seeds(argv[2]);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_bad_inputs),
         cmocka_unit_test(test_bad_inputs_truncated),

@@ -5,6 +5,10 @@
 #ifndef LANCER_TESTUTIL_H
 #define LANCER_TESTUTIL_H
 
+#include <stdio.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include "lancer/vec.h"
 
 /* Each component of v within tol of (x, y, z). */
@@ -28,6 +32,40 @@ static inline Vec3 test_rvec(unsigned long long *s, float lo, float hi)
 {
     float x = test_uniform(s, lo, hi), y = test_uniform(s, lo, hi);
     return vec3(x, y, test_uniform(s, lo, hi));
+}
+
+/* Seeds for the fuzzers (tests/fuzz): a test program run as `test_x
+ * --seeds DIR` writes the inputs of its tables, good and bad, under DIR.
+ * test_seed_path makes DIR/sub and puts "DIR/sub/name" in buf (len bytes);
+ * test_write_seed writes len bytes there. Both return 0, or -1 after a
+ * message. */
+static inline int test_seed_path(const char *dir, const char *sub, const char *name, char *buf, size_t len)
+{
+    int n = snprintf(buf, len, "%s/%s", dir, sub);
+    if (n >= 0 && (size_t)n < len) {
+        mkdir(dir, 0777); /* either may exist already */
+        mkdir(buf, 0777);
+    }
+    if (n < 0 || (size_t)n >= len || access(buf, W_OK) != 0) {
+        fprintf(stderr, "cannot make %s/%s\n", dir, sub);
+        return -1;
+    }
+    n = snprintf(buf, len, "%s/%s/%s", dir, sub, name);
+    return n < 0 || (size_t)n >= len ? -1 : 0;
+}
+
+static inline int test_write_seed(const char *dir, const char *sub, const char *name, const void *data, size_t len)
+{
+    char path[512];
+    if (test_seed_path(dir, sub, name, path, sizeof path) != 0)
+        return -1;
+    FILE *f = fopen(path, "wb");
+    int ok = f && fwrite(data, 1, len, f) == len;
+    if (f && fclose(f) != 0)
+        ok = 0;
+    if (!ok)
+        fprintf(stderr, "cannot write %s\n", path);
+    return ok ? 0 : -1;
 }
 
 #endif

@@ -18,12 +18,21 @@
 
 #include "lancer/ray.h"
 
+/* 1 when r is a ray that lancer can trace: a finite origin and a finite,
+ * nonzero direction, and a tmax that is not NaN. */
+int rayfile_ray_ok(const Ray *r);
+
 /* Writes n rays atomically (afile.h). Returns 0, or -1 with a message. */
 int rayfile_write(const char *path, const Ray *rays, size_t n, char *err, size_t errlen);
 
-/* Reads a whole ray file into a new array the caller frees. Returns 0, or
- * -1 with "path: message" (bad magic, a count that disagrees with the
- * file's size, a non-finite value in record N). */
+/* Reads a whole ray file into a new array the caller frees; every ray
+ * passes rayfile_ray_ok. Returns 0, or -1 with "path: message" (bad magic,
+ * a count that disagrees with the file's size, a non-finite value, a zero
+ * direction or an origin that tmin moves out of float range in ray N). */
 int rayfile_read(const char *path, Ray **rays, size_t *n, char *err, size_t errlen);
+
+/* rayfile_read of a file held in memory (size bytes at data); messages name
+ * `name`. */
+int rayfile_parse(const char *name, const void *data, size_t size, Ray **rays, size_t *n, char *err, size_t errlen);
 
 #endif
