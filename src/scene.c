@@ -124,9 +124,9 @@ static int next(Parser *P)
             m++;
         if (m != n)
             return fail(P, t->loc, "malformed number '%.*s'", (int)m, P->p);
-        char buf[64];
+        char buf[LIMIT_NUMBER_CHARS + 1];
         if (n >= sizeof buf)
-            return fail(P, t->loc, "number too long");
+            return fail(P, t->loc, "number longer than %d characters", LIMIT_NUMBER_CHARS);
         memcpy(buf, P->p, n);
         buf[n] = '\0';
         double d = strtod(buf, NULL);

@@ -79,6 +79,11 @@ typedef struct {
 
 #define BAD(name, text, want) {name, text, sizeof(text) - 1, want}
 
+/* 254 zeros: "1." and these are one character more than LIMIT_NUMBER_CHARS */
+#define ZEROS_10 "0000000000"
+#define ZEROS_50 ZEROS_10 ZEROS_10 ZEROS_10 ZEROS_10 ZEROS_10
+#define ZEROS_254 ZEROS_50 ZEROS_50 ZEROS_50 ZEROS_50 ZEROS_50 "0000"
+
 static const BadCase bad_cases[] = {
     BAD("unexpected character",
         PRE "sphere { center 0 0 0 radius @ material m }\n",
@@ -134,9 +139,9 @@ static const BadCase bad_cases[] = {
     BAD("malformed 0x10",
         PRE "sphere { center 0 0 0 radius 0x10 material m }\n",
         "t.scn:3:30: malformed number '0x10'"),
-    BAD("number too long",
-        PRE "sphere { center 0 0 0 radius 1.0000000000000000000000000000000000000000000000000000000000000000000000 material m }\n",
-        "t.scn:3:30: number too long"),
+    BAD("number longer than LIMIT_NUMBER_CHARS",
+        PRE "sphere { center 0 0 0 radius 1." ZEROS_254 " material m }\n",
+        "t.scn:3:30: number longer than 255 characters"),
     BAD("unknown keyword",
         PRE "spheer { center 0 0 0 radius 1 material m }\n",
         "t.scn:3:1: unknown keyword 'spheer'"),
@@ -890,6 +895,12 @@ static void test_number_forms(void **state)
     assert_vec(s.lights[0].color, 15, 0, 12, 0);
     assert_vec(s.prims[1].g.box.lo, -10, 0, -1, 0);
     assert_vec(s.prims[1].g.box.hi, 2.5f, 7, 1e5f, 0);
+    scene_free(&s);
+    /* a number of exactly LIMIT_NUMBER_CHARS characters is read */
+    parse_ok("camera { eye 0 0 -5 target 0 0 0 fov 40 }\nmaterial m { }\n"
+             "sphere { center 0 0 0 radius 2." ZEROS_50 ZEROS_50 ZEROS_50 ZEROS_50 ZEROS_50 "000 material m }\n",
+             &s);
+    assert_float_equal(s.prims[0].g.sphere.r, 2, 0);
     scene_free(&s);
 }
 

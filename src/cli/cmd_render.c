@@ -3,8 +3,6 @@
  * optional PNG preview and statistics.
  */
 #include <errno.h>
-#include <pthread.h>
-#include <signal.h>
 #include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -16,13 +14,17 @@
 #include "clock.h"
 #include "lancer/afile.h"
 #include "lancer/render.h"
+#include "outputs.h"
 
 static const char usage[] =
     "usage: lancer render SCENE [options]\n"
     "\n"
     "Renders SCENE (lancer's scene format, see README.md) to a linear OpenEXR\n"
-    "image. Outputs are written to a temporary file and renamed into place, so\n"
-    "an existing file is only replaced by a complete new one.\n"
+    "image. The outputs of a run are written to temporary files and renamed\n"
+    "into place together, so existing files are only replaced by complete new\n"
+    "ones. An output may not be an input (the scene, a mesh) or a device.\n"
+    "SIGINT or SIGTERM stops the render: the rows done are saved in\n"
+    "OUT.partial.exr, the outputs are untouched, and lancer exits 130 or 143.\n"
     "\n"
     "options:\n"
     "  -o, --output OUT.exr  the EXR to write (default: out/<scene name>.exr)\n"
@@ -56,29 +58,39 @@ static void defaults(void *args)
 
 typedef struct {
     int last_percent, shown;
+    int tty; /* a bar redrawn in place; else a line every tenth, for logs */
     double start;
 } Progress;
 
-/* Seconds a render must run before the bar appears: short renders stay quiet. */
+/* Seconds a render must run before its progress shows: short renders stay
+ * quiet, on a terminal and, longer, in a log. */
 #define PROGRESS_DELAY 0.3
+#define PROGRESS_LOG_DELAY 10.0
+/* Reading the scene or building the BVH takes longer than this (a mesh of
+ * millions of triangles): say so when it is done, before the next phase. */
+#define PROGRESS_PHASE 1.0
 
 static void on_progress(void *ctx, int done, int total)
 {
     Progress *p = ctx;
     int percent = (int)(100LL * done / total);
-    if (percent == p->last_percent)
+    if (percent == p->last_percent || (!p->tty && percent / 10 == p->last_percent / 10))
         return;
-    if (!p->shown && clock_now() - p->start < PROGRESS_DELAY)
+    double el = clock_now() - p->start;
+    if (!p->shown && el < (p->tty ? PROGRESS_DELAY : PROGRESS_LOG_DELAY))
         return;
     p->shown = 1;
     p->last_percent = percent;
+    double eta = done > 0 ? el * (total - done) / done : 0.0;
+    if (!p->tty) {
+        fprintf(stderr, "lancer: rendering %3d%%, %.0f s elapsed, %.0f s left\n", percent, el, eta);
+        return;
+    }
     char bar[41];
     int filled = percent * 40 / 100;
     for (int i = 0; i < 40; i++)
         bar[i] = i < filled ? '#' : '.';
     bar[40] = '\0';
-    double el = clock_now() - p->start;
-    double eta = done > 0 ? el * (total - done) / done : 0.0;
     fprintf(stderr, "\rrendering [%s] %3d%%  %.1fs elapsed, %.1fs left ", bar, percent, el, eta);
     if (done == total)
         fputc('\n', stderr);
@@ -176,160 +188,6 @@ static int plan_options_of(const Args *a, PlanOptions *o)
     return 0;
 }
 
-/* ---- stopping: SIGINT and SIGTERM ----
- *
- * The first signal asks the render to stop: the threads leave their rows,
- * and the rows finished so far are saved to the partial image, for a later
- * run to resume. A second signal exits at once, after removing the run's
- * temporary files (unlink(2) only: safe in a handler). The outputs are put
- * in place with the signals held, so that a run never stops half way
- * through replacing them. */
-
-static volatile sig_atomic_t stop_signal;
-static AfileSet run_files;
-
-static void on_signal(int sig)
-{
-    if (stop_signal) {
-        afile_set_abort(&run_files);
-        _exit(128 + sig);
-    }
-    stop_signal = sig;
-}
-
-/* A signal ignored when lancer started (nohup, a background job of a
- * shell) stays ignored, as the caller meant. */
-static void catch_signals(void)
-{
-    static const int sigs[2] = {SIGINT, SIGTERM};
-    for (int i = 0; i < 2; i++) {
-        struct sigaction sa, old;
-        if (sigaction(sigs[i], NULL, &old) != 0 || old.sa_handler == SIG_IGN)
-            continue;
-        memset(&sa, 0, sizeof sa);
-        sa.sa_handler = on_signal;
-        sigemptyset(&sa.sa_mask);
-        sigaction(sigs[i], &sa, NULL);
-    }
-}
-
-static void hold_signals(int hold)
-{
-    sigset_t set;
-    sigemptyset(&set);
-    sigaddset(&set, SIGINT);
-    sigaddset(&set, SIGTERM);
-    pthread_sigmask(hold ? SIG_BLOCK : SIG_UNBLOCK, &set, NULL);
-}
-
-/* Adds path to the run's files with the signals held (a handler must not
- * see the set half updated). Returns the temporary file's name, or NULL
- * after a message. */
-static const char *add_output(const char *path)
-{
-    char err[AFILE_PATH_MAX + 128];
-    hold_signals(1);
-    const char *tmp = afile_set_add(&run_files, path, err, sizeof err);
-    hold_signals(0);
-    if (!tmp)
-        fprintf(stderr, "lancer: %s\n", err);
-    return tmp;
-}
-
-static int commit_outputs(void)
-{
-    char err[AFILE_PATH_MAX + 128];
-    hold_signals(1);
-    int rc = afile_set_commit(&run_files, err, sizeof err);
-    hold_signals(0);
-    if (rc != 0)
-        fprintf(stderr, "lancer: %s\n", err);
-    return rc;
-}
-
-static void abort_outputs(void)
-{
-    hold_signals(1);
-    afile_set_abort(&run_files);
-    hold_signals(0);
-}
-
-/* "<exr without .exr>.partial.exr" into buf. Returns 0, or -1 after a
- * message. */
-static int partial_name(const char *exr, char *buf, size_t len)
-{
-    size_t n = strlen(exr);
-    if (n >= 4 && !strcmp(exr + n - 4, ".exr"))
-        n -= 4;
-    int w = snprintf(buf, len, "%.*s.partial.exr", (int)n, exr);
-    if (w < 0 || (size_t)w >= len) {
-        fprintf(stderr, "lancer: %s: path too long\n", exr);
-        return -1;
-    }
-    return 0;
-}
-
-/* The finished rows as inclusive ranges, "0-11,14,20-31", into buf. */
-static void rows_list(const unsigned char *done, int h, char *buf, size_t len)
-{
-    size_t at = 0;
-    buf[0] = '\0';
-    for (int y = 0; y < h; y++) {
-        if (!done[y] || (y > 0 && done[y - 1]))
-            continue;
-        int end = y;
-        while (end + 1 < h && done[end + 1])
-            end++;
-        int w = end > y ? snprintf(buf + at, len - at, "%s%d-%d", at ? "," : "", y, end)
-                        : snprintf(buf + at, len - at, "%s%d", at ? "," : "", y);
-        if (w < 0 || (size_t)w >= len - at)
-            return; /* cannot happen: len allows every other row */
-        at += (size_t)w;
-    }
-}
-
-/* Saves the finished rows of a stopped render to the partial image, the
- * rows not finished black, the finished ones listed in its header
- * ("lancer:rows"). Returns the exit status: 128 + the signal, or 1 when
- * the partial image cannot be written. */
-static int save_partial(const char *scene, const char *exr, const char *partial, Image *img,
-                        const unsigned char *done, const char *lead)
-{
-    int sig = stop_signal, n = 0, w = img->width, h = img->height;
-    for (int y = 0; y < h; y++)
-        if (done[y])
-            n++;
-        else
-            memset(img->rgb + (size_t)y * (size_t)w * 3, 0, sizeof(float) * 3 * (size_t)w);
-    const char *name = sig == SIGINT ? "SIGINT" : "SIGTERM";
-    if (n == 0) {
-        fprintf(stderr, "%slancer: stopped by %s before a row was done; %s is unchanged\n", lead, name, exr);
-        return 128 + sig;
-    }
-    size_t len = 12 * (size_t)h + 1;
-    char *rows = malloc(len), err[AFILE_PATH_MAX + 128];
-    if (!rows) {
-        fprintf(stderr, "%slancer: stopped by %s; out of memory saving %s\n", lead, name, partial);
-        return 1;
-    }
-    rows_list(done, h, rows, len);
-    const ImageAttr attrs[] = {{"lancer:rows", rows}, {"lancer:scene", scene}};
-    const char *tmp = add_output(partial);
-    int rc = !tmp || image_write_exr_file(img, tmp, partial, IMAGE_FLOAT, attrs, 2, err, sizeof err) != 0;
-    if (tmp && rc)
-        fprintf(stderr, "lancer: %s\n", err);
-    if (rc)
-        abort_outputs();
-    else
-        rc = commit_outputs() != 0;
-    free(rows);
-    if (rc)
-        return 1;
-    fprintf(stderr, "%slancer: stopped by %s: %d of %d rows saved in %s; %s is unchanged\n", lead, name, n, h,
-            partial, exr);
-    return 128 + sig;
-}
-
 /* Writes the run's outputs into temporary files and puts them all in place
  * together, or none. Returns 0, -1 after a message, or 1 when a signal came
  * while they were written (they are then discarded). */
@@ -338,9 +196,9 @@ static int write_outputs(const Args *a, const char *scene, const RenderPlan *pla
 {
     char err[AFILE_PATH_MAX + 128];
     double t0 = clock_now();
-    const char *exr = add_output(a->exr);
-    const char *png = exr && a->png ? add_output(a->png) : NULL;
-    const char *stats = exr && (!a->png || png) && a->stats ? add_output(a->stats) : NULL;
+    const char *exr = outputs_add(a->exr);
+    const char *png = exr && a->png ? outputs_add(a->png) : NULL;
+    const char *stats = exr && (!a->png || png) && a->stats ? outputs_add(a->stats) : NULL;
     int rc = 0;
     if (!exr || (a->png && !png) || (a->stats && !stats))
         rc = -1;
@@ -356,13 +214,13 @@ static int write_outputs(const Args *a, const char *scene, const RenderPlan *pla
     phase[3] = clock_now() - t0;
     if (rc == 0 && stats && write_stats(stats, a->stats, scene, plan, phase, st) != 0)
         rc = -1;
-    if (rc == 0 && stop_signal)
+    if (rc == 0 && outputs_stop)
         rc = 1;
     if (rc != 0) {
-        abort_outputs();
+        outputs_abort();
         return rc;
     }
-    return commit_outputs();
+    return outputs_commit();
 }
 
 static int run(void *args, const char **pos, int npos)
@@ -384,6 +242,8 @@ static int run(void *args, const char **pos, int npos)
         return 1;
     }
     phase[0] = clock_now() - t0;
+    if (!a->quiet && phase[0] > PROGRESS_PHASE)
+        fprintf(stderr, "lancer: read %s (%d primitives) in %.1f s; building the BVH\n", scene, s.nprims, phase[0]);
     RenderPlan plan;
     if (plan_build(&plan, &s, &po, err, sizeof err) != 0) {
         fprintf(stderr, "lancer: %s: %s\n", scene, err);
@@ -395,7 +255,7 @@ static int run(void *args, const char **pos, int npos)
     /* Fail on an output that cannot or must not be written before spending
      * time on the render. */
     const CliOutput outs[] = {{"-o", a->exr}, {"--png", a->png}, {"--stats", a->stats}, {"(partial)", partial}};
-    if (!a->exr || partial_name(a->exr, partial, sizeof partial) != 0 ||
+    if (!a->exr || outputs_partial_name(a->exr, partial, sizeof partial) != 0 ||
         cli_check_outputs(outs, 4, (const char *const *)s.inputs, s.ninputs) != 0) {
         plan_free(&plan);
         scene_free(&s);
@@ -412,7 +272,7 @@ static int run(void *args, const char **pos, int npos)
         scene_free(&s);
         return 1;
     }
-    catch_signals();
+    outputs_catch_signals();
     t0 = clock_now();
     Accel *acc = accel_build(&s, plan.variant, plan.threads);
     if (!acc) {
@@ -424,11 +284,11 @@ static int run(void *args, const char **pos, int npos)
         return 1;
     }
     phase[1] = clock_now() - t0;
+    if (!a->quiet && phase[1] > PROGRESS_PHASE)
+        fprintf(stderr, "lancer: built the BVH in %.1f s; rendering\n", phase[1]);
 
-    Progress prog = {-1, 0, clock_now()};
-    RenderOptions opt = {NULL, &prog, &stop_signal, done};
-    if (!a->quiet && isatty(STDERR_FILENO))
-        opt.progress = on_progress;
+    Progress prog = {-1, 0, isatty(STDERR_FILENO), clock_now()};
+    RenderOptions opt = {a->quiet ? NULL : on_progress, &prog, &outputs_stop, done};
     t0 = clock_now();
     rc = render_image(&plan, acc, &opt, &img, &st);
     phase[2] = clock_now() - t0;
@@ -437,7 +297,8 @@ static int run(void *args, const char **pos, int npos)
     else if (rc == 0)
         rc = write_outputs(a, scene, &plan, &img, phase, &st);
     if (rc == 1) /* stopped, while rendering or writing */
-        rc = save_partial(scene, a->exr, partial, &img, done, prog.shown && prog.last_percent < 100 ? "\n" : "");
+        rc = outputs_save_partial(scene, a->exr, partial, &img, done,
+                          prog.tty && prog.shown && prog.last_percent < 100 ? "\n" : "");
     else if (rc == 0) {
         struct stat old;
         if (lstat(partial, &old) == 0 && S_ISREG(old.st_mode))

@@ -1,0 +1,53 @@
+/*
+ * outputs.h - a render's outputs, committed together, and the signals that
+ * stop it cleanly.
+ *
+ *     outputs_catch_signals();
+ *     ... render, passing &outputs_stop as the render's stop flag ...
+ *     const char *tmp = outputs_add("out.exr");   then write into tmp
+ *     if (outputs_stop) outputs_abort(); else outputs_commit();
+ *
+ * The first SIGINT or SIGTERM sets outputs_stop to its number: the render
+ * leaves its rows, and outputs_save_partial keeps the rows done. A second
+ * one removes every temporary file of the set and exits at once, 128 plus
+ * its number. A signal ignored at start stays ignored.
+ */
+#ifndef LANCER_CLI_OUTPUTS_H
+#define LANCER_CLI_OUTPUTS_H
+
+#include <signal.h>
+#include <stddef.h>
+
+#include "lancer/image.h"
+
+/* 0, or the number of the signal that asked the render to stop. */
+extern volatile sig_atomic_t outputs_stop;
+
+/* Installs the handler for SIGINT and SIGTERM. */
+void outputs_catch_signals(void);
+
+/* Adds path to the run's set of outputs (afile.h): returns the temporary
+ * file to write into, or NULL after a message. */
+const char *outputs_add(const char *path);
+
+/* Puts every output of the set in place, or none. Returns 0, or -1 after a
+ * message. */
+int outputs_commit(void);
+
+/* Removes the set's temporary files. */
+void outputs_abort(void);
+
+/* The partial image's name: "<exr without .exr>.partial.exr" into buf.
+ * Returns 0, or -1 after a message. */
+int outputs_partial_name(const char *exr, char *buf, size_t len);
+
+/* Writes the finished rows of a stopped render (done[y] for each row y) to
+ * `partial`, the other rows black, the finished ones listed in its header
+ * ("lancer:rows", inclusive ranges such as "0-143,150") beside
+ * "lancer:scene"; says so on stderr, after `lead`. Writes nothing when no
+ * row is done. Returns the exit status: 128 + the signal, or 1 when the
+ * partial image cannot be written. */
+int outputs_save_partial(const char *scene, const char *exr, const char *partial, Image *img,
+                         const unsigned char *done, const char *lead);
+
+#endif
