@@ -893,7 +893,8 @@ static Vec3 xf_point(const float *xf, Vec3 p)
 }
 
 /* Normals go through the inverse transpose: the cofactor matrix of M, which
- * differs from it only by the determinant's factor, lost on normalising. */
+ * differs from it only by the determinant's factor, lost on normalising.
+ * Its rows are the cross products of M's rows. */
 static Vec3 xf_normal(const float *xf, Vec3 n)
 {
     if (!xf)
@@ -901,7 +902,7 @@ static Vec3 xf_normal(const float *xf, Vec3 n)
     Vec3 r0 = vec3(xf[0], xf[1], xf[2]), r1 = vec3(xf[3], xf[4], xf[5]), r2 = vec3(xf[6], xf[7], xf[8]);
     Vec3 c0 = vec_cross(r1, r2), c1 = vec_cross(r2, r0), c2 = vec_cross(r0, r1);
     float det = vec_dot(r0, c0);
-    Vec3 m = vec_add(vec_add(vec_scale(c0, n.x), vec_scale(c1, n.y)), vec_scale(c2, n.z));
+    Vec3 m = vec3(vec_dot(c0, n), vec_dot(c1, n), vec_dot(c2, n));
     return vec_normalize(det < 0.0f ? vec_neg(m) : m);
 }
 

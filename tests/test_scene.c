@@ -838,6 +838,17 @@ static void test_mesh_statement(void **state)
     assert_vec(s.prims[0].g.tri.b, 1, 4, 3, 1e-6);
     assert_vec(s.prims[0].g.tri.na, 0, 0, 1, 1e-6); /* the quad's normal, kept by the rotation */
     scene_free(&s);
+    /* A normal turns with its surface, whatever the rotation and scale: it
+     * stays normal to the moved triangle (it once turned the other way). */
+    static const char *const moves[] = {"rotate 90 0 0", "rotate 30 40 50", "scale 1 3 0.5 rotate 0 60 10"};
+    for (size_t k = 0; k < sizeof moves / sizeof moves[0]; k++) {
+        snprintf(text, sizeof text, CAM "material m { }\nmesh { file \"%s\" material m smooth %s }\n", path, moves[k]);
+        parse_ok(text, &s);
+        const Triangle *t = &s.prims[0].g.tri;
+        Vec3 face = vec_normalize(vec_cross(vec_sub(t->b, t->a), vec_sub(t->c, t->a)));
+        assert_float_equal(fabsf(vec_dot(face, t->na)), 1.0f, 1e-5);
+        scene_free(&s);
+    }
     /* a relative path is relative to the scene file's folder */
     snprintf(text, sizeof text, CAM "material m { }\nmesh { file \"quad.off\" material m }\n");
     char name[256];
