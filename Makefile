@@ -157,6 +157,9 @@ EXACT_OBJ      := $(EXACT_SRC:tests/exact/%.cpp=$(EXACT_DIR)/%.o)
 EXACT_CXXFLAGS := -std=c++17 -O2 -ffp-contract=off -frounding-math -Wall -Wextra -Wno-maybe-uninitialized
 EXACT_RAYS     ?= 1000000
 STRESS_RAYS    ?= 100000000
+# rays per closed mesh and placement of test_pntri's crack test in `make
+# stress`: 4 meshes x 5 placements x 50000 = 10^6
+STRESS_PN_RAYS ?= 50000
 
 $(EXACT_DIR)/%.o: tests/exact/%.cpp
 	@mkdir -p $(@D)
@@ -188,18 +191,24 @@ fuzz: deps-test fuzz-build
 fuzz-build:
 	$(MAKE) BUILD=build/fuzz SAN=1 WERROR=1 CC=clang CFLAGS=-fsanitize=fuzzer-no-link fuzzers
 
-# The exact judge alone: `make exact`, or `make stress` (STRESS_RAYS per case;
-# hours). Both build build/liblancer.a with the release flags first.
+# The exact judge alone: `make exact`, or `make stress` (STRESS_RAYS per case,
+# then the PN crack test at 10^6 rays; hours). Both build build/liblancer.a with the release flags first.
 exact: deps-test exact-judge
 	$(EXACT_DIR)/judge $(EXACT_RAYS)
 
 stress: deps-test exact-judge
 	$(EXACT_DIR)/judge $(STRESS_RAYS)
+	$(MAKE) BUILD=build/san SAN=1 WERROR=1 build/san/test_pntri
+	LANCER_PN_CRACK_RAYS=$(STRESS_PN_RAYS) build/san/test_pntri
 
 # Benchmarks (not tests): the routines' speed, lancer against Embree on ray
-# files of three CGAL meshes, and the bunny frame against POV-Ray.
+# files of three CGAL meshes, the bunny frame against POV-Ray, and PN
+# surfaces' time against error.
 $(BUILD)/prim_bench: tests/bench/prim_bench.c $(BUILD)/liblancer.a
 	$(CC) $(CPPFLAGS) -Isrc/cli $(ALLCFLAGS) $^ $(LDLIBS) -o $@
+
+$(BUILD)/pn_tess: tests/bench/pn_tess.c $(BUILD)/liblancer.a
+	$(CC) $(CPPFLAGS) $(ALLCFLAGS) $^ $(LDLIBS) -o $@
 
 $(BUILD)/embree_bench: tests/bench/embree_bench.c $(BENCH_OBJ) $(BUILD)/liblancer.a
 	$(CC) $(CPPFLAGS) -Isrc/cli $(ALLCFLAGS) $^ -lembree3 $(LDLIBS) -o $@
@@ -207,9 +216,10 @@ $(BUILD)/embree_bench: tests/bench/embree_bench.c $(BENCH_OBJ) $(BUILD)/liblance
 bench:
 	sh scripts/deps.sh bench
 	sh scripts/cgal-data.sh build/cgal-data
-	$(MAKE) all $(BUILD)/prim_bench $(BUILD)/embree_bench
+	$(MAKE) all $(BUILD)/prim_bench $(BUILD)/embree_bench $(BUILD)/pn_tess
 	sh scripts/bench.sh
 	sh scripts/bench-frame.sh $(BUILD)/lancer
+	sh scripts/bench-pn.sh $(BUILD)/lancer $(BUILD)/pn_tess
 
 exact-judge: cgal-data
 	$(MAKE) -j2 BUILD=build SAN=0 $(EXACT_DIR)/judge

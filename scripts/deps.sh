@@ -2,7 +2,7 @@
 # Installs the Debian packages lancer needs, or says how to.
 #   scripts/deps.sh run    what building and rendering need
 #   scripts/deps.sh test   that, plus what the tests need
-#   scripts/deps.sh bench  that, plus Embree for the benchmarks
+#   scripts/deps.sh bench  that, plus Embree and gnuplot for the benchmarks
 # As root it calls apt-get for whatever is missing; otherwise it prints the
 # exact command to run and fails, so that nothing half-works.
 set -eu
@@ -12,7 +12,7 @@ test_pkgs="libcmocka-dev povray g++ libcgal-dev libcgal-demo libgmp-dev libmpfr-
 case "${1:-run}" in
     run) ;;
     test) pkgs="$pkgs $test_pkgs" ;;
-    bench) pkgs="$pkgs $test_pkgs libembree-dev" ;;
+    bench) pkgs="$pkgs $test_pkgs libembree-dev gnuplot-nox" ;;
     *) echo "usage: scripts/deps.sh run|test|bench" >&2; exit 2 ;;
 esac
 

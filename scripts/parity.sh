@@ -11,7 +11,10 @@
 # some channel (half-float rounding). A scene that cannot meet that names the
 # pixels and the reason in a line of its own, read here:
 #     # parity-allow: N pixels: reason
-# which allows N pixels over 2e-3 instead. Prints one line per scene, then
+# which allows N pixels over 2e-3 instead. A scene whose twin needs a finer
+# tessellation of its PN patches says so in a line
+#     # parity-pn-segments: N
+# passed to export-pov as --pn-segments N. Prints one line per scene, then
 # "parity: N passed, N failed"; exits non-zero if any failed.
 set -u
 LANCER=${1:-build/lancer}
@@ -27,7 +30,8 @@ fail=0
 for scn in "$@"; do
     name=$(basename "$scn" .scn)
     pov="$WORK/$name.pov"
-    if ! "$LANCER" export-pov "$scn" -o "$pov"; then
+    segs=$(sed -n 's/^# parity-pn-segments: \([0-9]*\)$/\1/p' "$scn")
+    if ! "$LANCER" export-pov "$scn" ${segs:+--pn-segments "$segs"} -o "$pov"; then
         echo "parity: $name FAIL (export)"
         fail=$((fail + 1))
         continue

@@ -24,6 +24,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "lancer/pntri.h"
+
 /* 8 bins: Wald reports SAH quality within a few percent of a full sweep
  * from 8-32 bins, and more bins cost build time without saving node visits
  * (docs/performance.md). */
@@ -171,6 +173,12 @@ int bvh_prim_bounds(const Prim *p, float lo[3], float hi[3])
         hi[0] = max3(x);
         hi[1] = max3(y);
         hi[2] = max3(z);
+        return 1;
+    }
+    case PRIM_PN: { /* the box of its control net, the net's own floats */
+        Box b = pn_bounds(p->g.pn.patch);
+        lo[0] = b.lo.x, lo[1] = b.lo.y, lo[2] = b.lo.z;
+        hi[0] = b.hi.x, hi[1] = b.hi.y, hi[2] = b.hi.z;
         return 1;
     }
     case PRIM_BOX: {

@@ -53,6 +53,16 @@ int plan_build(RenderPlan *p, Scene *s, const PlanOptions *o, char *err, size_t 
         snprintf(err, errlen, "spp must be a whole number from 1 to %d", LIMIT_SPP);
         return -1;
     }
+    if (o->pn_mode < 0 || o->pn_mode > PN_FAST + 1)
+        return fail(err, errlen, "pn_mode out of range");
+    for (int i = 0; i < s->nprims; i++) {
+        PnRef *r = &s->prims[i].g.pn;
+        if (s->prims[i].kind != PRIM_PN)
+            continue;
+        if (o->pn_mode)
+            r->mode = o->pn_mode - 1;
+        p->patches[p->variant == PRIM_CLASSIC ? PN_FAST : r->mode]++;
+    }
     if (o->move && (!(o->scale > 0.0f) || !vec_is_finite(o->translate) ||
                     scene_transform(s, o->scale, o->translate) != 0))
         return fail(err, errlen, "the scene degenerates at that scale or offset");

@@ -120,7 +120,40 @@ static void material(FILE *f, const Material *m)
     fprintf(f, " }\n  }\n}\n");
 }
 
-static void prim(FILE *f, const Scene *s, const Prim *p)
+/* A PN patch as a mesh2 of n segments per edge: the patch's points on the
+ * (u, v) grid of step 1/n, with its shading normals, in the triangles'
+ * order of (P1, P2, P3). Its error falls as 1/n^2 (docs/parity.md). */
+static void pn_mesh2(FILE *f, const PnPatch *pn, int n)
+{
+    int nv = (n + 1) * (n + 2) / 2;
+    fprintf(f, "mesh2 {\n  vertex_vectors { %d", nv);
+    for (int a = 0; a <= n; a++)
+        for (int b = 0; a + b <= n; b++) {
+            double pt[3];
+            pn_eval(pn, (double)a / n, (double)b / n, pt, NULL, NULL);
+            fputs(", ", f);
+            vec(f, vec3((float)pt[0], (float)pt[1], (float)pt[2]));
+        }
+    fprintf(f, " }\n  normal_vectors { %d", nv);
+    for (int a = 0; a <= n; a++)
+        for (int b = 0; a + b <= n; b++) {
+            fputs(", ", f);
+            vec(f, pn_shading_normal(pn, (float)a / (float)n, (float)b / (float)n));
+        }
+    /* vertex (a, b), a + b <= n, is number a (n + 1) - a (a - 1) / 2 + b */
+#define PN_V(a, b) ((a) * (n + 1) - (a) * ((a) - 1) / 2 + (b))
+    fprintf(f, " }\n  face_indices { %d", n * n);
+    for (int a = 0; a < n; a++)
+        for (int b = 0; a + b < n; b++) {
+            fprintf(f, ", <%d, %d, %d>", PN_V(a, b), PN_V(a + 1, b), PN_V(a, b + 1));
+            if (a + b < n - 1)
+                fprintf(f, ", <%d, %d, %d>", PN_V(a + 1, b), PN_V(a + 1, b + 1), PN_V(a, b + 1));
+        }
+#undef PN_V
+    fprintf(f, " }\n ");
+}
+
+static void prim(FILE *f, const Scene *s, const Prim *p, int pn_segments)
 {
     const Triangle *t = &p->g.tri;
     switch (p->kind) {
@@ -181,6 +214,9 @@ static void prim(FILE *f, const Scene *s, const Prim *p)
         }
         break;
     }
+    case PRIM_PN:
+        pn_mesh2(f, p->g.pn.patch, pn_segments);
+        break;
     }
     const Material *m = &s->materials[p->material];
     fprintf(f, " texture { M_%s }", m->name);
@@ -191,7 +227,7 @@ static void prim(FILE *f, const Scene *s, const Prim *p)
     fputs(" }\n", f);
 }
 
-int pov_export(const Scene *s, int width, int height, FILE *f)
+int pov_export(const Scene *s, int width, int height, int pn_segments, FILE *f)
 {
     int w = width ? width : s->image.width, h = height ? height : s->image.height;
     /* For k x k anti-aliasing the reference is a plain render at k times the
@@ -220,6 +256,6 @@ int pov_export(const Scene *s, int width, int height, FILE *f)
         material(f, &s->materials[i]);
     fprintf(f, "\n");
     for (int i = 0; i < s->nprims; i++)
-        prim(f, s, &s->prims[i]);
+        prim(f, s, &s->prims[i], pn_segments > 0 ? pn_segments : POV_PN_SEGMENTS);
     return ferror(f) ? -1 : 0;
 }

@@ -15,6 +15,7 @@
 #include <stdint.h>
 #include <string.h>
 
+#include "lancer/pntri.h"
 #include "rounding.h"
 
 /* t as a float, and a float bound covering both err (a bound on |t - exact|)
@@ -496,6 +497,8 @@ int prim_intersect(const Prim *p, const Ray *r, PrimVariant v, PrimHit *h)
         return robust ? prim_box_hit_robust(&p->g.box, r, h) : prim_box_hit(&p->g.box, r, h);
     case PRIM_OBOX:
         return robust ? prim_obox_hit_robust(&p->g.obox, r, h) : prim_obox_hit(&p->g.obox, r, h);
+    case PRIM_PN: /* the classic variant traces patches fast */
+        return pn_hit(p->g.pn.patch, r, robust ? (PnMode)p->g.pn.mode : PN_FAST, h);
     }
     return 0;
 }
@@ -608,6 +611,15 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
     case PRIM_OBOX:
         ng = p->g.obox.inv[h->face];
         break;
+    case PRIM_PN:
+        ng = pn_geometric_normal(p->g.pn.patch, h->u, h->v);
+        if (robust) {
+            /* The exact surface lies in the box that gave t, a few ulps
+             * wide (exact mode); Newton's point is as close (fast mode). */
+            float e = 16.0f * FLT_EPSILON * vec_max_abs(s->p);
+            s->perr = vec_add(s->perr, vec3(e, e, e));
+        }
+        break;
     }
     if (!robust) { /* a heuristic: 16 ulps of the larger of |p| and |o| */
         float e = 16.0f * FLT_EPSILON * fmaxf(vec_max_abs(s->p), vec_max_abs(r->o));
@@ -621,6 +633,8 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
         float w = 1.0f - h->u - h->v;
         ns = vec_add(vec_add(vec_scale(tr->na, w), vec_scale(tr->nb, h->u)), vec_scale(tr->nc, h->v));
         ns = vec_normalize(ns);
+    } else if (p->kind == PRIM_PN) {
+        ns = pn_shading_normal(p->g.pn.patch, h->u, h->v);
     }
     /* Two-sided surfaces: each normal faces the incoming ray. A box's edge
      * normal turns with its face's normal, not by its own sign against the
@@ -667,6 +681,7 @@ int prim_inside(const Prim *p, Vec3 q)
     case PRIM_PLANE:
     case PRIM_TRIANGLE:
     case PRIM_SMOOTH_TRIANGLE:
+    case PRIM_PN:
         break;
     }
     return 0;

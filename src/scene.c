@@ -49,7 +49,7 @@ typedef struct {
     char *err;
     size_t errlen;
     Scene *s;
-    int cap_materials, cap_lights, cap_prims;
+    int cap_materials, cap_lights, cap_prims, cap_patches;
     int have_image, have_camera;
 } Parser;
 
@@ -195,8 +195,8 @@ static const char *tok_desc(const Token *t, char *buf, size_t len)
 
 static int is_keyword(const Token *t)
 {
-    static const char *const kw[] = {"image",    "camera",          "light", "material", "sphere", "plane",
-                                     "triangle", "smooth_triangle", "box",   "obox",     "mesh"};
+    static const char *const kw[] = {"image", "camera", "light", "material",    "sphere", "plane",
+                                     "triangle", "smooth_triangle", "box",   "obox", "mesh", "pn_triangle"};
     for (size_t i = 0; i < sizeof kw / sizeof kw[0]; i++)
         if (tok_is(t, kw[i]))
             return 1;
@@ -440,11 +440,27 @@ static int whole(const Value *v, int k, float lo, float hi)
     return x == floorf(x) && x >= lo && x <= hi;
 }
 
+/* An optional 'pn_mode exact|fast' into *mode, or -1 when it is not set. */
+static int pn_mode_of(Parser *P, const char *what, const Value *v, int *mode)
+{
+    *mode = -1;
+    if (!v->set)
+        return 0;
+    if (strcmp(v->name, "exact") == 0)
+        *mode = PN_EXACT;
+    else if (strcmp(v->name, "fast") == 0)
+        *mode = PN_FAST;
+    else
+        return fail(P, v->value, "%s: 'pn_mode' must be 'exact' or 'fast', not '%s'", what, v->name);
+    return 0;
+}
+
 static int parse_image(Parser *P, Loc at)
 {
-    enum { WIDTH, HEIGHT, BACKGROUND, MAX_DEPTH, SPP, INTERSECT, N };
+    enum { WIDTH, HEIGHT, BACKGROUND, MAX_DEPTH, SPP, INTERSECT, PN_MODE, N };
     static const Field f[N] = {{"width", F_NUM},     {"height", F_NUM}, {"background", F_VEC},
-                               {"max_depth", F_NUM}, {"spp", F_NUM},    {"intersect", F_NAME}};
+                               {"max_depth", F_NUM}, {"spp", F_NUM},    {"intersect", F_NAME},
+                               {"pn_mode", F_NAME}};
     Value v[N];
     if (P->have_image)
         return fail(P, at, "duplicate 'image' block");
@@ -466,6 +482,11 @@ static int parse_image(Parser *P, Loc at)
                         v[INTERSECT].name);
         P->s->image.classic = strcmp(v[INTERSECT].name, "classic") == 0;
     }
+    int mode;
+    if (pn_mode_of(P, "image", &v[PN_MODE], &mode))
+        return -1;
+    if (mode >= 0)
+        P->s->image.pn_mode = mode;
     SceneImage *im = &P->s->image;
     im->width = (int)num_or(&v[WIDTH], (float)im->width);
     im->height = (int)num_or(&v[HEIGHT], (float)im->height);
@@ -693,6 +714,50 @@ static int parse_triangle(Parser *P, Loc at, int smooth)
     return 0;
 }
 
+/* Appends the patch of p and n (unit normals) to the scene's patches;
+ * *cap is the array's room. Returns its index, or -1 when out of memory. */
+static int add_patch(Scene *s, int *cap, const Vec3 p[3], const Vec3 n[3])
+{
+    PnPatch *arr = grow(s->patches, cap, s->npatches, sizeof(PnPatch));
+    if (!arr)
+        return -1;
+    s->patches = arr;
+    pn_patch_init(&arr[s->npatches], p, n);
+    return s->npatches++;
+}
+
+static int parse_pn_triangle(Parser *P, Loc at)
+{
+    enum { A, B, C, NA, NB, NC, MATERIAL, PN_MODE, N };
+    static const Field f[N] = {{"a", F_VEC},  {"b", F_VEC},  {"c", F_VEC},        {"na", F_VEC},
+                               {"nb", F_VEC}, {"nc", F_VEC}, {"material", F_NAME}, {"pn_mode", F_NAME}};
+    const char *what = "pn_triangle";
+    Value v[N];
+    int mat, mode;
+    if (parse_block(P, what, f, N, v))
+        return -1;
+    for (int i = A; i <= NC; i++)
+        if (require(P, what, f, v, i, at))
+            return -1;
+    if (material_ref(P, what, f, v, MATERIAL, at, &mat) || pn_mode_of(P, what, &v[PN_MODE], &mode))
+        return -1;
+    for (int i = NA; i <= NC; i++)
+        if (nonzero_vec(P, what, f[i].key, &v[i]))
+            return -1;
+    const Vec3 pts[3] = {vec_of(&v[A]), vec_of(&v[B]), vec_of(&v[C])};
+    const Vec3 nrm[3] = {vec_normalize(vec_of(&v[NA])), vec_normalize(vec_of(&v[NB])), vec_normalize(vec_of(&v[NC]))};
+    if (!tri_has_area(pts[0], pts[1], pts[2]))
+        return fail(P, at, "%s: the three vertices are collinear (zero area)", what);
+    int idx = add_patch(P->s, &P->cap_patches, pts, nrm);
+    Prim *p = idx < 0 ? NULL : new_prim(P, PRIM_PN, at);
+    if (!p)
+        return idx < 0 ? fail(P, at, "out of memory") : -1;
+    p->material = mat;
+    p->g.pn.index = idx;
+    p->g.pn.mode = mode;
+    return 0;
+}
+
 static int parse_box(Parser *P, Loc at)
 {
     enum { MIN, MAX, MATERIAL, N };
@@ -787,16 +852,19 @@ static int add_input(Scene *s, const char *path)
 
 static int parse_mesh(Parser *P, Loc at)
 {
-    enum { FILE_, MATERIAL, FLAT, SMOOTH, MATRIX, SCALE, ROTATE, TRANSLATE, N };
-    static const Field f[N] = {{"file", F_STRING}, {"material", F_NAME}, {"flat", F_FLAG},  {"smooth", F_FLAG},
-                               {"matrix", F_MAT},  {"scale", F_SCALE},   {"rotate", F_VEC}, {"translate", F_VEC}};
+    enum { FILE_, MATERIAL, FLAT, SMOOTH, PN, PN_MODE, MATRIX, SCALE, ROTATE, TRANSLATE, N };
+    static const Field f[N] = {{"file", F_STRING}, {"material", F_NAME}, {"flat", F_FLAG},    {"smooth", F_FLAG},
+                               {"pn", F_FLAG},     {"pn_mode", F_NAME},  {"matrix", F_MAT},   {"scale", F_SCALE},
+                               {"rotate", F_VEC},  {"translate", F_VEC}};
     Value v[N];
-    int mat;
+    int mat, mode;
     if (parse_block(P, "mesh", f, N, v) || require(P, "mesh", f, v, FILE_, at) ||
-        material_ref(P, "mesh", f, v, MATERIAL, at, &mat))
+        material_ref(P, "mesh", f, v, MATERIAL, at, &mat) || pn_mode_of(P, "mesh", &v[PN_MODE], &mode))
         return -1;
-    if (v[FLAT].set && v[SMOOTH].set)
-        return fail(P, v[SMOOTH].key, "mesh: 'flat' and 'smooth' exclude each other");
+    if (v[FLAT].set + v[SMOOTH].set + v[PN].set > 1)
+        return fail(P, (v[PN].set ? v[PN] : v[SMOOTH]).key, "mesh: 'flat', 'smooth' and 'pn' exclude each other");
+    if (v[PN_MODE].set && !v[PN].set)
+        return fail(P, v[PN_MODE].key, "mesh: 'pn_mode' is for a 'pn' mesh");
     /* The transform: matrix first, then scale, rotate (about x, then y,
      * then z) and translate, as they are listed in the README. */
     float xf[12] = {1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0};
@@ -830,7 +898,7 @@ static int parse_mesh(Parser *P, Loc at)
         return fail(P, at, "out of memory");
     if (mesh_load(path, &m, err, sizeof err) != 0)
         return fail(P, v[FILE_].value, "mesh: %s", err);
-    int smooth = v[SMOOTH].set, dropped = 0;
+    int smooth = v[SMOOTH].set || v[PN].set, dropped = 0;
     if (smooth && !m.n && mesh_vertex_normals(&m, err, sizeof err) != 0) {
         mesh_free(&m);
         return fail(P, at, "mesh: %s", err);
@@ -839,8 +907,10 @@ static int parse_mesh(Parser *P, Loc at)
         mesh_free(&m);
         return fail(P, v[FILE_].value, "mesh: %s has no triangles", path);
     }
-    int rc = scene_add_mesh(P->s, &m, mat, smooth, xf, &dropped);
-    P->cap_prims = P->s->nprims; /* scene_add_mesh's array holds at least this many */
+    int rc = v[PN].set ? scene_add_pn_mesh(P->s, &m, mat, mode, xf, &dropped)
+                       : scene_add_mesh(P->s, &m, mat, smooth, xf, &dropped);
+    P->cap_prims = P->s->nprims; /* the arrays hold at least this many */
+    P->cap_patches = P->s->npatches;
     P->s->degenerate += m.degenerate + dropped;
     mesh_free(&m);
     if (rc != 0)
@@ -880,6 +950,8 @@ static int parse_statement(Parser *P)
         return parse_obox(P, kw.loc);
     if (tok_is(&kw, "mesh"))
         return parse_mesh(P, kw.loc);
+    if (tok_is(&kw, "pn_triangle"))
+        return parse_pn_triangle(P, kw.loc);
     return fail(P, kw.loc, "unknown keyword %s", tok_desc(&kw, buf, sizeof buf)); /* not reached */
 }
 
@@ -939,6 +1011,52 @@ int scene_add_mesh(Scene *s, const Mesh *m, int material, int smooth, const floa
     return 0;
 }
 
+/* Points every PN primitive at its patch: after the array of patches has
+ * moved. */
+static void link_patches(Scene *s)
+{
+    for (int i = 0; i < s->nprims; i++)
+        if (s->prims[i].kind == PRIM_PN)
+            s->prims[i].g.pn.patch = &s->patches[s->prims[i].g.pn.index];
+}
+
+int scene_add_pn_mesh(Scene *s, const Mesh *m, int material, int mode, const float *xf, int *dropped)
+{
+    size_t need = (size_t)s->nprims + (size_t)m->nt, needp = (size_t)s->npatches + (size_t)m->nt;
+    if (need > (size_t)INT32_MAX || needp > (size_t)INT32_MAX || !m->n)
+        return -1;
+    Prim *arr = realloc(s->prims, sizeof(Prim) * (need ? need : 1));
+    if (!arr)
+        return -1;
+    s->prims = arr;
+    PnPatch *pa = realloc(s->patches, sizeof(PnPatch) * (needp ? needp : 1));
+    if (!pa)
+        return -1;
+    s->patches = pa;
+    *dropped = 0;
+    for (int i = 0; i < m->nt; i++) {
+        Vec3 p[3], n[3];
+        for (int k = 0; k < 3; k++) {
+            p[k] = xf_point(xf, m->v[m->tri[i][k]]);
+            n[k] = vec_normalize(xf_normal(xf, m->n[m->ntri[i][k]]));
+        }
+        if (!tri_has_area(p[0], p[1], p[2]) || !vec_is_finite(p[0]) || !vec_is_finite(p[1]) ||
+            !vec_is_finite(p[2]) || !vec_is_finite(n[0]) || !vec_is_finite(n[1]) || !vec_is_finite(n[2])) {
+            (*dropped)++;
+            continue;
+        }
+        pn_patch_init(&s->patches[s->npatches], p, n);
+        Prim *q = &s->prims[s->nprims++];
+        memset(q, 0, sizeof *q);
+        q->kind = PRIM_PN;
+        q->material = material;
+        q->g.pn.index = s->npatches++;
+        q->g.pn.mode = mode;
+    }
+    link_patches(s);
+    return 0;
+}
+
 static Vec3 move(Vec3 p, float scale, Vec3 offset) { return vec_add(vec_scale(p, scale), offset); }
 
 int scene_transform(Scene *s, float scale, Vec3 offset)
@@ -981,8 +1099,15 @@ int scene_transform(Scene *s, float scale, Vec3 offset)
             if (prim_obox_init(&p->g.obox) != 0)
                 return -1;
             break;
+        case PRIM_PN: /* its patch, below */
+            break;
         }
     }
+    /* A patch is its control net: an affine map moves the net (points on a
+     * shared edge move alike, so the edge stays shared). */
+    for (int i = 0; i < s->npatches; i++)
+        for (int k = 0; k < 10; k++)
+            s->patches[i].b[k] = move(s->patches[i].b[k], scale, offset);
     char err[128];
     return scene_validate(s, err, sizeof err); /* nothing overflowed or collapsed */
 }
@@ -1058,6 +1183,16 @@ int scene_validate(const Scene *s, char *err, size_t errlen)
             ok = vec_is_finite(b.c) && prim_obox_init(&b) == 0;
             break;
         }
+        case PRIM_PN: {
+            const PnRef *r = &p->g.pn;
+            ok = r->index >= 0 && r->index < s->npatches && r->patch == &s->patches[r->index] &&
+                 (r->mode == PN_EXACT || r->mode == PN_FAST);
+            for (int k = 0; ok && k < 10; k++)
+                ok = vec_is_finite(r->patch->b[k]);
+            for (int k = 0; ok && k < 6; k++)
+                ok = has_length(r->patch->n[k]);
+            break;
+        }
         default:
             ok = 0;
         }
@@ -1066,22 +1201,30 @@ int scene_validate(const Scene *s, char *err, size_t errlen)
     }
     if (s->degenerate < 0)
         BAD("negative count of degenerate triangles");
+    if (im->pn_mode != PN_EXACT && im->pn_mode != PN_FAST)
+        BAD("pn_mode %d out of range", im->pn_mode);
     return 0;
 #undef BAD
 }
 
-int scene_from_mesh(Scene *s, const Mesh *m)
+/* pn: 0 for flat triangles, or 1 + the PnMode of PN patches. */
+static int scene_of_mesh(Scene *s, const Mesh *m, int pn)
 {
     memset(s, 0, sizeof *s);
     s->materials = calloc(1, sizeof(Material));
     s->nmaterials = s->materials ? 1 : 0;
     int dropped;
-    if (!s->materials || scene_add_mesh(s, m, 0, 0, NULL, &dropped) != 0) {
+    if (!s->materials || (pn ? scene_add_pn_mesh(s, m, 0, pn - 1, NULL, &dropped)
+                             : scene_add_mesh(s, m, 0, 0, NULL, &dropped)) != 0) {
         scene_free(s);
         return -1;
     }
     return 0;
 }
+
+int scene_from_mesh(Scene *s, const Mesh *m) { return scene_of_mesh(s, m, 0); }
+
+int scene_from_pn_mesh(Scene *s, const Mesh *m, int mode) { return scene_of_mesh(s, m, 1 + mode); }
 
 int scene_split_triangles(Scene *s)
 {
@@ -1134,6 +1277,7 @@ void scene_free(Scene *s)
     free(s->materials);
     free(s->lights);
     free(s->prims);
+    free(s->patches);
     for (int i = 0; i < s->ninputs; i++)
         free(s->inputs[i]);
     free(s->inputs);
@@ -1164,9 +1308,17 @@ int scene_parse(const char *name, const char *text, size_t len, Scene *s, char *
         rc = parse_statement(&P);
     if (rc == 0 && !P.have_camera)
         rc = fail(&P, P.tok.loc, "the scene has no 'camera' block");
-    if (rc != 0)
+    if (rc != 0) {
         scene_free(s);
-    return rc;
+        return rc;
+    }
+    /* Patches without a pn_mode of their own take the image block's, which
+     * may come after them. */
+    for (int i = 0; i < s->nprims; i++)
+        if (s->prims[i].kind == PRIM_PN && s->prims[i].g.pn.mode < 0)
+            s->prims[i].g.pn.mode = s->image.pn_mode;
+    link_patches(s);
+    return 0;
 }
 
 int scene_load(const char *path, Scene *s, char *err, size_t errlen)

@@ -235,5 +235,28 @@ has "$T/err" "not a ray file"
 expect 1 "$LANCER" bench --gen-rays "$T/none.off" "$T/rays"
 has "$T/err" "$T/none.off: cannot open"
 
+# PN triangles: a PN mesh and a lone patch, their modes, the override,
+# the POV-Ray twin's tessellation, and bench --pn
+printf 'image { width 32 height 24 }\ncamera { eye 0.3 0.4 -3 target 0.3 0.3 0.3 fov 50 }\nlight { position 2 4 -3 }\nmaterial m { }\nmesh { file "tet.off" pn material m }\npn_triangle { a -1 -1 1 b 1 -1 1 c 0 1 1 na 0 0 -1 nb 0.3 0 -1 nc 0 0.3 -1 material m pn_mode fast }\n' >"$T/pn.scn"
+expect 0 "$LANCER" render "$T/pn.scn" -o "$T/pn.exr" --stats "$T/pn.json" -q
+has "$T/pn.json" '"pn_patches": {"exact": 4, "fast": 1}'
+expect 0 "$LANCER" render "$T/pn.scn" -o "$T/pnf.exr" --pn-mode fast --stats "$T/pnf.json" -q
+has "$T/pnf.json" '"pn_patches": {"exact": 0, "fast": 5}'
+expect 0 "$LANCER" diff "$T/pn.exr" "$T/pnf.exr"
+if grep -q " over=0 pixels=768" "$T/out"; then ok; else bad "fast mode changed the picture: $(cat "$T/out")"; fi
+expect 2 "$LANCER" render "$T/pn.scn" --pn-mode slow
+has "$T/err" "--pn-mode must be exact or fast, not 'slow'"
+expect 0 "$LANCER" export-pov "$T/pn.scn" -o "$T/pn.pov" --pn-segments 4
+has "$T/pn.pov" "face_indices { 16, "
+if [ "$(grep -c "^mesh2" "$T/pn.pov")" -eq 5 ]; then ok; else bad "export-pov wrote $(grep -c "^mesh2" "$T/pn.pov") meshes for 5 patches"; fi
+expect 2 "$LANCER" export-pov "$T/pn.scn" -o "$T/pn.pov" --pn-segments 0
+expect 0 "$LANCER" bench --mesh "$T/tet.off" --pn --rays "$T/rays/primary.rays" --kind closest --passes 1
+if grep -Eq '^mrays=[0-9.]+ hits=[1-9][0-9]* sumt=[0-9.e+]+ build_ms=[0-9.]+ rays=256$' "$T/out"; then ok; else
+    bad "bench --pn line: $(cat "$T/out")"
+fi
+expect 0 "$LANCER" bench --mesh "$T/tet.off" --pn --pn-mode fast --rays "$T/rays/shadow.rays" --kind any --passes 1
+expect 2 "$LANCER" bench --mesh "$T/tet.off" --pn-mode fast --rays "$T/rays/primary.rays" --kind closest
+has "$T/err" "--pn-mode needs --pn"
+
 echo "cli: $pass passed, $fail failed"
 [ "$fail" -eq 0 ]

@@ -173,6 +173,40 @@ static void test_coordinates(void **state)
     done(&s, &p);
 }
 
+/* --pn-mode overrides every patch's mode; the classic variant traces them
+ * all fast; the plan counts them. */
+static void test_pn_modes(void **state)
+{
+    (void)state;
+    static const char *pn = "pn_triangle { a 0 0 0 b 1 0 0 c 0 1 0 na 0 0 1 nb 0 0 1 nc 0 0 1 material m }\n"
+                            "pn_triangle { a 0 0 0 b 1 0 0 c 0 1 0 na 0 0 1 nb 0 0 1 nc 0 0 1 material m "
+                            "pn_mode fast }\n";
+    Scene s;
+    RenderPlan p;
+    PlanOptions o = plan_options();
+    load_plan(&s, &p, pn, &o);
+    assert_int_equal(p.patches[PN_EXACT], 1);
+    assert_int_equal(p.patches[PN_FAST], 1);
+    done(&s, &p);
+    o.pn_mode = 1 + PN_EXACT;
+    load_plan(&s, &p, pn, &o);
+    assert_int_equal(p.patches[PN_EXACT], 2);
+    assert_int_equal(s.prims[4].g.pn.mode, PN_EXACT);
+    done(&s, &p);
+    o = plan_options();
+    o.classic = 1;
+    load_plan(&s, &p, pn, &o);
+    assert_int_equal(p.patches[PN_FAST], 2);
+    done(&s, &p);
+    o = plan_options();
+    o.pn_mode = 3;
+    load(&s, pn);
+    char err[256];
+    assert_int_equal(plan_build(&p, &s, &o, err, sizeof err), -1);
+    assert_string_equal(err, "pn_mode out of range");
+    scene_free(&s);
+}
+
 static void test_decisions(void **state)
 {
     (void)state;
@@ -224,6 +258,7 @@ int main(void)
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_coordinates),
         cmocka_unit_test(test_decisions),
+        cmocka_unit_test(test_pn_modes),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -36,7 +36,7 @@ static char *export(void)
     size_t len = 0;
     FILE *f = open_memstream(&buf, &len);
     assert_non_null(f);
-    assert_int_equal(pov_export(&s, 0, 0, f), 0);
+    assert_int_equal(pov_export(&s, 0, 0, 0, f), 0);
     fclose(f);
     scene_free(&s);
     return buf;

@@ -463,6 +463,27 @@ static const BadCase bad_cases[] = {
     BAD("negative fade_power",
         PRE "light { position 0 0 0 fade_distance 5 fade_power -1 }\n",
         "t.scn:3:51: light: 'fade_power' must not be negative"),
+    BAD("pn_triangle without nc",
+        PRE "pn_triangle { a 0 0 0 b 1 0 0 c 0 1 0 na 0 0 1 nb 0 0 1 material m }\n",
+        "t.scn:3:1: pn_triangle: missing property 'nc'"),
+    BAD("pn_triangle with a zero normal",
+        PRE "pn_triangle { a 0 0 0 b 1 0 0 c 0 1 0 na 0 0 1 nb 0 0 0 nc 0 0 1 material m }\n",
+        "t.scn:3:51: pn_triangle: 'nb' must have non-zero length"),
+    BAD("pn_triangle of collinear points",
+        PRE "pn_triangle { a 0 0 0 b 1 0 0 c 2 0 0 na 0 0 1 nb 0 0 1 nc 0 0 1 material m }\n",
+        "t.scn:3:1: pn_triangle: the three vertices are collinear (zero area)"),
+    BAD("unknown pn_mode",
+        PRE "pn_triangle { a 0 0 0 b 1 0 0 c 0 1 0 na 0 0 1 nb 0 0 1 nc 0 0 1 material m pn_mode slow }\n",
+        "t.scn:3:85: pn_triangle: 'pn_mode' must be 'exact' or 'fast', not 'slow'"),
+    BAD("unknown pn_mode in image",
+        "image { pn_mode 1 }\n",
+        "t.scn:1:17: image: wrong type for 'pn_mode': expected a name, found number '1'"),
+    BAD("pn_mode on a mesh that is not pn",
+        PRE "mesh { file \"m.off\" material m pn_mode fast }\n",
+        "t.scn:3:32: mesh: 'pn_mode' is for a 'pn' mesh"),
+    BAD("pn and flat",
+        PRE "mesh { file \"m.off\" material m flat pn }\n",
+        "t.scn:3:37: mesh: 'flat', 'smooth' and 'pn' exclude each other"),
     BAD("CRLF line endings",
         "camera { eye 0 0 -5 target 0 0 0 fov 40 }\r\nmaterial m { }\r\nsphere { center 0 0 0 radius -1 material m }\r\n",
         "t.scn:3:30: sphere: 'radius' must be positive"),
@@ -863,13 +884,62 @@ static void test_mesh_statement(void **state)
     snprintf(text, sizeof text, CAM "material m { }\nmesh { file \"%s\" material m flat smooth }\n", path);
     assert_int_equal(scene_parse("t.scn", text, strlen(text), &s, err, sizeof err), -1);
     assert_non_null(strstr(err, "t.scn:3:"));
-    assert_non_null(strstr(err, "'flat' and 'smooth' exclude each other"));
+    assert_non_null(strstr(err, "'flat', 'smooth' and 'pn' exclude each other"));
     const char *open = CAM "mesh { file \"quad.off material m }\n";
     assert_int_equal(scene_parse("t.scn", open, strlen(open), &s, err, sizeof err), -1);
     assert_string_equal(err, "t.scn:2:13: unterminated string");
     const char *two = CAM "material m { }\nmesh { file \"q.off\" material m scale 1 2 }\n";
     assert_int_equal(scene_parse("t.scn", two, strlen(two), &s, err, sizeof err), -1);
     assert_string_equal(err, "t.scn:3:42: mesh: missing value for 'scale' (expects one or three numbers, got 2)");
+    remove(path);
+    rmdir(dir);
+}
+
+/* pn_triangle and pn meshes: patches out of line, normals made unit, the
+ * mode from the block, else the image block (wherever it stands), else
+ * exact. */
+static void test_pn_statements(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/lancer-scene-XXXXXX", path[256], text[1024];
+    assert_non_null(mkdtemp(dir));
+    snprintf(path, sizeof path, "%s/quad.off", dir);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs("OFF\n4 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n", f);
+    fclose(f);
+    Scene s;
+    snprintf(text, sizeof text,
+             CAM "material m { }\n"
+                 "pn_triangle { a 0 0 0 b 1 0 0 c 0 1 0 na 0 0 2 nb 0 1 1 nc 0 0 1 material m }\n"
+                 "mesh { file \"%s\" material m pn pn_mode exact translate 0 0 5 }\n"
+                 "pn_triangle { a 0 0 0 b 1 0 0 c 0 1 0 na 0 0 1 nb 0 0 1 nc 0 0 1 material m pn_mode exact }\n"
+                 "image { pn_mode fast }\n",
+             path);
+    parse_ok(text, &s);
+    assert_int_equal(s.nprims, 4);
+    assert_int_equal(s.npatches, 4);
+    for (int i = 0; i < 4; i++) {
+        assert_int_equal(s.prims[i].kind, PRIM_PN);
+        assert_ptr_equal(s.prims[i].g.pn.patch, &s.patches[s.prims[i].g.pn.index]);
+    }
+    assert_int_equal(s.prims[0].g.pn.mode, PN_FAST); /* the image block's, given after it */
+    assert_int_equal(s.prims[1].g.pn.mode, PN_EXACT);
+    assert_int_equal(s.prims[3].g.pn.mode, PN_EXACT);
+    assert_vec(s.patches[0].n[0], 0, 0, 1, 0);          /* (0 0 2) made unit */
+    assert_vec(s.patches[0].n[1], 0, 0.70710678f, 0.70710678f, 1e-7);
+    assert_vec(s.patches[1].b[PN_AT(0, 3)], 1, 1, 5, 0); /* the mesh's third vertex, moved */
+    /* the mesh's normals are the file's none, so angle-weighted: a flat quad's */
+    assert_vec(s.patches[1].n[2], 0, 0, 1, 1e-6);
+    scene_free(&s);
+    parse_ok(CAM "material m { }\n"
+                 "pn_triangle { a 0 0 0 b 1 0 0 c 0 1 0 na 0 0 1 nb 0 0 1 nc 0 0 1 material m }\n",
+             &s);
+    assert_int_equal(s.prims[0].g.pn.mode, PN_EXACT); /* the default */
+    /* a scene transform moves the net */
+    assert_int_equal(scene_transform(&s, 2.0f, vec3(1, 0, 0)), 0);
+    assert_vec(s.patches[0].b[PN_AT(0, 0)], 3, 0, 0, 0);
+    scene_free(&s);
     remove(path);
     rmdir(dir);
 }
@@ -1149,6 +1219,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_utf8_bom),
         cmocka_unit_test(test_transform),
         cmocka_unit_test(test_mesh_statement),
+        cmocka_unit_test(test_pn_statements),
         cmocka_unit_test(test_number_forms),
         cmocka_unit_test(test_names),
         cmocka_unit_test(test_many_objects),

@@ -44,6 +44,10 @@
 #define LIMIT_INTERIORS 16
 #define LIMIT_SHADOW_CROSSINGS 256
 
+/* `lancer export-pov --pn-segments`: a PN patch's segments per edge in
+ * POV-Ray's twin (N^2 triangles a patch). */
+#define LIMIT_PN_SEGMENTS 256
+
 /* `lancer diff --downsample`, per side. */
 #define LIMIT_DOWNSAMPLE 64
 

@@ -41,6 +41,7 @@ typedef struct {
     int width, height; /* pixels, 1 to LIMIT_IMAGE_SIDE */
     int spp;           /* 1 to LIMIT_SPP */
     int classic;       /* 1: the classic routines, whatever the scene says */
+    int pn_mode;       /* 1 + PnMode: every PN patch in that mode, whatever the scene says */
     int threads;       /* render and build threads; 0 means 1 */
     int world;         /* 1: keep the scene's coordinates, no camera-relative move
                         * (for callers that trace rays of their own in them) */
@@ -67,6 +68,7 @@ typedef struct {
     const Scene *scene; /* the world, in the plan's coordinates */
     int width, height, spp, max_depth, threads;
     PrimVariant variant;
+    int patches[2];        /* the PN patches traced in each PnMode (the classic variant traces all fast) */
     Vec3 offset;           /* added to the plan's coordinates, gives the scene's as moved by the options */
     Interiors camera_in;   /* the solids the camera is inside, in scene order: where camera rays start */
     int transparent;       /* some material lets light through (filter or transmit) */

@@ -3,7 +3,7 @@
  * picture, so that POV-Ray can serve as the reference renderer.
  *
  *     FILE *f = ...;
- *     if (pov_export(&scene, 0, 0, f) != 0) ... a write failed ...
+ *     if (pov_export(&scene, 0, 0, 0, f) != 0) ... a write failed ...
  *
  * The mapping follows docs/povray-rules.md, section 0: linear output (assumed_gamma
  * 1), no ambient light beyond each finish's own, adc_bailout 0 so that no
@@ -21,8 +21,14 @@
 
 #include "lancer/scene.h"
 
+/* PN patches are written as smooth meshes of this many segments per edge
+ * unless the caller asks for another number. */
+#define POV_PN_SEGMENTS 16
+
 /* Writes the scene to f, for an image of width x height pixels (0: the
- * scene's own size). Returns 0, or -1 if a write to f failed. */
-int pov_export(const Scene *s, int width, int height, FILE *f);
+ * scene's own size), each PN patch tessellated into pn_segments^2
+ * triangles (0: POV_PN_SEGMENTS) with its shading normals. Returns 0, or
+ * -1 if a write to f failed. */
+int pov_export(const Scene *s, int width, int height, int pn_segments, FILE *f);
 
 #endif

@@ -72,8 +72,19 @@ typedef enum {
     PRIM_TRIANGLE,
     PRIM_SMOOTH_TRIANGLE,
     PRIM_BOX,
-    PRIM_OBOX
+    PRIM_OBOX,
+    PRIM_PN
 } PrimKind;
+
+/* A PN triangle (pntri.h), kept out of line so that it does not grow every
+ * other primitive: patch points into the scene's array of patches (at
+ * index), and mode is its PnMode. */
+struct PnPatch;
+typedef struct {
+    const struct PnPatch *patch;
+    int index;
+    int mode;
+} PnRef;
 
 typedef struct {
     PrimKind kind;
@@ -84,6 +95,7 @@ typedef struct {
         Triangle tri;
         Box box;
         OBox obox;
+        PnRef pn;
     } g;
 } Prim;
 

@@ -27,6 +27,7 @@
 
 #include "lancer/limits.h"
 #include "lancer/mesh.h"
+#include "lancer/pntri.h"
 #include "lancer/prim.h"
 
 /* Buffers for a name and a path, with their ends (limits.h). */
@@ -67,6 +68,7 @@ typedef struct {
     int max_depth; /* POV-Ray's max_trace_level: the camera ray is level 1 */
     int spp;       /* spp x spp regular samples per pixel, box-filtered */
     int classic;   /* use the classic intersection routines, not the robust ones */
+    int pn_mode;   /* PnMode of the PN patches that set none */
 } SceneImage;
 
 typedef struct {
@@ -79,6 +81,8 @@ typedef struct {
     int nlights;
     Prim *prims;
     int nprims;
+    PnPatch *patches; /* the PN patches, which PRIM_PN primitives point into */
+    int npatches;
     int degenerate; /* mesh triangles dropped for having no area */
     char **inputs;  /* the files read: the scene file (scene_load), then each mesh */
     int ninputs;
@@ -99,10 +103,20 @@ int scene_parse(const char *name, const char *text, size_t len, Scene *s, char *
  * dropped and counted in *dropped. Returns 0, or -1 when memory runs out. */
 int scene_add_mesh(Scene *s, const Mesh *m, int material, int smooth, const float *xf, int *dropped);
 
+/* Appends the mesh's triangles as PN patches (pntri.h) with material
+ * `material` and PnMode `mode`, each from the mesh's vertex normals (m->n
+ * must be set), mapped by xf as scene_add_mesh maps them. Returns 0, or -1
+ * when memory runs out. */
+int scene_add_pn_mesh(Scene *s, const Mesh *m, int material, int mode, const float *xf, int *dropped);
+
 /* A new scene of the mesh's flat triangles and one default material (the
  * benchmarks' scene). Returns 0, or -1 when memory runs out (the scene is
  * then empty). */
 int scene_from_mesh(Scene *s, const Mesh *m);
+
+/* The same with the mesh's triangles as PN patches in PnMode `mode`, from
+ * its vertex normals (m->n must be set). */
+int scene_from_pn_mesh(Scene *s, const Mesh *m, int mode);
 
 /* Splits every triangle in two across its longest edge: the corner
  * opposite it is joined to the edge's midpoint, and both halves keep the

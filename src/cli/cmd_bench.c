@@ -16,7 +16,8 @@
 
 static const char usage[] =
     "usage: lancer bench --gen-rays MESH OUTDIR [W H]\n"
-    "       lancer bench --mesh MESH --rays FILE --kind closest|any [--passes N] [--classic]\n"
+    "       lancer bench --mesh MESH [--pn [--pn-mode M]] --rays FILE --kind closest|any\n"
+    "                    [--passes N] [--classic]\n"
     "       lancer bench --build-series MESH [--max-mtris M]\n"
     "\n"
     "The first form writes OUTDIR/primary.rays, shadow.rays and diffuse.rays\n"
@@ -29,6 +30,9 @@ static const char usage[] =
     "thread (closest hit, or any hit) for one warm-up and N timed passes\n"
     "(default 3), and prints one line:\n"
     "  mrays=<best Mrays/s> hits=<hits> sumt=<sum of t over hits> build_ms=<build> rays=<count>\n"
+    "With --pn, every triangle is a PN patch of the mesh's vertex normals\n"
+    "(angle-weighted where the file has none), traced in mode M, exact or fast\n"
+    "(default exact).\n"
     "\n"
     "The third builds the BVH over the mesh, then splits every triangle in two\n"
     "and builds again, up to M million triangles (default 10), printing build\n"
@@ -37,12 +41,14 @@ static const char usage[] =
     "options:\n"
     "      --passes N   timed passes (default 3)\n"
     "      --classic    the classic intersection routines, not the robust ones\n"
+    "      --pn         trace the mesh's PN surface, not its flat triangles\n"
+    "      --pn-mode M  exact (default) or fast\n"
     "      --threads N  threads for the BVH build (default 1)\n"
     "  -h, --help       show this help\n";
 
 typedef struct {
-    const char *gen, *mesh, *rays, *kind, *series;
-    int passes, classic, threads, max_mtris;
+    const char *gen, *mesh, *rays, *kind, *series, *pn_mode;
+    int passes, classic, threads, max_mtris, pn;
 } Args;
 
 static void defaults(void *args)
@@ -53,8 +59,9 @@ static void defaults(void *args)
     a->max_mtris = 10;
 }
 
-/* A scene of the mesh's flat triangles, one plain material. */
-static int mesh_scene(const char *path, Scene *s)
+/* A scene of the mesh's flat triangles, or with pn = 1 + PnMode its PN
+ * patches, and one plain material. */
+static int mesh_scene(const char *path, int pn, Scene *s)
 {
     Mesh m;
     char err[1024];
@@ -63,7 +70,12 @@ static int mesh_scene(const char *path, Scene *s)
         fprintf(stderr, "%s\n", err);
         return -1;
     }
-    int rc = scene_from_mesh(s, &m);
+    if (pn && !m.n && mesh_vertex_normals(&m, err, sizeof err) != 0) {
+        fprintf(stderr, "lancer: %s: %s\n", path, err);
+        mesh_free(&m);
+        return -1;
+    }
+    int rc = pn ? scene_from_pn_mesh(s, &m, pn - 1) : scene_from_mesh(s, &m);
     mesh_free(&m);
     if (rc != 0)
         fprintf(stderr, "lancer: %s: out of memory\n", path);
@@ -166,7 +178,7 @@ static int run(void *args, const char **pos, int npos)
     if (a->series) {
         if (npos != 0)
             return cli_usage_error("bench", "--build-series takes no other arguments");
-        if (mesh_scene(a->series, &s) != 0)
+        if (mesh_scene(a->series, 0, &s) != 0)
             return 1;
         rc = build_series(&s, v, 1000000L * a->max_mtris);
         scene_free(&s);
@@ -183,7 +195,20 @@ static int run(void *args, const char **pos, int npos)
     if (a->mesh &&
         (!a->rays || !a->kind || (strcmp(a->kind, "closest") != 0 && strcmp(a->kind, "any") != 0) || npos != 0))
         return cli_usage_error("bench", "--mesh needs --rays FILE and --kind closest or any");
-    if (mesh_scene(a->gen ? a->gen : a->mesh, &s) != 0)
+    int pn = 0;
+    if (a->pn_mode && !a->pn)
+        return cli_usage_error("bench", "--pn-mode needs --pn");
+    if (a->pn && !a->mesh)
+        return cli_usage_error("bench", "--pn goes with --mesh");
+    if (a->pn) {
+        if (!a->pn_mode || strcmp(a->pn_mode, "exact") == 0)
+            pn = 1 + PN_EXACT;
+        else if (strcmp(a->pn_mode, "fast") == 0)
+            pn = 1 + PN_FAST;
+        else
+            return cli_usage_error("bench", "--pn-mode must be exact or fast, not '%s'", a->pn_mode);
+    }
+    if (mesh_scene(a->gen ? a->gen : a->mesh, pn, &s) != 0)
         return 1;
     double t0 = clock_now();
     Accel *acc = accel_build(&s, v, a->threads);
@@ -206,6 +231,8 @@ static const Opt opts[] = {
     {"--kind", NULL, OPT_STRING, offsetof(Args, kind), 0, 0},
     {"--passes", NULL, OPT_INT, offsetof(Args, passes), 1, 1000},
     {"--classic", NULL, OPT_FLAG, offsetof(Args, classic), 0, 0},
+    {"--pn", NULL, OPT_FLAG, offsetof(Args, pn), 0, 0},
+    {"--pn-mode", NULL, OPT_STRING, offsetof(Args, pn_mode), 0, 0},
     {"--threads", NULL, OPT_INT, offsetof(Args, threads), 1, LIMIT_THREADS},
     {"--build-series", NULL, OPT_STRING, offsetof(Args, series), 0, 0},
     {"--max-mtris", NULL, OPT_INT, offsetof(Args, max_mtris), 1, 100},

@@ -36,6 +36,8 @@ static const char usage[] =
     "      --float           write 32-bit float channels (default: half)\n"
     "      --classic         use the classic intersection routines instead of the\n"
     "                        robust ones (to compare their cost and error)\n"
+    "      --pn-mode MODE    trace every PN patch in MODE, exact or fast\n"
+    "                        (overrides the scene)\n"
     "      --scale S         scale the whole scene, camera and lights included\n"
     "      --translate X,Y,Z then move it: the picture should not change\n"
     "      --stats FILE.json write the render plan, timings and ray counts as JSON\n"
@@ -46,7 +48,7 @@ typedef struct {
     const char *exr, *png, *stats;
     int width, height, spp, threads, quiet, use_float, classic;
     double scale;
-    const char *translate;
+    const char *translate, *pn_mode;
 } Args;
 
 static void defaults(void *args)
@@ -127,7 +129,9 @@ static void write_plan(FILE *f, const RenderPlan *p)
             (double)p->offset.y, (double)p->offset.z);
     for (int i = 0; i < p->camera_in.n; i++)
         fprintf(f, "%s%d", i ? ", " : "", p->camera_in.prim[i]);
-    fprintf(f, "],\n           \"transparent\": %s, \"reflective\": %s,\n           \"lights\": [",
+    fprintf(f, "],\n           \"pn_patches\": {\"exact\": %d, \"fast\": %d},", p->patches[PN_EXACT],
+            p->patches[PN_FAST]);
+    fprintf(f, "\n           \"transparent\": %s, \"reflective\": %s,\n           \"lights\": [",
             json_bool(p->transparent), json_bool(p->reflective));
     for (int i = 0; i < s->nlights; i++)
         fprintf(f, "%s{\"shadows\": \"%s\", \"samples\": %d}", i ? ", " : "", shadows[p->shadow[i]],
@@ -177,6 +181,14 @@ static int plan_options_of(const Args *a, PlanOptions *o)
     o->spp = a->spp;
     o->classic = a->classic;
     o->threads = a->threads;
+    if (a->pn_mode) {
+        if (strcmp(a->pn_mode, "exact") == 0)
+            o->pn_mode = 1 + PN_EXACT;
+        else if (strcmp(a->pn_mode, "fast") == 0)
+            o->pn_mode = 1 + PN_FAST;
+        else
+            return cli_usage_error("render", "--pn-mode must be exact or fast, not '%s'", a->pn_mode);
+    }
     if (a->scale > 0.0 || a->translate) {
         char tail;
         o->move = 1;
@@ -327,6 +339,7 @@ static const Opt opts[] = {
     {"--threads", NULL, OPT_INT, offsetof(Args, threads), 1, LIMIT_THREADS},
     {"--float", NULL, OPT_FLAG, offsetof(Args, use_float), 0, 0},
     {"--classic", NULL, OPT_FLAG, offsetof(Args, classic), 0, 0},
+    {"--pn-mode", NULL, OPT_STRING, offsetof(Args, pn_mode), 0, 0},
     {"--scale", NULL, OPT_DOUBLE, offsetof(Args, scale), 0, 0},
     {"--translate", NULL, OPT_STRING, offsetof(Args, translate), 0, 0},
     {"--quiet", "-q", OPT_FLAG, offsetof(Args, quiet), 0, 0},

@@ -61,7 +61,7 @@ uint64_t ray_seed(uint64_t base, int case_id, int routine, uint64_t ray);
 
 // ---- the routines under test ----
 
-enum Kind { K_PLANE, K_SPHERE, K_TRI, K_BOX, K_OBOX };
+enum Kind { K_PLANE, K_SPHERE, K_TRI, K_BOX, K_OBOX, K_PN };
 
 struct Routine {
     const char *name;
@@ -69,7 +69,8 @@ struct Routine {
     bool robust;
 };
 
-enum { R_PLANE, R_PLANE_ROB, R_SPHERE, R_SPHERE_ROB, R_TRI, R_TRI_WT, R_BOX, R_BOX_ROB, R_OBOX, R_OBOX_ROB, N_ROUTINES };
+// R_PN_BOX is not an intersection routine: case 9 alone judges it (pn.cpp).
+enum { R_PLANE, R_PLANE_ROB, R_SPHERE, R_SPHERE_ROB, R_TRI, R_TRI_WT, R_BOX, R_BOX_ROB, R_OBOX, R_OBOX_ROB, R_PN_BOX, N_ROUTINES };
 extern const Routine ROUTINES[N_ROUTINES];
 
 int call_routine(int rid, const Prim &p, const Ray &r, PrimHit &h);
@@ -92,6 +93,7 @@ enum Cnt {
     C_SKIP,     // generated inputs rejected (degenerate), not counted in rays
     C_INTERNAL, // judge self-checks that failed (never expected)
     C_OB_NONUNIT, // outside-band disagreements whose ray direction is far from unit length (|d|^2 not in [1/4, 4])
+    C_BOXFAIL,    // case 9: PN boxes that miss a control point of their exact sub-patch
     N_CNT
 };
 
@@ -160,6 +162,8 @@ std::string hexf(float x);
 
 bool mesh_setup(const std::string &dir, uint64_t seed, bool verbose, std::string &err);
 void mesh_ray(int rid, uint64_t base_seed, uint64_t ray, Stats &st, bool verbose);
+// Case 9 (pn.cpp): one PN patch split along a random path, each box checked.
+void pn_box_ray(int rid, Rng &g, Stats &st, uint64_t ray, bool verbose);
 
 } // namespace judge
 

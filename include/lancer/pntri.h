@@ -1,0 +1,101 @@
+/*
+ * pntri.h - PN triangles: the curved patch of Vlachos, Peters, Boyd and
+ * Mitchell, "Curved PN Triangles", I3D 2001, made from a triangle and its
+ * three vertex normals, and traced directly.
+ *
+ *     PnPatch p;
+ *     pn_patch_init(&p, pts, unit_normals);
+ *     PrimHit h;
+ *     if (pn_hit(&p, &ray, PN_EXACT, &h)) ... hit at h.t within h.terr, at (h.u, h.v) ...
+ *
+ * The patch is the cubic Bezier triangle of its ten float control points:
+ * they are computed in double from the float vertices and unit normals and
+ * rounded once, and from then on they *are* the patch (the exact judge
+ * takes them as exact rationals). An edge's two inner points depend only on
+ * that edge's end points and their normals, and are computed by one
+ * function, so two patches that share an edge and its normals share its
+ * boundary curve bit for bit.
+ *
+ * The control net's order. Barycentrics (w, u, v), w = 1 - u - v, weigh
+ * the vertices P1, P2, P3; b_ijk (i + j + k = 3) is the point whose
+ * Bernstein polynomial is 3!/(i! j! k!) w^i u^j v^k. The net is stored row
+ * by row from P1: row r = 3 - i holds the points with i = 3 - r, by k
+ * from 0, so that b_ijk is at PN_AT(i, k) = r (r + 1) / 2 + k:
+ *
+ *     0: b300                     (P1)
+ *     1: b210  2: b201
+ *     3: b120  4: b111  5: b102
+ *     6: b030  7: b021  8: b012  9: b003      (P2 ... P3)
+ */
+#ifndef LANCER_PNTRI_H
+#define LANCER_PNTRI_H
+
+#include "lancer/prim.h"
+
+#define PN_AT(i, k) ((3 - (i)) * (4 - (i)) / 2 + (k))
+
+typedef struct PnPatch {
+    Vec3 b[10]; /* the control net, in the order above */
+    /* The quadratic normal field: n200 = N1, n020 = N2, n002 = N3, then
+     * n110, n011, n101, each of unit length. */
+    Vec3 n[6];
+} PnPatch;
+
+typedef enum { PN_EXACT, PN_FAST } PnMode;
+
+/* The patch of vertices p[0..2] and unit vertex normals n[0..2]. */
+void pn_patch_init(PnPatch *pn, const Vec3 p[3], const Vec3 n[3]);
+
+/* The patch's point at (u, v), in double, with its partial derivatives
+ * (either may be NULL). */
+void pn_eval(const PnPatch *pn, double u, double v, double pt[3], double du[3], double dv[3]);
+
+/* The unit shading normal at (u, v): the quadratic normal field,
+ * renormalised. */
+Vec3 pn_shading_normal(const PnPatch *pn, float u, float v);
+
+/* The unit geometric normal at (u, v), (dB/du x dB/dv) normalised, oriented
+ * as (P2 - P1) x (P3 - P1) for a flat patch; where the derivatives are
+ * parallel (a degenerate corner), the shading normal. */
+Vec3 pn_geometric_normal(const PnPatch *pn, float u, float v);
+
+/* The box of the control net, which holds the patch (a Bezier triangle
+ * lies in the convex hull of its net). */
+Box pn_bounds(const PnPatch *pn);
+
+/* ---- subdivision, in double ----
+ *
+ * A sub-patch over the domain triangle with corners (u0, v0), (u0 + s, v0)
+ * and (u0, v0 + s) (or, flipped, with -s), its net computed by de
+ * Casteljau steps from its parent's. err bounds, on every axis, how far
+ * each computed control point may lie from the exact sub-patch's. */
+typedef struct {
+    double b[10][3];
+    double err;
+    double u0, v0, s;
+    int flip;
+} PnNet;
+
+/* The whole patch as a net. */
+void pn_net_root(const PnPatch *pn, PnNet *net);
+
+/* The four children of the midpoint split: the corners' (at P1's, P2's
+ * and P3's end of the parent) and the middle one, each with its domain and
+ * error bound. Points along the parent's edges are computed by the curve's
+ * own de Casteljau step at 1/2, whose averages give the same bits from
+ * either end, so patches sharing an edge split it into the same points. */
+void pn_net_split(const PnNet *parent, PnNet child[4]);
+
+/* The net's box grown by its error bound, in double. */
+void pn_net_box(const PnNet *net, double lo[3], double hi[3]);
+
+/* ---- intersection ---- */
+
+/* The nearest hit with 0 < t < ray->tmax: (h->u, h->v) is the domain point,
+ * h->terr bounds t's error. PN_EXACT subdivides, nearest sub-patch first,
+ * until the boxes reach float precision; PN_FAST subdivides to a fixed
+ * depth and then solves by Newton's method, falling back to subdivision
+ * where Newton fails. */
+int pn_hit(const PnPatch *pn, const Ray *r, PnMode mode, PrimHit *h);
+
+#endif

@@ -1,0 +1,597 @@
+/*
+ * pntri.c - PN triangles (see pntri.h for the control net's order and the
+ * patch's contract).
+ *
+ * Exact mode follows Dammertz and Keller, "Improving Ray Tracing Precision
+ * by Object Space Intersection Computation", IEEE RT 2006: the parametric
+ * domain is split, each sub-patch bounded by the box of its control points,
+ * and only the sub-patches whose box the ray enters are split further,
+ * nearest first, until their boxes reach float precision. The nets are
+ * split in double by de Casteljau steps (Farin, "Curves and Surfaces for
+ * CAGD", the blossom of a triangular patch), each a chain of at most three
+ * averages, so a child's points carry its parent's error plus gamma(3) of
+ * the parent's largest coordinate (Higham, "Accuracy and Stability of
+ * Numerical Algorithms", lemma 3.1); the box grows by that bound and holds
+ * the exact sub-patch.
+ */
+#include "lancer/pntri.h"
+
+#include <float.h>
+#include <math.h>
+#include <pthread.h>
+#include <string.h>
+
+#include "rounding.h"
+
+/* Splits, at most: a domain side of 2^-PN_MAX_DEPTH is far below what a
+ * float (u, v) resolves, and the stack of pn_hit stays small. */
+#define PN_MAX_DEPTH 40
+/* PN_FAST: the depth at which Newton's method takes over, and its steps. */
+#define PN_FAST_DEPTH 3
+#define PN_NEWTON_STEPS 8
+/* Newton's hits whose ray meets the surface at an angle's cosine below
+ * this are handed to subdivision (see newton). */
+#define PN_NEWTON_GRAZING 0.25
+
+/* ---- the patch ---- */
+
+static void to_d(Vec3 a, double o[3])
+{
+    o[0] = a.x;
+    o[1] = a.y;
+    o[2] = a.z;
+}
+
+/* The inner control point of edge (pi, pj) next to pi: a third of the way,
+ * projected into pi's tangent plane. Only this function computes edge
+ * points, from exactly these inputs, so both patches of an edge get the
+ * same bits. */
+static void edge_point(const double pi[3], const double pj[3], const double ni[3], double out[3])
+{
+    double d[3] = {pj[0] - pi[0], pj[1] - pi[1], pj[2] - pi[2]};
+    double w = d[0] * ni[0] + d[1] * ni[1] + d[2] * ni[2];
+    for (int a = 0; a < 3; a++)
+        out[a] = (2.0 * pi[a] + pj[a] - w * ni[a]) / 3.0;
+}
+
+static Vec3 normalized_or(double x, double y, double z, Vec3 fallback)
+{
+    double len = sqrt(x * x + y * y + z * z);
+    if (!(len > 0.0) || !isfinite(len))
+        return fallback;
+    return vec3((float)(x / len), (float)(y / len), (float)(z / len));
+}
+
+/* n_ij of the normal field: Ni + Nj mirrored in the plane normal to the
+ * edge (v_ij = 2 (Pj - Pi).(Ni + Nj) / |Pj - Pi|^2). */
+static Vec3 edge_normal(const double pi[3], const double pj[3], Vec3 ni, Vec3 nj)
+{
+    double d[3] = {pj[0] - pi[0], pj[1] - pi[1], pj[2] - pi[2]};
+    double s[3] = {(double)ni.x + nj.x, (double)ni.y + nj.y, (double)ni.z + nj.z};
+    double dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    double v = dd > 0.0 ? 2.0 * (d[0] * s[0] + d[1] * s[1] + d[2] * s[2]) / dd : 0.0;
+    Vec3 sum = normalized_or(s[0], s[1], s[2], ni);
+    return normalized_or(s[0] - v * d[0], s[1] - v * d[1], s[2] - v * d[2], sum);
+}
+
+void pn_patch_init(PnPatch *pn, const Vec3 p[3], const Vec3 n[3])
+{
+    double P[3][3], N[3][3], e[6][3];
+    for (int i = 0; i < 3; i++) {
+        to_d(p[i], P[i]);
+        to_d(n[i], N[i]);
+    }
+    /* e: b210, b120, b021, b012, b102, b201 */
+    edge_point(P[0], P[1], N[0], e[0]);
+    edge_point(P[1], P[0], N[1], e[1]);
+    edge_point(P[1], P[2], N[1], e[2]);
+    edge_point(P[2], P[1], N[2], e[3]);
+    edge_point(P[2], P[0], N[2], e[4]);
+    edge_point(P[0], P[2], N[0], e[5]);
+    double c[3];
+    for (int a = 0; a < 3; a++) {
+        double E = (e[0][a] + e[1][a] + e[2][a] + e[3][a] + e[4][a] + e[5][a]) / 6.0;
+        double V = (P[0][a] + P[1][a] + P[2][a]) / 3.0;
+        c[a] = E + (E - V) / 2.0;
+    }
+    const double *pts[10];
+    pts[PN_AT(3, 0)] = P[0];
+    pts[PN_AT(0, 0)] = P[1];
+    pts[PN_AT(0, 3)] = P[2];
+    pts[PN_AT(2, 0)] = e[0]; /* b210 */
+    pts[PN_AT(1, 0)] = e[1]; /* b120 */
+    pts[PN_AT(0, 1)] = e[2]; /* b021 */
+    pts[PN_AT(0, 2)] = e[3]; /* b012 */
+    pts[PN_AT(1, 2)] = e[4]; /* b102 */
+    pts[PN_AT(2, 1)] = e[5]; /* b201 */
+    pts[PN_AT(1, 1)] = c;
+    for (int i = 0; i < 10; i++)
+        pn->b[i] = vec3((float)pts[i][0], (float)pts[i][1], (float)pts[i][2]);
+    pn->n[0] = n[0];
+    pn->n[1] = n[1];
+    pn->n[2] = n[2];
+    pn->n[3] = edge_normal(P[0], P[1], n[0], n[1]);
+    pn->n[4] = edge_normal(P[1], P[2], n[1], n[2]);
+    pn->n[5] = edge_normal(P[2], P[0], n[2], n[0]);
+}
+
+/* ---- evaluation ---- */
+
+/* Two de Casteljau steps at (w, u, v) leave the linear net r_w, r_u, r_v:
+ * the point is w r_w + u r_u + v r_v, and dB/du = 3 (r_u - r_w),
+ * dB/dv = 3 (r_v - r_w). */
+void pn_eval(const PnPatch *pn, double u, double v, double pt[3], double du[3], double dv[3])
+{
+    double w = 1.0 - u - v;
+    for (int a = 0; a < 3; a++) {
+        double b[10];
+        for (int i = 0; i < 10; i++)
+            b[i] = a == 0 ? pn->b[i].x : a == 1 ? pn->b[i].y : pn->b[i].z;
+        double q[6]; /* degree 2, at PN_AT-like index (2-i)(3-i)/2 + k */
+        for (int i = 0; i <= 2; i++)
+            for (int k = 0; k <= 2 - i; k++) {
+                int r = 2 - i, at = r * (r + 1) / 2 + k;
+                q[at] = w * b[PN_AT(i + 1, k)] + u * b[PN_AT(i, k)] + v * b[PN_AT(i, k + 1)];
+            }
+        /* degree 1: r_w = (1,0,0) at 0, r_u = (0,1,0) at 1, r_v = (0,0,1) at 2 */
+        double rw = w * q[0] + u * q[1] + v * q[2];
+        double ru = w * q[1] + u * q[3] + v * q[4];
+        double rv = w * q[2] + u * q[4] + v * q[5];
+        if (pt)
+            pt[a] = w * rw + u * ru + v * rv;
+        if (du)
+            du[a] = 3.0 * (ru - rw);
+        if (dv)
+            dv[a] = 3.0 * (rv - rw);
+    }
+}
+
+Vec3 pn_shading_normal(const PnPatch *pn, float u, float v)
+{
+    double U = u, V = v, W = 1.0 - U - V;
+    const double c[6] = {W * W, U * U, V * V, W * U, U * V, W * V};
+    double s[3] = {0, 0, 0};
+    for (int i = 0; i < 6; i++) {
+        s[0] += c[i] * pn->n[i].x;
+        s[1] += c[i] * pn->n[i].y;
+        s[2] += c[i] * pn->n[i].z;
+    }
+    return normalized_or(s[0], s[1], s[2], pn->n[0]);
+}
+
+Vec3 pn_geometric_normal(const PnPatch *pn, float u, float v)
+{
+    double du[3], dv[3];
+    pn_eval(pn, u, v, NULL, du, dv);
+    double x = du[1] * dv[2] - du[2] * dv[1];
+    double y = du[2] * dv[0] - du[0] * dv[2];
+    double z = du[0] * dv[1] - du[1] * dv[0];
+    return normalized_or(x, y, z, pn_shading_normal(pn, u, v));
+}
+
+Box pn_bounds(const PnPatch *pn)
+{
+    Box b = {pn->b[0], pn->b[0]};
+    for (int i = 1; i < 10; i++) {
+        Vec3 p = pn->b[i];
+        b.lo = vec3(fminf(b.lo.x, p.x), fminf(b.lo.y, p.y), fminf(b.lo.z, p.z));
+        b.hi = vec3(fmaxf(b.hi.x, p.x), fmaxf(b.hi.y, p.y), fmaxf(b.hi.z, p.z));
+    }
+    return b;
+}
+
+/* ---- subdivision ---- */
+
+void pn_net_root(const PnPatch *pn, PnNet *net)
+{
+    for (int i = 0; i < 10; i++)
+        to_d(pn->b[i], net->b[i]);
+    net->err = 0.0; /* the float net is the patch */
+    net->u0 = 0.0;
+    net->v0 = 0.0;
+    net->s = 1.0;
+    net->flip = 0;
+}
+
+/* Blossom arguments: the parent's corners and its edges' midpoints, in
+ * the order they are applied: corners (which only select) first. */
+enum { E1, E2, E3, M23, M31, M12 };
+
+/* ---- the split as a straight-line program ----
+ *
+ * A child's point b(C0^i, C1^j, C2^k) is the blossom of the parent's net:
+ * three de Casteljau steps, one per argument, taken in the order above. A
+ * corner selects a point; a midpoint averages two, (a + b) * 0.5, which
+ * gives the same bits whichever comes first. Written out once, the
+ * children's 40 points are averages of averages of the parent's 10: the
+ * program below computes each distinct average once, into a pool whose
+ * first 10 entries are the parent's net. A point on a parent's edge comes
+ * from that edge's four points by the curve's own de Casteljau averages,
+ * whichever patch computes it: patches sharing an edge split it into the
+ * same bits. Every child point is at most three averages deep. */
+#define PN_POOL 128
+typedef struct {
+    int nops;
+    unsigned char op[PN_POOL][2]; /* pool[10 + n] = avg(pool[op[n][0]], pool[op[n][1]]) */
+    unsigned char child[4][10];   /* each child's net, as pool entries */
+} PnSplitProgram;
+
+static PnSplitProgram split_program;
+static pthread_once_t split_once = PTHREAD_ONCE_INIT;
+
+/* The pool entry averaging a and b, made once. */
+static int prog_avg(PnSplitProgram *g, int a, int b)
+{
+    if (a > b) {
+        int t = a;
+        a = b;
+        b = t;
+    }
+    for (int n = 0; n < g->nops; n++)
+        if (g->op[n][0] == a && g->op[n][1] == b)
+            return 10 + n;
+    g->op[g->nops][0] = (unsigned char)a;
+    g->op[g->nops][1] = (unsigned char)b;
+    return 10 + g->nops++;
+}
+
+/* One de Casteljau step with argument x on a net of pool entries of
+ * degree d (points at (d - i)(d - i + 1)/2 + k), to degree d - 1. */
+static void prog_step(PnSplitProgram *g, const int *in, int d, int x, int *out)
+{
+    for (int i = 0; i <= d - 1; i++)
+        for (int k = 0; k <= d - 1 - i; k++) {
+            int r = d - 1 - i, rin = d - i;
+            int p1 = in[(rin - 1) * rin / 2 + k], p2 = in[rin * (rin + 1) / 2 + k], p3 = in[rin * (rin + 1) / 2 + k + 1];
+            int *o = &out[r * (r + 1) / 2 + k];
+            switch (x) {
+            case E1: *o = p1; break;
+            case E2: *o = p2; break;
+            case E3: *o = p3; break;
+            case M23: *o = prog_avg(g, p2, p3); break;
+            case M31: *o = prog_avg(g, p3, p1); break;
+            default: *o = prog_avg(g, p1, p2); break;
+            }
+        }
+}
+
+static void make_split_program(void)
+{
+    static const int corners[4][3] = {
+        {E1, M12, M31},  /* at P1 */
+        {M12, E2, M23},  /* at P2 */
+        {M31, M23, E3},  /* at P3 */
+        {M23, M31, M12}, /* the middle one, turned half round */
+    };
+    PnSplitProgram *g = &split_program;
+    int root[10];
+    for (int i = 0; i < 10; i++)
+        root[i] = i;
+    for (int c = 0; c < 4; c++)
+        for (int i = 0; i <= 3; i++)
+            for (int k = 0; k <= 3 - i; k++) {
+                int args[3], n = 0;
+                for (int t = 0; t < i; t++)
+                    args[n++] = corners[c][0];
+                for (int t = 0; t < 3 - i - k; t++)
+                    args[n++] = corners[c][1];
+                for (int t = 0; t < k; t++)
+                    args[n++] = corners[c][2];
+                for (int u = 1; u < 3; u++) /* the order of application */
+                    for (int w = u; w > 0 && args[w] < args[w - 1]; w--) {
+                        int t = args[w];
+                        args[w] = args[w - 1];
+                        args[w - 1] = t;
+                    }
+                int q2[6], q1[3], q0[1];
+                prog_step(g, root, 3, args[0], q2);
+                prog_step(g, q2, 2, args[1], q1);
+                prog_step(g, q1, 1, args[2], q0);
+                g->child[c][PN_AT(i, k)] = (unsigned char)q0[0];
+            }
+}
+
+/* The split's pool: the parent's net, then every average the program
+ * makes. Returns the children's error bound. */
+static double split_pool(const PnNet *parent, double pool[PN_POOL][3])
+{
+    pthread_once(&split_once, make_split_program);
+    const PnSplitProgram *g = &split_program;
+    double m = 0.0;
+    for (int i = 0; i < 10; i++)
+        for (int a = 0; a < 3; a++) {
+            pool[i][a] = parent->b[i][a];
+            double x = fabs(parent->b[i][a]);
+            m = x > m ? x : m;
+        }
+    for (int n = 0; n < g->nops; n++) {
+        const double *a = pool[g->op[n][0]], *b = pool[g->op[n][1]];
+        pool[10 + n][0] = (a[0] + b[0]) * 0.5;
+        pool[10 + n][1] = (a[1] + b[1]) * 0.5;
+        pool[10 + n][2] = (a[2] + b[2]) * 0.5;
+    }
+    /* three averages a point; halving a subnormal rounds, absolutely */
+    return parent->err + gamma_d(3) * m + 3.0 * 0x1p-1074;
+}
+
+/* Child c's net from the pool, and its domain from the parent's, dom (only
+ * its u0, v0, s and flip are read). */
+static void split_child(const PnNet *dom, double pool[PN_POOL][3], double err, int c, PnNet *ch)
+{
+    const unsigned char *idx = split_program.child[c];
+    double h = 0.5 * dom->s, sg = dom->flip ? -h : h;
+    ch->u0 = dom->u0 + (c == 1 || c == 3 ? sg : 0.0);
+    ch->v0 = dom->v0 + (c == 2 || c == 3 ? sg : 0.0);
+    ch->s = h;
+    ch->flip = dom->flip ^ (c == 3);
+    ch->err = err;
+    for (int i = 0; i < 10; i++)
+        memcpy(ch->b[i], pool[idx[i]], sizeof ch->b[i]);
+}
+
+void pn_net_split(const PnNet *parent, PnNet child[4])
+{
+    double pool[PN_POOL][3];
+    double err = split_pool(parent, pool);
+    for (int c = 0; c < 4; c++)
+        split_child(parent, pool, err, c, &child[c]);
+}
+
+/* The box of points idx[0..9] of pts (x, y, z each) grown by err, as
+ * pn_net_box. */
+static void points_box(const double *pts, const unsigned char *idx, double err, double lo[3], double hi[3])
+{
+    for (int a = 0; a < 3; a++) {
+        double l = pts[3 * idx[0] + a], u = l;
+        for (int i = 1; i < 10; i++) {
+            double x = pts[3 * idx[i] + a];
+            l = x < l ? x : l;
+            u = x > u ? x : u;
+        }
+        /* the error bound, and the rounding of the two sums below */
+        double pad = err + DBL_EPSILON * (-l > u ? -l : u);
+        lo[a] = l - pad;
+        hi[a] = u + pad;
+    }
+}
+
+void pn_net_box(const PnNet *net, double lo[3], double hi[3])
+{
+    static const unsigned char all[10] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9};
+    points_box(&net->b[0][0], all, net->err, lo, hi);
+}
+
+/* ---- intersection ---- */
+
+/* The ray's parameter interval inside the box [lo, hi], conservative: the
+ * slab test in double (Williams et al. 2005), widened by its roundings
+ * (Ize 2013). Returns 0 when the ray misses it within (0, tmax). */
+static int slab(const double lo[3], const double hi[3], const double o[3], const double d[3], const double inv[3],
+                double tmax, double *tn, double *tf)
+{
+    double n = -INFINITY, f = INFINITY;
+    for (int a = 0; a < 3; a++) {
+        if (d[a] == 0.0) {
+            if (o[a] < lo[a] || o[a] > hi[a])
+                return 0;
+            continue;
+        }
+        double t0 = (lo[a] - o[a]) * inv[a], t1 = (hi[a] - o[a]) * inv[a];
+        if (t0 > t1) {
+            double x = t0;
+            t0 = t1;
+            t1 = x;
+        }
+        n = t0 > n ? t0 : n;
+        f = t1 < f ? t1 : f;
+    }
+    /* three roundings each: the difference, the reciprocal, the product */
+    n -= fabs(n) * (4.0 * DBL_EPSILON);
+    f += fabs(f) * (4.0 * DBL_EPSILON);
+    if (n > f || f <= 0.0 || n >= tmax)
+        return 0;
+    *tn = n;
+    *tf = f;
+    return 1;
+}
+
+/* 1 when every side of the box is within a few float spacings of its
+ * largest coordinate: a split would no longer tell float points apart (a
+ * patch lying in a plane through 0 has one coordinate far finer, which a
+ * float hit point could not use). */
+static int at_float_precision(const double lo[3], const double hi[3])
+{
+    double m = 0x1p-149 / (double)FLT_EPSILON;
+    for (int a = 0; a < 3; a++) {
+        double x = fabs(lo[a]) > fabs(hi[a]) ? fabs(lo[a]) : fabs(hi[a]);
+        m = x > m ? x : m;
+    }
+    double ulp = m * (double)FLT_EPSILON;
+    for (int a = 0; a < 3; a++)
+        if (hi[a] - lo[a] > 4.0 * ulp)
+            return 0;
+    return 1;
+}
+
+typedef struct {
+    PnNet net;
+    double lo[3], hi[3]; /* pn_net_box of net */
+    double tn, tf;       /* the ray's interval in that box */
+    int depth;
+} PnNode;
+
+typedef struct {
+    double o[3], d[3], inv[3];
+    double tmax;
+} PnRay;
+
+/* Newton's method on F(u, v) = (a . (B - o), b . (B - o)) = 0, a and b two
+ * unit vectors normal to the ray and to each other, from the node's
+ * domain centre. Returns 1 with the hit when it converges inside the
+ * node's domain (grown by a margin) and the patch's. */
+static int newton(const PnPatch *pn, const PnRay *r, const PnNet *net, double *t, double *uo, double *vo)
+{
+    double ax[3], bx[3];
+    const double *d = r->d;
+    if (fabs(d[0]) > fabs(d[1]) && fabs(d[0]) > fabs(d[2])) {
+        ax[0] = d[1], ax[1] = -d[0], ax[2] = 0.0;
+    } else {
+        ax[0] = 0.0, ax[1] = d[2], ax[2] = -d[1];
+    }
+    double la = sqrt(ax[0] * ax[0] + ax[1] * ax[1] + ax[2] * ax[2]);
+    for (int c = 0; c < 3; c++)
+        ax[c] /= la;
+    bx[0] = ax[1] * d[2] - ax[2] * d[1];
+    bx[1] = ax[2] * d[0] - ax[0] * d[2];
+    bx[2] = ax[0] * d[1] - ax[1] * d[0];
+    double lb = sqrt(bx[0] * bx[0] + bx[1] * bx[1] + bx[2] * bx[2]);
+    for (int c = 0; c < 3; c++)
+        bx[c] /= lb;
+    double sg = net->flip ? -net->s : net->s;
+    double u = net->u0 + sg / 3.0, v = net->v0 + sg / 3.0;
+    for (int it = 0; it < PN_NEWTON_STEPS; it++) {
+        double p[3], du[3], dv[3];
+        pn_eval(pn, u, v, p, du, dv);
+        double q[3] = {p[0] - r->o[0], p[1] - r->o[1], p[2] - r->o[2]};
+        double f1 = ax[0] * q[0] + ax[1] * q[1] + ax[2] * q[2];
+        double f2 = bx[0] * q[0] + bx[1] * q[1] + bx[2] * q[2];
+        double j11 = ax[0] * du[0] + ax[1] * du[1] + ax[2] * du[2];
+        double j12 = ax[0] * dv[0] + ax[1] * dv[1] + ax[2] * dv[2];
+        double j21 = bx[0] * du[0] + bx[1] * du[1] + bx[2] * du[2];
+        double j22 = bx[0] * dv[0] + bx[1] * dv[1] + bx[2] * dv[2];
+        double det = j11 * j22 - j12 * j21;
+        if (!(fabs(det) > 0.0))
+            return 0;
+        double su = (j22 * f1 - j12 * f2) / det, sv = (j11 * f2 - j21 * f1) / det;
+        u -= su;
+        v -= sv;
+        if (!isfinite(u) || !isfinite(v))
+            return 0;
+        if (fabs(su) + fabs(sv) <= 1e-7 * net->s) {
+            /* inside the node's domain, with a margin, and the patch's */
+            double lu = (u - net->u0) / sg, lv = (v - net->v0) / sg;
+            const double margin = 1e-3;
+            if (lu < -margin || lv < -margin || lu + lv > 1.0 + margin || u < 0.0 || v < 0.0 || u + v > 1.0)
+                return 0;
+            pn_eval(pn, u, v, p, du, dv);
+            double dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            /* A ray that meets the surface at a grazing angle may meet it
+             * twice in one node, and Newton may have found the far one:
+             * subdivide there instead. */
+            double g[3] = {du[1] * dv[2] - du[2] * dv[1], du[2] * dv[0] - du[0] * dv[2], du[0] * dv[1] - du[1] * dv[0]};
+            double gd = g[0] * d[0] + g[1] * d[1] + g[2] * d[2], gg = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
+            if (gd * gd < PN_NEWTON_GRAZING * PN_NEWTON_GRAZING * gg * dd)
+                return 0;
+            *t = ((p[0] - r->o[0]) * d[0] + (p[1] - r->o[1]) * d[1] + (p[2] - r->o[2]) * d[2]) / dd;
+            *uo = u;
+            *vo = v;
+            return *t > 0.0 && *t < r->tmax;
+        }
+    }
+    return 0;
+}
+
+/* Visits the sub-patches whose box the ray enters, nearest first, and
+ * keeps the nearest hit. */
+int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PrimHit *h)
+{
+    PnRay r;
+    to_d(ray->o, r.o);
+    to_d(ray->d, r.d);
+    for (int a = 0; a < 3; a++)
+        r.inv[a] = 1.0 / r.d[a];
+    r.tmax = ray->tmax;
+    /* a depth-first stack: each split pushes at most four children */
+    PnNode stack[3 * PN_MAX_DEPTH + 4];
+    int top = 0;
+    double best = r.tmax, bu = 0.0, bv = 0.0, berr = 0.0;
+    int found = 0;
+    PnNode *root = &stack[top];
+    pn_net_root(pn, &root->net);
+    root->depth = 0;
+    pn_net_box(&root->net, root->lo, root->hi);
+    if (!slab(root->lo, root->hi, r.o, r.d, r.inv, best, &root->tn, &root->tf))
+        return 0;
+    top++;
+    double pool[PN_POOL][3];
+    while (top > 0) {
+        const PnNode *node = &stack[--top]; /* read before any push overwrites it */
+        if (node->tn >= best)
+            continue;
+        const PnNet *net = &node->net;
+        if (mode == PN_FAST && node->depth == PN_FAST_DEPTH) {
+            double t, u, v;
+            if (newton(pn, &r, net, &t, &u, &v)) {
+                if (t < best) {
+                    best = t;
+                    bu = u;
+                    bv = v;
+                    berr = 0.0;
+                    found = 1;
+                }
+                continue;
+            }
+            /* Newton failed here: subdivide as exact mode does */
+        }
+        if (node->depth == PN_MAX_DEPTH || at_float_precision(node->lo, node->hi)) {
+            /* The exact sub-patch is inside this box: where the ray meets
+             * it lies within the box's interval, in front of the origin
+             * (an origin inside the box is on the surface to float
+             * precision: a spawned ray, which does not hit its own spot). */
+            if (node->tn > 0.0) {
+                double t = 0.5 * (node->tn + node->tf), e = 0.5 * (node->tf - node->tn);
+                if (t < best) {
+                    best = t;
+                    berr = e;
+                    double sg = net->flip ? -net->s : net->s;
+                    bu = net->u0 + sg / 3.0;
+                    bv = net->v0 + sg / 3.0;
+                    found = 1;
+                }
+            }
+            continue;
+        }
+        /* The children's boxes straight from the pool; only those the ray
+         * enters are written out, the farthest first, so that the nearest
+         * comes off the stack first. */
+        double err = split_pool(net, pool);
+        double lo[4][3], hi[4][3], tn[4], tf[4];
+        int order[4], n = 0;
+        for (int c = 0; c < 4; c++) {
+            points_box(&pool[0][0], split_program.child[c], err, lo[c], hi[c]);
+            if (slab(lo[c], hi[c], r.o, r.d, r.inv, best, &tn[c], &tf[c])) {
+                int j = n++;
+                for (; j > 0 && tn[c] > tn[order[j - 1]]; j--)
+                    order[j] = order[j - 1];
+                order[j] = c;
+            }
+        }
+        /* The first child takes the parent's slot: keep its domain. */
+        PnNet dom;
+        dom.u0 = net->u0;
+        dom.v0 = net->v0;
+        dom.s = net->s;
+        dom.flip = net->flip;
+        int depth = node->depth + 1;
+        for (int i = 0; i < n; i++) {
+            int c = order[i];
+            PnNode *k = &stack[top++];
+            split_child(&dom, pool, err, c, &k->net);
+            memcpy(k->lo, lo[c], sizeof k->lo);
+            memcpy(k->hi, hi[c], sizeof k->hi);
+            k->tn = tn[c];
+            k->tf = tf[c];
+            k->depth = depth;
+        }
+    }
+    if (!found)
+        return 0;
+    h->t = (float)best;
+    if (!(h->t < ray->tmax) || !(h->t > 0.0f))
+        return 0;
+    h->terr = berr > 0.0 ? float_up(berr + fabs(best - (double)h->t)) : 0.0f;
+    h->u = (float)bu;
+    h->v = (float)bv;
+    h->face = 0;
+    return 1;
+}

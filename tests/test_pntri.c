@@ -1,0 +1,565 @@
+/* Tests for pntri.c: the control net against Vlachos et al.'s formulas, the
+ * flat patch against the watertight triangle, subdivision against
+ * evaluation, the error bound's boxes, shared edges bit for bit, a PN
+ * sphere against the sphere, and closed PN surfaces that no ray escapes:
+ * an icosahedron's, and CGAL's closed meshes' (LANCER_PN_CRACK_RAYS rays
+ * per mesh and placement, default 2000; `make stress` runs 10^6). */
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <setjmp.h>
+#include <cmocka.h>
+
+#include "testutil.h"
+
+#include <float.h>
+#include <math.h>
+#include <string.h>
+
+#include <stdio.h>
+#include <stdlib.h>
+
+#include "lancer/accel.h"
+#include "lancer/pntri.h"
+#include "lancer/scene.h"
+
+static Vec3 unit(Vec3 a) { return vec_normalize(a); }
+
+/* b_ijk by the paper's formulas, in double, for one axis. */
+static double paper_point(double P[3][3], double N[3][3], int i, int k, int a)
+{
+    int j = 3 - i - k;
+    int c[3] = {i, j, k};
+    for (int v = 0; v < 3; v++)
+        if (c[v] == 3)
+            return P[v][a];
+    double e[6]; /* b210 b120 b021 b012 b102 b201 on axis a */
+    static const int from[6] = {0, 1, 1, 2, 2, 0}, to[6] = {1, 0, 2, 1, 0, 2};
+    for (int m = 0; m < 6; m++) {
+        int s = from[m], t = to[m];
+        double w = 0;
+        for (int x = 0; x < 3; x++)
+            w += (P[t][x] - P[s][x]) * N[s][x];
+        e[m] = (2 * P[s][a] + P[t][a] - w * N[s][a]) / 3;
+    }
+    if (i == 2 && j == 1)
+        return e[0];
+    if (i == 1 && j == 2)
+        return e[1];
+    if (j == 2 && k == 1)
+        return e[2];
+    if (j == 1 && k == 2)
+        return e[3];
+    if (k == 2 && i == 1)
+        return e[4];
+    if (k == 1 && i == 2)
+        return e[5];
+    double E = (e[0] + e[1] + e[2] + e[3] + e[4] + e[5]) / 6, V = (P[0][a] + P[1][a] + P[2][a]) / 3;
+    return E + (E - V) / 2;
+}
+
+static void make_patch(PnPatch *pn, Vec3 a, Vec3 b, Vec3 c, Vec3 na, Vec3 nb, Vec3 nc)
+{
+    const Vec3 p[3] = {a, b, c}, n[3] = {unit(na), unit(nb), unit(nc)};
+    pn_patch_init(pn, p, n);
+}
+
+static void test_control_net(void **state)
+{
+    (void)state;
+    PnPatch pn;
+    Vec3 p[3] = {vec3(0, 0, 0), vec3(2, 0.5f, 0.1f), vec3(0.3f, 1.7f, -0.2f)};
+    Vec3 n[3] = {unit(vec3(0.1f, 0.2f, 1)), unit(vec3(-0.3f, 0.1f, 1)), unit(vec3(0.2f, -0.4f, 1))};
+    pn_patch_init(&pn, p, n);
+    double P[3][3], N[3][3];
+    for (int v = 0; v < 3; v++) {
+        P[v][0] = p[v].x, P[v][1] = p[v].y, P[v][2] = p[v].z;
+        N[v][0] = n[v].x, N[v][1] = n[v].y, N[v][2] = n[v].z;
+    }
+    for (int i = 0; i <= 3; i++)
+        for (int k = 0; k <= 3 - i; k++) {
+            const Vec3 *b = &pn.b[PN_AT(i, k)];
+            assert_float_equal(b->x, (float)paper_point(P, N, i, k, 0), 0);
+            assert_float_equal(b->y, (float)paper_point(P, N, i, k, 1), 0);
+            assert_float_equal(b->z, (float)paper_point(P, N, i, k, 2), 0);
+        }
+    /* the corners interpolate the vertices, with their normals */
+    double pt[3];
+    pn_eval(&pn, 0, 0, pt, NULL, NULL);
+    assert_true(pt[0] == p[0].x && pt[1] == p[0].y && pt[2] == p[0].z);
+    pn_eval(&pn, 1, 0, pt, NULL, NULL);
+    assert_true(pt[0] == p[1].x && pt[1] == p[1].y && pt[2] == p[1].z);
+    pn_eval(&pn, 0, 1, pt, NULL, NULL);
+    assert_true(pt[0] == p[2].x && pt[1] == p[2].y && pt[2] == p[2].z);
+    for (int v = 0; v < 3; v++) {
+        Vec3 s = pn_shading_normal(&pn, v == 1 ? 1.0f : 0.0f, v == 2 ? 1.0f : 0.0f);
+        assert_vec(s, n[v].x, n[v].y, n[v].z, 1e-6f);
+        /* the surface is tangent to the vertex's plane there */
+        Vec3 g = pn_geometric_normal(&pn, v == 1 ? 1.0f : 0.0f, v == 2 ? 1.0f : 0.0f);
+        assert_true(vec_dot(g, n[v]) > 0.9999f);
+    }
+}
+
+/* The derivatives against central differences. */
+static void test_derivatives(void **state)
+{
+    (void)state;
+    PnPatch pn;
+    make_patch(&pn, vec3(0, 0, 0), vec3(1, 0, 0.2f), vec3(0, 1, -0.1f), vec3(0.3f, 0, 1), vec3(0, 0.4f, 1),
+               vec3(-0.2f, -0.1f, 1));
+    const double h = 1e-6;
+    for (double u = 0.1; u < 0.8; u += 0.23)
+        for (double v = 0.05; u + v < 0.95; v += 0.19) {
+            double du[3], dv[3], a[3], b[3];
+            pn_eval(&pn, u, v, NULL, du, dv);
+            pn_eval(&pn, u + h, v, a, NULL, NULL);
+            pn_eval(&pn, u - h, v, b, NULL, NULL);
+            for (int c = 0; c < 3; c++)
+                assert_float_equal(du[c], (a[c] - b[c]) / (2 * h), 1e-6);
+            pn_eval(&pn, u, v + h, a, NULL, NULL);
+            pn_eval(&pn, u, v - h, b, NULL, NULL);
+            for (int c = 0; c < 3; c++)
+                assert_float_equal(dv[c], (a[c] - b[c]) / (2 * h), 1e-6);
+        }
+}
+
+/* A child's net describes its parent's surface over its domain: the
+ * child's point at (s, t) is the parent's at the domain point it maps to,
+ * for every child, three levels down. */
+static void check_net(const PnPatch *pn, const PnNet *net, int depth)
+{
+    for (int m = 0; m < 6; m++) {
+        double s = (m % 3) * 0.3 + 0.05, t = (m / 3) * 0.4 + 0.1;
+        if (s + t > 1)
+            continue;
+        /* the net's own point at (s, t), by de Casteljau in double */
+        double mine[3], want[3], w = 1 - s - t;
+        double q[10][3];
+        memcpy(q, net->b, sizeof q);
+        for (int d = 3; d > 0; d--) {
+            double r[10][3];
+            for (int i = 0; i <= d - 1; i++)
+                for (int k = 0; k <= d - 1 - i; k++) {
+                    int row = d - 1 - i, at = row * (row + 1) / 2 + k, rin = d - i;
+                    for (int c = 0; c < 3; c++)
+                        r[at][c] = w * q[(rin - 1) * rin / 2 + k][c] + s * q[rin * (rin + 1) / 2 + k][c] +
+                                   t * q[rin * (rin + 1) / 2 + k + 1][c];
+                }
+            memcpy(q, r, sizeof r);
+        }
+        memcpy(mine, q[0], sizeof mine);
+        double sg = net->flip ? -net->s : net->s;
+        pn_eval(pn, net->u0 + sg * s, net->v0 + sg * t, want, NULL, NULL);
+        for (int c = 0; c < 3; c++)
+            assert_float_equal(mine[c], want[c], 1e-12);
+    }
+    if (depth == 0)
+        return;
+    PnNet kids[4];
+    pn_net_split(net, kids);
+    for (int c = 0; c < 4; c++) {
+        assert_true(kids[c].err >= net->err);
+        check_net(pn, &kids[c], depth - 1);
+    }
+}
+
+static void test_subdivision(void **state)
+{
+    (void)state;
+    PnPatch pn;
+    make_patch(&pn, vec3(0, 0, 0), vec3(1, 0, 0.2f), vec3(0, 1, -0.1f), vec3(0.3f, 0, 1), vec3(0, 0.4f, 1),
+               vec3(-0.2f, -0.1f, 1));
+    PnNet root;
+    pn_net_root(&pn, &root);
+    check_net(&pn, &root, 3);
+}
+
+/* Every point of a sub-patch lies in its net's box, grown by its error
+ * bound: sampled densely, at depth 6, on a patch far from the origin. */
+static void test_boxes_hold_their_patch(void **state)
+{
+    (void)state;
+    PnPatch pn;
+    Vec3 o = vec3(1e4f, -3e3f, 7e3f);
+    make_patch(&pn, vec_add(o, vec3(0, 0, 0)), vec_add(o, vec3(1, 0, 0.2f)), vec_add(o, vec3(0, 1, -0.1f)),
+               vec3(0.6f, 0, 1), vec3(0, 0.8f, 1), vec3(-0.5f, -0.3f, 1));
+    PnNet net;
+    pn_net_root(&pn, &net);
+    unsigned long long seed = 7;
+    for (int d = 0; d < 6; d++) {
+        PnNet kids[4];
+        pn_net_split(&net, kids);
+        net = kids[(int)test_uniform(&seed, 0, 4) & 3];
+    }
+    double lo[3], hi[3];
+    pn_net_box(&net, lo, hi);
+    double sg = net.flip ? -net.s : net.s;
+    for (int m = 0; m <= 20; m++)
+        for (int n = 0; m + n <= 20; n++) {
+            double p[3];
+            pn_eval(&pn, net.u0 + sg * m / 20.0, net.v0 + sg * n / 20.0, p, NULL, NULL);
+            for (int c = 0; c < 3; c++) {
+                /* pn_eval's own rounding, at most a few ulps of 1e4 */
+                assert_true(p[c] >= lo[c] - 1e-11 && p[c] <= hi[c] + 1e-11);
+            }
+        }
+}
+
+/* Two patches sharing an edge (its end points and their normals) have the
+ * same four control points on it, and so do their sub-patches along it,
+ * bit for bit, however each patch's corners are ordered. */
+static void edge_points(const PnNet *net, int edge, double out[4][3])
+{
+    /* edge 0: P1 -> P2 (i from 3 down, k = 0); 1: P2 -> P3 (i = 0); 2: P3 -> P1 (j = 0) */
+    for (int m = 0; m < 4; m++) {
+        int i = edge == 0 ? 3 - m : edge == 1 ? 0 : m, k = edge == 0 ? 0 : edge == 1 ? m : 3 - m;
+        memcpy(out[m], net->b[PN_AT(i, k)], sizeof out[m]);
+    }
+}
+
+static void test_shared_edges_bit_for_bit(void **state)
+{
+    (void)state;
+    Vec3 a = vec3(0.1f, 0.2f, 0.3f), b = vec3(1.3f, -0.2f, 0.45f), c = vec3(0.2f, 1.1f, -0.15f),
+         d = vec3(1.2f, 1.0f, 0.6f);
+    Vec3 na = vec3(0.2f, 0.1f, 1), nb = vec3(-0.3f, 0.2f, 1), nc = vec3(0.1f, -0.3f, 1), nd = vec3(0.4f, 0.4f, 1);
+    /* A = (a, b, c): edge b -> c is its edge 1. B = (c, b, d): edge c -> b is its edge 0, the other way. */
+    PnPatch A, B;
+    make_patch(&A, a, b, c, na, nb, nc);
+    make_patch(&B, c, b, d, nc, nb, nd);
+    PnNet na0, nb0;
+    pn_net_root(&A, &na0);
+    pn_net_root(&B, &nb0);
+    /* follow the shared edge down both trees: the piece of edge b -> c
+     * between fractions [lo, lo + len) */
+    PnNet x = na0, y = nb0;
+    int ex = 1, ey = 0;       /* the edge's number in each net */
+    int fx = 0, fy = 1;       /* whether each net walks it from c (1) or b (0) */
+    unsigned long long seed = 3;
+    for (int depth = 0; depth < 8; depth++) {
+        double px[4][3], py[4][3];
+        edge_points(&x, ex, px);
+        edge_points(&y, ey, py);
+        for (int m = 0; m < 4; m++)
+            assert_memory_equal(px[fx ? 3 - m : m], py[fy ? 3 - m : m], sizeof px[m]);
+        /* take the same half of the edge in both: the child at the edge's
+         * first or second corner */
+        int half = (int)test_uniform(&seed, 0, 2) & 1;
+        PnNet kx[4], ky[4];
+        pn_net_split(&x, kx);
+        pn_net_split(&y, ky);
+        /* edge e of a net runs from corner e to corner (e + 1) % 3; the
+         * child at corner e keeps it as edge e, the one at corner e + 1 too */
+        int cx = half ^ fx ? (ex + 1) % 3 : ex, cy = half ^ fy ? (ey + 1) % 3 : ey;
+        x = kx[cx];
+        y = ky[cy];
+    }
+}
+
+/* A patch whose normals are its face's is the flat triangle: its hits are
+ * the watertight triangle's, within both error bounds, and its misses too
+ * away from the edges. */
+static void test_flat_patch_is_the_triangle(void **state)
+{
+    (void)state;
+    Vec3 a = vec3(-1, -1, 0.5f), b = vec3(1.5f, -0.8f, 0.7f), c = vec3(-0.2f, 1.2f, 0.3f);
+    Vec3 n = unit(vec_cross(vec_sub(b, a), vec_sub(c, a)));
+    PnPatch pn;
+    make_patch(&pn, a, b, c, n, n, n);
+    Triangle tr = {a, b, c, n, n, n};
+    unsigned long long seed = 11;
+    int agree = 0, hits = 0;
+    for (int i = 0; i < 3000; i++) {
+        Vec3 o = test_rvec(&seed, -3, 3);
+        o.z = test_uniform(&seed, 3, 6);
+        Vec3 to = test_rvec(&seed, -1.5f, 1.5f);
+        to.z = 0.5f;
+        Ray r = ray_make(o, vec_sub(to, o), INFINITY);
+        PrimHit hp, ht;
+        int p = pn_hit(&pn, &r, PN_EXACT, &hp), t = prim_triangle_hit_watertight(&tr, &r, &ht);
+        if (p == t)
+            agree++;
+        if (p && t) {
+            hits++;
+            assert_true(fabsf(hp.t - ht.t) <= hp.terr + ht.terr + 1e-6f * ht.t);
+            /* the domain point is the triangle's barycentrics */
+            assert_float_equal(hp.u, ht.u, 1e-5f);
+            assert_float_equal(hp.v, ht.v, 1e-5f);
+        }
+    }
+    assert_true(hits > 500);
+    assert_true(agree >= 2995); /* disagreements only grazing an edge */
+}
+
+/* The icosahedron's vertices on the unit sphere, with normals = positions. */
+static const float ico_v[12][3] = {
+    {0, 1, 1.618034f},  {0, -1, 1.618034f},  {0, 1, -1.618034f},  {0, -1, -1.618034f},
+    {1, 1.618034f, 0},  {-1, 1.618034f, 0},  {1, -1.618034f, 0},  {-1, -1.618034f, 0},
+    {1.618034f, 0, 1},  {-1.618034f, 0, 1},  {1.618034f, 0, -1},  {-1.618034f, 0, -1},
+};
+static const int ico_f[20][3] = {
+    {0, 1, 8},  {0, 9, 1},  {0, 8, 4},  {0, 4, 5},  {0, 5, 9},  {1, 9, 7},  {1, 7, 6},
+    {1, 6, 8},  {8, 6, 10}, {8, 10, 4}, {4, 10, 2}, {4, 2, 5},  {5, 2, 11}, {5, 11, 9},
+    {9, 11, 7}, {7, 11, 3}, {7, 3, 6},  {6, 3, 10}, {10, 3, 2}, {2, 3, 11},
+};
+
+/* The PN icosahedron of the sphere of radius R at c. */
+static void ico_patches(PnPatch pn[20], float R, Vec3 c)
+{
+    for (int f = 0; f < 20; f++) {
+        Vec3 p[3], n[3];
+        for (int k = 0; k < 3; k++) {
+            const float *v = ico_v[ico_f[f][k]];
+            n[k] = unit(vec3(v[0], v[1], v[2]));
+            p[k] = vec_add(c, vec_scale(n[k], R));
+        }
+        pn_patch_init(&pn[f], p, n);
+    }
+}
+
+static int closest(const PnPatch *pn, int n, const Ray *r, PnMode mode, PrimHit *best)
+{
+    int found = 0;
+    Ray q = *r;
+    for (int f = 0; f < n; f++) {
+        PrimHit h;
+        if (pn_hit(&pn[f], &q, mode, &h)) {
+            *best = h;
+            q.tmax = h.t;
+            found = 1;
+        }
+    }
+    return found;
+}
+
+/* PN patches of an icosahedron on the unit sphere lie inside it and within
+ * theta^4 / 24 of it (theta = 63.4 degrees, the edge's angle): rays from
+ * the centre meet the surface at a distance from 0.94 to 1. */
+static void test_sphere_approximation(void **state)
+{
+    (void)state;
+    PnPatch pn[20];
+    ico_patches(pn, 1.0f, vec3(0, 0, 0));
+    unsigned long long seed = 5;
+    double lo = 1, hi = 0;
+    for (int i = 0; i < 2000; i++) {
+        Vec3 d = unit(test_rvec(&seed, -1, 1));
+        Ray r = ray_make(vec3(0, 0, 0), d, INFINITY);
+        PrimHit h;
+        assert_true(closest(pn, 20, &r, PN_EXACT, &h));
+        lo = fmin(lo, h.t);
+        hi = fmax(hi, h.t);
+    }
+    assert_true(lo > 1 - 0.0630 && hi <= 1 + 1e-6);
+    assert_true(lo < 1 - 0.05); /* the centroids reach the bound's neighbourhood */
+}
+
+/* A closed PN surface has no cracks: rays from inside, aimed at every
+ * vertex and edge midpoint, at several scales and offsets, all hit. */
+static void test_closed_surface_does_not_leak(void **state)
+{
+    (void)state;
+    const float scales[3] = {1e-4f, 1.0f, 1e5f};
+    const Vec3 offsets[2] = {vec3(0, 0, 0), vec3(1e5f, 1e5f, 1e5f)};
+    for (int s = 0; s < 3; s++)
+        for (int o = 0; o < 2; o++) {
+            if (o == 1 && s == 0)
+                continue; /* a 1e-4 sphere at 1e5 is below float resolution */
+            PnPatch pn[20];
+            Vec3 c = offsets[o];
+            ico_patches(pn, scales[s], c);
+            unsigned long long seed = 9;
+            for (int f = 0; f < 20; f++)
+                for (int e = 0; e < 6; e++) {
+                    /* a vertex (e < 3) or an edge's midpoint */
+                    Vec3 p = pn[f].b[e < 3 ? (e == 0 ? 0 : e == 1 ? 6 : 9) : 0];
+                    if (e >= 3) {
+                        double pt[3];
+                        pn_eval(&pn[f], e == 3 ? 0.5 : 0.0, e == 4 ? 0.5 : e == 5 ? 0.5 : 0.0, pt, NULL, NULL);
+                        p = vec3((float)pt[0], (float)pt[1], (float)pt[2]);
+                    }
+                    for (int k = 0; k < 4; k++) {
+                        Vec3 from = vec_add(c, vec_scale(test_rvec(&seed, -0.3f, 0.3f), scales[s]));
+                        Ray r = ray_make(from, vec_sub(p, from), INFINITY);
+                        PrimHit h;
+                        if (!closest(pn, 20, &r, PN_EXACT, &h))
+                            fail_msg("scale %g offset %d: a ray from inside escaped through face %d point %d", (double)scales[s],
+                                     o, f, e);
+                    }
+                }
+        }
+}
+
+/* The fast mode finds the exact mode's hits, within a small error. */
+static void test_fast_mode(void **state)
+{
+    (void)state;
+    PnPatch pn[20];
+    ico_patches(pn, 1.0f, vec3(0, 0, 0));
+    unsigned long long seed = 21;
+    int both = 0;
+    for (int i = 0; i < 2000; i++) {
+        Vec3 o = vec_scale(unit(test_rvec(&seed, -1, 1)), 3.0f);
+        Vec3 to = test_rvec(&seed, -0.9f, 0.9f);
+        Ray r = ray_make(o, vec_sub(to, o), INFINITY);
+        PrimHit he, hf;
+        int e = closest(pn, 20, &r, PN_EXACT, &he), f = closest(pn, 20, &r, PN_FAST, &hf);
+        assert_int_equal(e, f);
+        if (e && f) {
+            both++;
+            assert_float_equal(hf.t, he.t, 1e-5f * he.t + he.terr);
+        }
+    }
+    assert_true(both > 1000);
+}
+
+/* ---- CGAL's closed meshes as PN surfaces ---- */
+
+static const char *const closed_meshes[] = {"eight.off", "anchor.off", "hand.off", "couplingdown.off"};
+
+/* The mesh `name` moved by p -> (p - c) * a + t, as PN patches (pn) or
+ * flat triangles, into s. */
+static void load_placed(const char *name, int pn, double a, Vec3 c, Vec3 t, Scene *s)
+{
+    char text[1024], err[512];
+    Vec3 m = vec3((float)(t.x - c.x * a), (float)(t.y - c.y * a), (float)(t.z - c.z * a));
+    snprintf(text, sizeof text,
+             "camera { eye 0 0 -5 target 0 0 0 fov 40 }\nmaterial m { }\n"
+             "mesh { file \"build/cgal-data/meshes/%s\" material m %s matrix %.9g 0 0 0 %.9g 0 0 0 %.9g %.9g %.9g %.9g }\n",
+             name, pn ? "pn" : "flat", a, a, a, (double)m.x, (double)m.y, (double)m.z);
+    if (scene_parse("t.scn", text, strlen(text), s, err, sizeof err) != 0)
+        fail_msg("%s", err);
+}
+
+/* 1 when q is inside the flat mesh: an odd number of its triangles cross
+ * a ray from q in a random direction. */
+static int inside_flat(const Scene *flat, Vec3 q, unsigned long long *seed)
+{
+    Ray r = ray_make(q, unit(test_rvec(seed, -1, 1)), INFINITY);
+    int n = 0;
+    for (int i = 0; i < flat->nprims; i++) {
+        PrimHit h;
+        n += prim_intersect(&flat->prims[i], &r, PRIM_ROBUST, &h);
+    }
+    return n & 1;
+}
+
+/* 1 when q lies outside the box of every patch's control net. The PN
+ * surface, the flat mesh, and every surface between them (the patch
+ * (1 - s) flat + s PN, whose net stays in the same boxes) lie inside those
+ * boxes, so such a point inside the flat mesh is inside the PN surface. */
+static int outside_nets(const Scene *pn, Vec3 q)
+{
+    for (int i = 0; i < pn->npatches; i++) {
+        Box b = pn_bounds(&pn->patches[i]);
+        if (q.x >= b.lo.x && q.x <= b.hi.x && q.y >= b.lo.y && q.y <= b.hi.y && q.z >= b.lo.z && q.z <= b.hi.z)
+            return 0;
+    }
+    return 1;
+}
+
+/* Rays from inside each closed mesh's PN surface, aimed at its vertices
+ * and its edges' midpoints (points that two or more patches share), and at
+ * points near them (at 2^-4 to 2^-24 of the patch's size), at three scales
+ * and far from the origin: a ray from inside a closed surface must leave
+ * it, so every one must hit. */
+static void test_cgal_meshes_do_not_leak(void **state)
+{
+    (void)state;
+    FILE *probe = fopen("build/cgal-data/meshes/eight.off", "r");
+    if (!probe) {
+        print_message("build/cgal-data/meshes is missing: run make cgal-data\n");
+        skip();
+    }
+    fclose(probe);
+    const char *env = getenv("LANCER_PN_CRACK_RAYS");
+    long rays = env ? atol(env) : 2000;
+    assert_true(rays > 0);
+    /* (scale, offset): the largest side becomes `scale`, its centre `offset` on every axis */
+    static const double place[5][2] = {{1e-4, 0}, {1, 0}, {1e5, 0}, {1e5, 1e5}, {1e3, 1e5}};
+    long total = 0;
+    for (size_t mi = 0; mi < sizeof closed_meshes / sizeof closed_meshes[0]; mi++) {
+        Scene raw;
+        load_placed(closed_meshes[mi], 0, 1.0, vec3(0, 0, 0), vec3(0, 0, 0), &raw);
+        Vec3 lo = raw.prims[0].g.tri.a, hi = lo;
+        for (int i = 0; i < raw.nprims; i++) {
+            const Triangle *t = &raw.prims[i].g.tri;
+            const Vec3 v[3] = {t->a, t->b, t->c};
+            for (int k = 0; k < 3; k++) {
+                lo = vec3(fminf(lo.x, v[k].x), fminf(lo.y, v[k].y), fminf(lo.z, v[k].z));
+                hi = vec3(fmaxf(hi.x, v[k].x), fmaxf(hi.y, v[k].y), fmaxf(hi.z, v[k].z));
+            }
+        }
+        scene_free(&raw);
+        Vec3 c = vec_scale(vec_add(lo, hi), 0.5f), ext = vec_sub(hi, lo);
+        double side = fmax(ext.x, fmax(ext.y, ext.z));
+        for (int pl = 0; pl < 5; pl++) {
+            double a = place[pl][0] / side;
+            Vec3 t = vec3((float)place[pl][1], (float)place[pl][1], (float)place[pl][1]);
+            Scene pn, flat;
+            load_placed(closed_meshes[mi], 1, a, c, t, &pn);
+            load_placed(closed_meshes[mi], 0, a, c, t, &flat);
+            if (pn.degenerate != 0)
+                fail_msg("%s at scale %g: %d triangles collapsed, the mesh is no longer closed", closed_meshes[mi],
+                         place[pl][0], pn.degenerate);
+            Accel *acc = accel_build(&pn, PRIM_ROBUST, 1);
+            assert_non_null(acc);
+            unsigned long long seed = 1000 * mi + (unsigned long long)pl + 1;
+            Vec3 origins[32];
+            int no = 0;
+            for (int tries = 0; no < 32 && tries < 20000; tries++) {
+                Vec3 q = vec_add(t, vec_scale(test_rvec(&seed, -0.5f, 0.5f), (float)place[pl][0]));
+                if (inside_flat(&flat, q, &seed) && inside_flat(&flat, q, &seed) && outside_nets(&pn, q))
+                    origins[no++] = q;
+            }
+            assert_true(no > 0);
+            for (long k = 0; k < rays; k++, total++) {
+                int pi = (int)(test_uniform(&seed, 0, 1) * (float)pn.npatches) % pn.npatches;
+                const PnPatch *p = &pn.patches[pi];
+                int at = (int)(test_uniform(&seed, 0, 6)) % 6;
+                /* the three corners, then the three edges' midpoints */
+                static const double uv[6][2] = {{0, 0}, {1, 0}, {0, 1}, {0.5, 0}, {0.5, 0.5}, {0, 0.5}};
+                double pt[3];
+                pn_eval(p, uv[at][0], uv[at][1], pt, NULL, NULL);
+                Vec3 target = at < 3 ? p->b[at == 0 ? PN_AT(3, 0) : at == 1 ? PN_AT(0, 0) : PN_AT(0, 3)]
+                                     : vec3((float)pt[0], (float)pt[1], (float)pt[2]);
+                if (k & 1) { /* beside it, by a fraction of the patch's size */
+                    Box b = pn_bounds(p);
+                    float size = vec_max_abs(vec_sub(b.hi, b.lo)), f = ldexpf(1.0f, -(int)test_uniform(&seed, 4, 25));
+                    target = vec_add(target, vec_scale(unit(test_rvec(&seed, -1, 1)), size * f));
+                }
+                Vec3 o = origins[k % no];
+                Ray r = ray_make(o, vec_sub(target, o), INFINITY);
+                PrimHit h;
+                RayStats st;
+                memset(&st, 0, sizeof st);
+                if (accel_closest(acc, &r, &h, &st) < 0)
+                    fail_msg("%s at scale %g, offset %g: the ray o=(%a,%a,%a) d=(%a,%a,%a) from inside escaped near %s "
+                             "of patch %d",
+                             closed_meshes[mi], place[pl][0], place[pl][1], (double)r.o.x, (double)r.o.y, (double)r.o.z,
+                             (double)r.d.x, (double)r.d.y, (double)r.d.z, at < 3 ? "a corner" : "an edge's midpoint", pi);
+            }
+            accel_free(acc);
+            scene_free(&pn);
+            scene_free(&flat);
+        }
+    }
+    print_message("%ld rays from inside, none escaped\n", total);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_control_net),
+        cmocka_unit_test(test_derivatives),
+        cmocka_unit_test(test_subdivision),
+        cmocka_unit_test(test_boxes_hold_their_patch),
+        cmocka_unit_test(test_shared_edges_bit_for_bit),
+        cmocka_unit_test(test_flat_patch_is_the_triangle),
+        cmocka_unit_test(test_sphere_approximation),
+        cmocka_unit_test(test_closed_surface_does_not_leak),
+        cmocka_unit_test(test_fast_mode),
+        cmocka_unit_test(test_cgal_meshes_do_not_leak),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
