@@ -834,17 +834,24 @@ static void test_transform(void **state)
     scene_free(&s);
 }
 
+/* Makes the folder dir (a mkdtemp template) and in it quad.off holding
+ * `off`, whose path goes into path. */
+static void temp_mesh(char *dir, char *path, size_t len, const char *off)
+{
+    assert_non_null(mkdtemp(dir));
+    snprintf(path, len, "%s/quad.off", dir);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs(off, f);
+    fclose(f);
+}
+
 static void test_mesh_statement(void **state)
 {
     (void)state;
     char dir[] = "/tmp/lancer-scene-XXXXXX", path[256], text[1024], err[512];
-    assert_non_null(mkdtemp(dir));
-    snprintf(path, sizeof path, "%s/quad.off", dir);
-    FILE *f = fopen(path, "w");
-    assert_non_null(f);
     /* a unit quad (two triangles) and a degenerate triangle */
-    fputs("OFF\n5 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n2 0 0\n4 0 1 2 3\n3 0 1 4\n", f);
-    fclose(f);
+    temp_mesh(dir, path, sizeof path, "OFF\n5 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n2 0 0\n4 0 1 2 3\n3 0 1 4\n");
     Scene s;
     snprintf(text, sizeof text,
              CAM "material m { }\n"
@@ -902,12 +909,7 @@ static void test_pn_statements(void **state)
 {
     (void)state;
     char dir[] = "/tmp/lancer-scene-XXXXXX", path[256], text[1024];
-    assert_non_null(mkdtemp(dir));
-    snprintf(path, sizeof path, "%s/quad.off", dir);
-    FILE *f = fopen(path, "w");
-    assert_non_null(f);
-    fputs("OFF\n4 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n", f);
-    fclose(f);
+    temp_mesh(dir, path, sizeof path, "OFF\n4 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n");
     Scene s;
     snprintf(text, sizeof text,
              CAM "material m { }\n"
