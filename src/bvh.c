@@ -176,9 +176,10 @@ int bvh_prim_bounds(const Prim *p, float lo[3], float hi[3])
         return 1;
     }
     case PRIM_PN: { /* the box of its control net, the net's own floats */
-        Box b = pn_bounds(p->g.pn.patch);
-        lo[0] = b.lo.x, lo[1] = b.lo.y, lo[2] = b.lo.z;
-        hi[0] = b.hi.x, hi[1] = b.hi.y, hi[2] = b.hi.z;
+        Vec3 l3, h3;
+        pn_bounds(p->g.pn.patch, &l3, &h3);
+        lo[0] = l3.x, lo[1] = l3.y, lo[2] = l3.z;
+        hi[0] = h3.x, hi[1] = h3.y, hi[2] = h3.z;
         return 1;
     }
     case PRIM_BOX: {

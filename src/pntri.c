@@ -169,15 +169,14 @@ Vec3 pn_geometric_normal(const PnPatch *pn, float u, float v)
     return normalized_or(x, y, z, pn_shading_normal(pn, u, v));
 }
 
-Box pn_bounds(const PnPatch *pn)
+void pn_bounds(const PnPatch *pn, Vec3 *lo, Vec3 *hi)
 {
-    Box b = {pn->b[0], pn->b[0]};
+    *lo = *hi = pn->b[0];
     for (int i = 1; i < 10; i++) {
         Vec3 p = pn->b[i];
-        b.lo = vec3(fminf(b.lo.x, p.x), fminf(b.lo.y, p.y), fminf(b.lo.z, p.z));
-        b.hi = vec3(fmaxf(b.hi.x, p.x), fmaxf(b.hi.y, p.y), fmaxf(b.hi.z, p.z));
+        *lo = vec3(fminf(lo->x, p.x), fminf(lo->y, p.y), fminf(lo->z, p.z));
+        *hi = vec3(fmaxf(hi->x, p.x), fmaxf(hi->y, p.y), fmaxf(hi->z, p.z));
     }
-    return b;
 }
 
 /* ---- subdivision ---- */
@@ -493,7 +492,7 @@ static int newton(const PnPatch *pn, const PnRay *r, const PnNet *net, double *t
 
 /* Visits the sub-patches whose box the ray enters, nearest first, and
  * keeps the nearest hit. */
-int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PrimHit *h)
+int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h)
 {
     PnRay r;
     to_d(ray->o, r.o);
@@ -592,6 +591,5 @@ int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PrimHit *h)
     h->terr = berr > 0.0 ? float_up(berr + fabs(best - (double)h->t)) : 0.0f;
     h->u = (float)bu;
     h->v = (float)bv;
-    h->face = 0;
     return 1;
 }

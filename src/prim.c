@@ -497,8 +497,13 @@ int prim_intersect(const Prim *p, const Ray *r, PrimVariant v, PrimHit *h)
         return robust ? prim_box_hit_robust(&p->g.box, r, h) : prim_box_hit(&p->g.box, r, h);
     case PRIM_OBOX:
         return robust ? prim_obox_hit_robust(&p->g.obox, r, h) : prim_obox_hit(&p->g.obox, r, h);
-    case PRIM_PN: /* the classic variant traces patches fast */
-        return pn_hit(p->g.pn.patch, r, robust ? (PnMode)p->g.pn.mode : PN_FAST, h);
+    case PRIM_PN: { /* the classic variant traces patches fast */
+        PnHit ph;
+        if (!pn_hit(p->g.pn.patch, r, robust ? (PnMode)p->g.pn.mode : PN_FAST, &ph))
+            return 0;
+        *h = (PrimHit){ph.t, ph.terr, ph.u, ph.v, 0};
+        return 1;
+    }
     }
     return 0;
 }

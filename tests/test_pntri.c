@@ -21,6 +21,7 @@
 
 #include "lancer/accel.h"
 #include "lancer/pntri.h"
+#include "lancer/prim.h"
 #include "lancer/scene.h"
 
 static Vec3 unit(Vec3 a) { return vec_normalize(a); }
@@ -275,7 +276,8 @@ static void test_flat_patch_is_the_triangle(void **state)
         Vec3 to = test_rvec(&seed, -1.5f, 1.5f);
         to.z = 0.5f;
         Ray r = ray_make(o, vec_sub(to, o), INFINITY);
-        PrimHit hp, ht;
+        PnHit hp;
+        PrimHit ht;
         int p = pn_hit(&pn, &r, PN_EXACT, &hp), t = prim_triangle_hit_watertight(&tr, &r, &ht);
         if (p == t)
             agree++;
@@ -317,12 +319,12 @@ static void ico_patches(PnPatch pn[20], float R, Vec3 c)
     }
 }
 
-static int closest(const PnPatch *pn, int n, const Ray *r, PnMode mode, PrimHit *best)
+static int closest(const PnPatch *pn, int n, const Ray *r, PnMode mode, PnHit *best)
 {
     int found = 0;
     Ray q = *r;
     for (int f = 0; f < n; f++) {
-        PrimHit h;
+        PnHit h;
         if (pn_hit(&pn[f], &q, mode, &h)) {
             *best = h;
             q.tmax = h.t;
@@ -345,7 +347,7 @@ static void test_sphere_approximation(void **state)
     for (int i = 0; i < 2000; i++) {
         Vec3 d = unit(test_rvec(&seed, -1, 1));
         Ray r = ray_make(vec3(0, 0, 0), d, INFINITY);
-        PrimHit h;
+        PnHit h;
         assert_true(closest(pn, 20, &r, PN_EXACT, &h));
         lo = fmin(lo, h.t);
         hi = fmax(hi, h.t);
@@ -381,7 +383,7 @@ static void test_closed_surface_does_not_leak(void **state)
                     for (int k = 0; k < 4; k++) {
                         Vec3 from = vec_add(c, vec_scale(test_rvec(&seed, -0.3f, 0.3f), scales[s]));
                         Ray r = ray_make(from, vec_sub(p, from), INFINITY);
-                        PrimHit h;
+                        PnHit h;
                         if (!closest(pn, 20, &r, PN_EXACT, &h))
                             fail_msg("scale %g offset %d: a ray from inside escaped through face %d point %d", (double)scales[s],
                                      o, f, e);
@@ -402,7 +404,7 @@ static void test_fast_mode(void **state)
         Vec3 o = vec_scale(unit(test_rvec(&seed, -1, 1)), 3.0f);
         Vec3 to = test_rvec(&seed, -0.9f, 0.9f);
         Ray r = ray_make(o, vec_sub(to, o), INFINITY);
-        PrimHit he, hf;
+        PnHit he, hf;
         int e = closest(pn, 20, &r, PN_EXACT, &he), f = closest(pn, 20, &r, PN_FAST, &hf);
         assert_int_equal(e, f);
         if (e && f) {
@@ -451,8 +453,9 @@ static int inside_flat(const Scene *flat, Vec3 q, unsigned long long *seed)
 static int outside_nets(const Scene *pn, Vec3 q)
 {
     for (int i = 0; i < pn->npatches; i++) {
-        Box b = pn_bounds(&pn->patches[i]);
-        if (q.x >= b.lo.x && q.x <= b.hi.x && q.y >= b.lo.y && q.y <= b.hi.y && q.z >= b.lo.z && q.z <= b.hi.z)
+        Vec3 lo, hi;
+        pn_bounds(&pn->patches[i], &lo, &hi);
+        if (q.x >= lo.x && q.x <= hi.x && q.y >= lo.y && q.y <= hi.y && q.z >= lo.z && q.z <= hi.z)
             return 0;
     }
     return 1;
@@ -524,8 +527,9 @@ static void test_cgal_meshes_do_not_leak(void **state)
                 Vec3 target = at < 3 ? p->b[at == 0 ? PN_AT(3, 0) : at == 1 ? PN_AT(0, 0) : PN_AT(0, 3)]
                                      : vec3((float)pt[0], (float)pt[1], (float)pt[2]);
                 if (k & 1) { /* beside it, by a fraction of the patch's size */
-                    Box b = pn_bounds(p);
-                    float size = vec_max_abs(vec_sub(b.hi, b.lo)), f = ldexpf(1.0f, -(int)test_uniform(&seed, 4, 25));
+                    Vec3 plo, phi;
+                    pn_bounds(p, &plo, &phi);
+                    float size = vec_max_abs(vec_sub(phi, plo)), f = ldexpf(1.0f, -(int)test_uniform(&seed, 4, 25));
                     target = vec_add(target, vec_scale(unit(test_rvec(&seed, -1, 1)), size * f));
                 }
                 Vec3 o = origins[k % no];

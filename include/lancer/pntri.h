@@ -5,7 +5,7 @@
  *
  *     PnPatch p;
  *     pn_patch_init(&p, pts, unit_normals);
- *     PrimHit h;
+ *     PnHit h;
  *     if (pn_hit(&p, &ray, PN_EXACT, &h)) ... hit at h.t within h.terr, at (h.u, h.v) ...
  *
  * The patch is the cubic Bezier triangle of its ten float control points:
@@ -30,7 +30,7 @@
 #ifndef LANCER_PNTRI_H
 #define LANCER_PNTRI_H
 
-#include "lancer/prim.h"
+#include "lancer/ray.h"
 
 #define PN_AT(i, k) ((3 - (i)) * (4 - (i)) / 2 + (k))
 
@@ -42,6 +42,12 @@ typedef struct PnPatch {
 } PnPatch;
 
 typedef enum { PN_EXACT, PN_FAST } PnMode;
+
+/* A hit: t, a bound terr on its error (0 in PN_FAST: none), and the
+ * domain point (u, v), the weights of P2 and P3. */
+typedef struct {
+    float t, terr, u, v;
+} PnHit;
 
 /* The patch of vertices p[0..2] and unit vertex normals n[0..2]. */
 void pn_patch_init(PnPatch *pn, const Vec3 p[3], const Vec3 n[3]);
@@ -59,9 +65,9 @@ Vec3 pn_shading_normal(const PnPatch *pn, float u, float v);
  * parallel (a degenerate corner), the shading normal. */
 Vec3 pn_geometric_normal(const PnPatch *pn, float u, float v);
 
-/* The box of the control net, which holds the patch (a Bezier triangle
- * lies in the convex hull of its net). */
-Box pn_bounds(const PnPatch *pn);
+/* The box [lo, hi] of the control net, which holds the patch (a Bezier
+ * triangle lies in the convex hull of its net). */
+void pn_bounds(const PnPatch *pn, Vec3 *lo, Vec3 *hi);
 
 /* ---- subdivision, in double ----
  *
@@ -96,6 +102,6 @@ void pn_net_box(const PnNet *net, double lo[3], double hi[3]);
  * until the boxes reach float precision; PN_FAST subdivides to a fixed
  * depth and then solves by Newton's method, falling back to subdivision
  * where Newton fails. */
-int pn_hit(const PnPatch *pn, const Ray *r, PnMode mode, PrimHit *h);
+int pn_hit(const PnPatch *pn, const Ray *r, PnMode mode, PnHit *h);
 
 #endif
