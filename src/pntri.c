@@ -12,7 +12,10 @@
  * averages, so a child's points carry its parent's error plus gamma(3) of
  * the parent's largest coordinate (Higham, "Accuracy and Stability of
  * Numerical Algorithms", lemma 3.1); the box grows by that bound and holds
- * the exact sub-patch.
+ * the exact sub-patch. A piece stops being split when it is flat to float
+ * precision (its net within a float spacing of its corners' triangle, a
+ * distance that falls four times a level where the box's side halves), or
+ * when its box is that small.
  */
 #include "lancer/pntri.h"
 
@@ -26,8 +29,10 @@
 /* Splits, at most: a domain side of 2^-PN_MAX_DEPTH is far below what a
  * float (u, v) resolves, and the stack of pn_hit stays small. */
 #define PN_MAX_DEPTH 40
-/* PN_FAST: the depth at which Newton's method takes over, and its steps. */
-#define PN_FAST_DEPTH 3
+/* PN_FAST: the depth at which Newton's method takes over, and its steps.
+ * From the root, Newton's method converges for most rays, and a deeper
+ * start only costs splits (docs/performance.md). */
+#define PN_FAST_DEPTH 0
 #define PN_NEWTON_STEPS 8
 /* Newton's hits whose ray meets the surface at an angle's cosine below
  * this are handed to subdivision (see newton). */
@@ -171,12 +176,14 @@ Vec3 pn_geometric_normal(const PnPatch *pn, float u, float v)
 
 void pn_bounds(const PnPatch *pn, Vec3 *lo, Vec3 *hi)
 {
-    *lo = *hi = pn->b[0];
-    for (int i = 1; i < 10; i++) {
+    Vec3 l = pn->b[0], h = l;
+    for (int i = 1; i < 10; i++) { /* comparisons, not fminf: a libm call each without -ffast-math */
         Vec3 p = pn->b[i];
-        *lo = vec3(fminf(lo->x, p.x), fminf(lo->y, p.y), fminf(lo->z, p.z));
-        *hi = vec3(fmaxf(hi->x, p.x), fmaxf(hi->y, p.y), fmaxf(hi->z, p.z));
+        l.x = p.x < l.x ? p.x : l.x, l.y = p.y < l.y ? p.y : l.y, l.z = p.z < l.z ? p.z : l.z;
+        h.x = p.x > h.x ? p.x : h.x, h.y = p.y > h.y ? p.y : h.y, h.z = p.z > h.z ? p.z : h.z;
     }
+    *lo = l;
+    *hi = h;
 }
 
 /* ---- subdivision ---- */
@@ -412,6 +419,114 @@ static int at_float_precision(const double lo[3], const double hi[3])
     return 1;
 }
 
+/* Rounding allowance of the flat test below: every double rounding in it
+ * is far smaller than 2^-40 of the magnitudes it involves, and adding that
+ * much costs nothing at float precision. */
+#define PN_SLACK 0x1p-40
+
+static double norm1(const double v[3]) { return fabs(v[0]) + fabs(v[1]) + fabs(v[2]); }
+
+/* max(a, b) by a comparison: fmax is a libm call without -ffast-math */
+static double max2(double a, double b) { return a > b ? a : b; }
+
+static double maxabs3(const double v[3]) { return max2(fabs(v[0]), max2(fabs(v[1]), fabs(v[2]))); }
+
+/* A piece's exact surface lies within dev, on every axis, of the triangle
+ * T of its corners: the net's points are within dev of those of T raised
+ * to degree 3, and the difference of two Bezier triangles lies in the
+ * convex hull of the differences of their nets. The ray is tested against
+ * T thickened by dev, a far tighter bound than the box once a piece is
+ * nearly flat: the slab |n.(p - A)| <= h around T's plane gives t's
+ * interval, and the ray's point in it must lie within reach of T. Returns
+ * 0 when the ray misses the thickened triangle in (0, tmax); 1 when the
+ * piece is flat to float precision (dev within a float spacing of m, its
+ * box's largest coordinate) and the ray meets it, with the hit's t, its
+ * bound and the domain point; -1 otherwise (split on), and always when the
+ * ray meets T's plane at a cosine below 1/4. */
+static int flat_piece(const PnNet *net, const double o[3], const double d[3], double tmax, double m, double *t,
+                      double *terr, double *u, double *v)
+{
+    const double *A = net->b[PN_AT(3, 0)], *B = net->b[PN_AT(0, 0)], *C = net->b[PN_AT(0, 3)];
+    double dev = 0.0;
+    for (int i = 0; i <= 3; i++)
+        for (int k = 0; k <= 3 - i; k++) {
+            int j = 3 - i - k;
+            const double *p = net->b[PN_AT(i, k)];
+            for (int a = 0; a < 3; a++) {
+                double x = fabs(p[a] - (i * A[a] + j * B[a] + k * C[a]) / 3.0);
+                dev = x > dev ? x : dev;
+            }
+        }
+    dev += net->err + PN_SLACK * m;
+    int flat = dev <= m * (double)FLT_EPSILON;
+    double e1[3], e2[3], q[3], n[3];
+    for (int a = 0; a < 3; a++) {
+        e1[a] = B[a] - A[a];
+        e2[a] = C[a] - A[a];
+        q[a] = o[a] - A[a];
+    }
+    n[0] = e1[1] * e2[2] - e1[2] * e2[1];
+    n[1] = e1[2] * e2[0] - e1[0] * e2[2];
+    n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+    double nn2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2], nn = sqrt(nn2);
+    double dd = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    double nd = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
+    if (!(fabs(nd) >= 0.25 * nn * dd) || !(nn > 0.0))
+        return -1;
+    /* |n.w| <= |n|_1 dev for an offset w of at most dev on each axis; the
+     * slack covers n's rounding against the edges and the sums below */
+    double qm = maxabs3(q);
+    double h = norm1(n) * (dev + PN_SLACK * (m + qm));
+    double nq = n[0] * q[0] + n[1] * q[1] + n[2] * q[2];
+    double t1 = (-h - nq) / nd, t2 = (h - nq) / nd;
+    if (t1 > t2) {
+        double x = t1;
+        t1 = t2;
+        t2 = x;
+    }
+    t1 -= fabs(t1) * PN_SLACK;
+    t2 += fabs(t2) * PN_SLACK;
+    /* behind the origin or beyond tmax: a miss, whatever the piece; an
+     * origin in a flat piece's slab is on the surface to float precision,
+     * a spawned ray that does not hit its own spot (as a box at float
+     * precision) */
+    if (t2 <= 0.0 || t1 >= tmax || (flat && t1 <= 0.0))
+        return 0;
+    /* where a hit can be: the part of [t1, t2] in (0, tmax) */
+    double ta = t1 > 0.0 ? t1 : 0.0, tb = t2 < tmax ? t2 : tmax;
+    double tm = 0.5 * (ta + tb), p[3];
+    for (int a = 0; a < 3; a++)
+        p[a] = q[a] + tm * d[a];
+    /* the barycentrics of p's projection on T's plane */
+    double c2[3] = {p[1] * e2[2] - p[2] * e2[1], p[2] * e2[0] - p[0] * e2[2], p[0] * e2[1] - p[1] * e2[0]};
+    double c1[3] = {e1[1] * p[2] - e1[2] * p[1], e1[2] * p[0] - e1[0] * p[2], e1[0] * p[1] - e1[1] * p[0]};
+    double lb = (c2[0] * n[0] + c2[1] * n[1] + c2[2] * n[2]) / nn2;
+    double lc = (c1[0] * n[0] + c1[1] * n[1] + c1[2] * n[2]) / nn2, la = 1.0 - lb - lc;
+    /* A hit point of the piece is within dev of T on each axis, and within
+     * (t2 - t1) / 2 of p along the ray: p's projection is within rad of T,
+     * so no barycentric falls below -rad over its vertex's altitude. */
+    double pm = maxabs3(p);
+    double rad = dev * 1.7320508075688774 + 0.5 * (tb - ta) * dd + PN_SLACK * (pm + m);
+    double l1 = sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
+    double l2 = sqrt(e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2]);
+    double l3 = sqrt((e2[0] - e1[0]) * (e2[0] - e1[0]) + (e2[1] - e1[1]) * (e2[1] - e1[1]) +
+                     (e2[2] - e1[2]) * (e2[2] - e1[2]));
+    /* altitude of A = |n| / |BC|, of B = |n| / |AC|, of C = |n| / |AB| */
+    double g = (1.0 + PN_SLACK) * rad / nn;
+    if (la < -g * l3 || lb < -g * l2 || lc < -g * l1)
+        return 0;
+    if (!flat)
+        return -1;
+    *t = 0.5 * (t1 + t2);
+    *terr = 0.5 * (t2 - t1);
+    lb = lb < 0.0 ? 0.0 : lb > 1.0 ? 1.0 : lb;
+    lc = lc < 0.0 ? 0.0 : lc > 1.0 - lb ? 1.0 - lb : lc;
+    double sg = net->flip ? -net->s : net->s;
+    *u = net->u0 + sg * lb;
+    *v = net->v0 + sg * lc;
+    return 1;
+}
+
 typedef struct {
     PnNet net;
     double lo[3], hi[3]; /* pn_net_box of net */
@@ -505,12 +620,23 @@ int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h)
     int top = 0;
     double best = r.tmax, bu = 0.0, bv = 0.0, berr = 0.0;
     int found = 0;
+    /* Most rays that reach a patch miss its box (packets bring every ray
+     * of a packet to a leaf): test the float box before making the net.
+     * The root net has no error, so its box is this one. */
     PnNode *root = &stack[top];
-    pn_net_root(pn, &root->net);
-    root->depth = 0;
-    pn_net_box(&root->net, root->lo, root->hi);
+    Vec3 flo, fhi;
+    pn_bounds(pn, &flo, &fhi);
+    to_d(flo, root->lo);
+    to_d(fhi, root->hi);
+    for (int a = 0; a < 3; a++) { /* pn_net_box's pad for the rounding of its ends */
+        double pad = DBL_EPSILON * (-root->lo[a] > root->hi[a] ? -root->lo[a] : root->hi[a]);
+        root->lo[a] -= pad;
+        root->hi[a] += pad;
+    }
     if (!slab(root->lo, root->hi, r.o, r.d, r.inv, best, &root->tn, &root->tf))
         return 0;
+    pn_net_root(pn, &root->net);
+    root->depth = 0;
     top++;
     double pool[PN_POOL][3];
     while (top > 0) {
@@ -531,6 +657,22 @@ int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h)
                 continue;
             }
             /* Newton failed here: subdivide as exact mode does */
+        }
+        {
+            double m = 0.0, t, e, u, v;
+            for (int a = 0; a < 3; a++)
+                m = max2(m, max2(fabs(node->lo[a]), fabs(node->hi[a])));
+            int f = flat_piece(net, r.o, r.d, best, m, &t, &e, &u, &v);
+            if (f == 0)
+                continue;
+            if (f == 1) {
+                best = t;
+                berr = e;
+                bu = u;
+                bv = v;
+                found = 1;
+                continue;
+            }
         }
         if (node->depth == PN_MAX_DEPTH || at_float_precision(node->lo, node->hi)) {
             /* The exact sub-patch is inside this box: where the ray meets

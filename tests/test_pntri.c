@@ -392,6 +392,69 @@ static void test_closed_surface_does_not_leak(void **state)
         }
 }
 
+/* Exact mode's t holds its bound: rays aimed at points of a curved patch
+ * (at 1, 10^-4 and 10^5 in size, near and far from the origin), from all
+ * sides at a cosine above 0.3, hit it where its point is, within terr and
+ * the rounding of the aim. This covers both of its stops: boxes at float
+ * precision, and pieces flat to float precision. */
+static void test_exact_hits_within_their_bound(void **state)
+{
+    (void)state;
+    const float scales[3] = {1.0f, 1e-4f, 1e5f};
+    const float offsets[2] = {0.0f, 3e3f};
+    unsigned long long seed = 31;
+    int n = 0;
+    for (int si = 0; si < 3; si++)
+        for (int oi = 0; oi < 2; oi++) {
+            float sc = scales[si];
+            Vec3 c = vec3(offsets[oi] * sc, -0.5f * offsets[oi] * sc, 0.25f * offsets[oi] * sc);
+            PnPatch pn;
+            make_patch(&pn, vec_add(c, vec3(0, 0, 0)), vec_add(c, vec3(sc, 0, 0.3f * sc)),
+                       vec_add(c, vec3(0, sc, -0.2f * sc)), vec3(0.7f, 0.1f, 1), vec3(-0.2f, 0.6f, 1),
+                       vec3(0.3f, -0.7f, 1));
+            for (int k = 0; k < 2000; k++) {
+                double u = test_uniform(&seed, 0, 1), v = test_uniform(&seed, 0, 1);
+                if (u + v > 1) {
+                    u = 1 - u;
+                    v = 1 - v;
+                }
+                double pt[3], du[3], dv[3];
+                pn_eval(&pn, u, v, pt, du, dv);
+                Vec3 target = vec3((float)pt[0], (float)pt[1], (float)pt[2]);
+                Vec3 ng = unit(vec_cross(vec3((float)du[0], (float)du[1], (float)du[2]),
+                                         vec3((float)dv[0], (float)dv[1], (float)dv[2])));
+                Vec3 dir = unit(test_rvec(&seed, -1, 1));
+                float cosine = fabsf(vec_dot(dir, ng));
+                if (cosine < 0.3f)
+                    continue;
+                Vec3 o = vec_sub(target, vec_scale(dir, 2.0f * sc));
+                Ray r = ray_make(o, vec_sub(target, o), INFINITY);
+                PnHit h;
+                double len = sqrt((double)vec_dot(r.d, r.d));
+                double m = fmax(vec_max_abs(o), vec_max_abs(target));
+                double aim = 4.0 * m * FLT_EPSILON / (len * cosine);
+                n++;
+                int hit = pn_hit(&pn, &r, PN_EXACT, &h);
+                if (hit && h.t < 1.0 - h.terr - aim) {
+                    /* an earlier crossing of the curved patch: a point of it */
+                    double q[3];
+                    pn_eval(&pn, h.u, h.v, q, NULL, NULL);
+                    double gap = 0;
+                    for (int a = 0; a < 3; a++) {
+                        double x = (a == 0 ? o.x : a == 1 ? o.y : o.z) + h.t * (a == 0 ? r.d.x : a == 1 ? r.d.y : r.d.z);
+                        gap = fmax(gap, fabs(x - q[a]));
+                    }
+                    if (gap <= 64.0 * m * FLT_EPSILON + h.terr * len)
+                        continue;
+                }
+                if (!hit || fabs(h.t - 1.0) > h.terr + aim)
+                    fail_msg("scale %g offset %g: ray at (%g, %g) %s t=%.9g terr=%g aim=%g", (double)sc,
+                             (double)offsets[oi], u, v, "missed or", (double)h.t, (double)h.terr, aim);
+            }
+        }
+    assert_true(n > 5000);
+}
+
 /* The fast mode finds the exact mode's hits, within a small error. */
 static void test_fast_mode(void **state)
 {
@@ -562,6 +625,7 @@ int main(void)
         cmocka_unit_test(test_flat_patch_is_the_triangle),
         cmocka_unit_test(test_sphere_approximation),
         cmocka_unit_test(test_closed_surface_does_not_leak),
+        cmocka_unit_test(test_exact_hits_within_their_bound),
         cmocka_unit_test(test_fast_mode),
         cmocka_unit_test(test_cgal_meshes_do_not_leak),
     };

@@ -99,9 +99,9 @@ void pn_net_box(const PnNet *net, double lo[3], double hi[3]);
 
 /* The nearest hit with 0 < t < ray->tmax: (h->u, h->v) is the domain point,
  * h->terr bounds t's error. PN_EXACT subdivides, nearest sub-patch first,
- * until the boxes reach float precision; PN_FAST subdivides to a fixed
- * depth and then solves by Newton's method, falling back to subdivision
- * where Newton fails. */
+ * until a piece is flat, or its box small, to float precision; PN_FAST solves by Newton's
+ * method from the patch's centre, falling back to subdivision where Newton
+ * fails. */
 int pn_hit(const PnPatch *pn, const Ray *r, PnMode mode, PnHit *h);
 
 #endif
