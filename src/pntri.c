@@ -441,8 +441,8 @@ static double maxabs3(const double v[3]) { return max2(fabs(v[0]), max2(fabs(v[1
  * 0 when the ray misses the thickened triangle in (0, tmax); 1 when the
  * piece is flat to float precision (dev within a float spacing of m, its
  * box's largest coordinate) and the ray meets it, with the hit's t, its
- * bound and the domain point; -1 otherwise (split on), and always when the
- * ray meets T's plane at a cosine below 1/4. */
+ * bound and the domain point; -1 otherwise (split on), and for every ray
+ * that meets T's plane at a cosine below 1/4 and is not culled. */
 static int flat_piece(const PnNet *net, const double o[3], const double d[3], double tmax, double m, double *t,
                       double *terr, double *u, double *v)
 {
@@ -471,8 +471,12 @@ static int flat_piece(const PnNet *net, const double o[3], const double d[3], do
     double nn2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2], nn = sqrt(nn2);
     double dd = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
     double nd = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
-    if (!(fabs(nd) >= 0.25 * nn * dd) || !(nn > 0.0))
+    if (!(nn > 0.0))
         return -1;
+    /* A ray that meets T's plane at a cosine below 1/4 is only culled
+     * here: a hit would have a loose bound (and a ray in the plane, nd = 0,
+     * gets infinite or NaN ends, which cull nothing). */
+    int steep = fabs(nd) >= 0.25 * nn * dd;
     /* |n.w| <= |n|_1 dev for an offset w of at most dev on each axis; the
      * slack covers n's rounding against the edges and the sums below */
     double qm = maxabs3(q);
@@ -490,7 +494,7 @@ static int flat_piece(const PnNet *net, const double o[3], const double d[3], do
      * origin in a flat piece's slab is on the surface to float precision,
      * a spawned ray that does not hit its own spot (as a box at float
      * precision) */
-    if (t2 <= 0.0 || t1 >= tmax || (flat && t1 <= 0.0))
+    if (t2 <= 0.0 || t1 >= tmax || (flat && steep && t1 <= 0.0))
         return 0;
     /* where a hit can be: the part of [t1, t2] in (0, tmax) */
     double ta = t1 > 0.0 ? t1 : 0.0, tb = t2 < tmax ? t2 : tmax;
@@ -515,7 +519,7 @@ static int flat_piece(const PnNet *net, const double o[3], const double d[3], do
     double g = (1.0 + PN_SLACK) * rad / nn;
     if (la < -g * l3 || lb < -g * l2 || lc < -g * l1)
         return 0;
-    if (!flat)
+    if (!flat || !steep)
         return -1;
     *t = 0.5 * (t1 + t2);
     *terr = 0.5 * (t2 - t1);

@@ -455,6 +455,43 @@ static void test_exact_hits_within_their_bound(void **state)
     assert_true(n > 5000);
 }
 
+/* Rays that graze a flat patch, at cosines from 10^-1 down to 10^-6 with
+ * its plane, aimed at points inside it, hit it as the watertight triangle
+ * does, within the bounds: the thickened triangle culls without the cosine
+ * cut that its hits have. */
+static void test_grazing_rays(void **state)
+{
+    (void)state;
+    Vec3 a = vec3(-1, -1, 0.5f), b = vec3(1.5f, -0.8f, 0.7f), c = vec3(-0.2f, 1.2f, 0.3f);
+    Vec3 n = unit(vec_cross(vec_sub(b, a), vec_sub(c, a)));
+    PnPatch pn;
+    make_patch(&pn, a, b, c, n, n, n);
+    Triangle tr;
+    memset(&tr, 0, sizeof tr);
+    tr.a = a, tr.b = b, tr.c = c;
+    unsigned long long seed = 41;
+    int hits = 0;
+    for (int i = 0; i < 600; i++) {
+        float wb = test_uniform(&seed, 0.1f, 0.8f), wc = test_uniform(&seed, 0.1f, 0.9f - wb);
+        Vec3 target = vec_add(a, vec_add(vec_scale(vec_sub(b, a), wb), vec_scale(vec_sub(c, a), wc)));
+        Vec3 along = unit(vec_cross(n, test_rvec(&seed, -1, 1)));
+        float cosine = ldexpf(1.0f, -(int)test_uniform(&seed, 3, 21));
+        Vec3 dir = unit(vec_add(along, vec_scale(n, i & 1 ? cosine : -cosine)));
+        Vec3 o = vec_sub(target, vec_scale(dir, 3.0f));
+        Ray r = ray_make(o, vec_sub(target, o), INFINITY);
+        PnHit hp;
+        PrimHit ht;
+        int p = pn_hit(&pn, &r, PN_EXACT, &hp), t = prim_triangle_hit_watertight(&tr, &r, &ht);
+        if (!t)
+            continue; /* the aim's rounding can take a grazing ray past the plane's far side */
+        hits++;
+        if (!p)
+            fail_msg("cosine 2^%d: the patch missed a ray the triangle hits at t=%g", ilogbf(cosine), (double)ht.t);
+        assert_true(fabsf(hp.t - ht.t) <= hp.terr + ht.terr + 1e-5f * ht.t);
+    }
+    assert_true(hits > 300);
+}
+
 /* The fast mode finds the exact mode's hits, within a small error. */
 static void test_fast_mode(void **state)
 {
@@ -626,6 +663,7 @@ int main(void)
         cmocka_unit_test(test_sphere_approximation),
         cmocka_unit_test(test_closed_surface_does_not_leak),
         cmocka_unit_test(test_exact_hits_within_their_bound),
+        cmocka_unit_test(test_grazing_rays),
         cmocka_unit_test(test_fast_mode),
         cmocka_unit_test(test_cgal_meshes_do_not_leak),
     };
