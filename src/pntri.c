@@ -447,13 +447,18 @@ static int flat_piece(const PnNet *net, const double o[3], const double d[3], do
                       double *terr, double *u, double *v)
 {
     const double *A = net->b[PN_AT(3, 0)], *B = net->b[PN_AT(0, 0)], *C = net->b[PN_AT(0, 3)];
-    double dev = 0.0;
+    /* T raised to degree 3: A + j (B - A) / 3 + k (C - A) / 3 at b_ijk */
+    double sb[3], sc[3], dev = 0.0;
+    for (int a = 0; a < 3; a++) {
+        sb[a] = (B[a] - A[a]) * (1.0 / 3.0);
+        sc[a] = (C[a] - A[a]) * (1.0 / 3.0);
+    }
     for (int i = 0; i <= 3; i++)
         for (int k = 0; k <= 3 - i; k++) {
-            int j = 3 - i - k;
+            double j = 3 - i - k, kk = k;
             const double *p = net->b[PN_AT(i, k)];
             for (int a = 0; a < 3; a++) {
-                double x = fabs(p[a] - (i * A[a] + j * B[a] + k * C[a]) / 3.0);
+                double x = fabs(p[a] - (A[a] + j * sb[a] + kk * sc[a]));
                 dev = x > dev ? x : dev;
             }
         }
