@@ -675,11 +675,13 @@ int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h)
             if (f == 0)
                 continue;
             if (f == 1) {
-                best = t;
-                berr = e;
-                bu = u;
-                bv = v;
-                found = 1;
+                if (t < best) { /* its interval starts before best, its midpoint may not */
+                    best = t;
+                    berr = e;
+                    bu = u;
+                    bv = v;
+                    found = 1;
+                }
                 continue;
             }
         }
