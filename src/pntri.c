@@ -29,6 +29,11 @@
 /* Splits, at most: a domain side of 2^-PN_MAX_DEPTH is far below what a
  * float (u, v) resolves, and the stack of pn_hit stays small. */
 #define PN_MAX_DEPTH 40
+/* Splits for one ray, at most. A patch whose rounding bound outgrows a
+ * side (a needle 10^15 times longer than wide) has boxes that no split
+ * separates from the ray, and they would double each level; past this
+ * budget the pieces left become leaves, their boxes' intervals the hits. */
+#define PN_MAX_SPLITS 16384
 /* PN_FAST: the depth at which Newton's method takes over, and its steps.
  * From the root, Newton's method converges for most rays, and a deeper
  * start only costs splits (docs/performance.md). */
@@ -648,6 +653,7 @@ int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h)
     root->depth = 0;
     top++;
     double pool[PN_POOL][3];
+    int splits = 0;
     while (top > 0) {
         const PnNode *node = &stack[--top]; /* read before any push overwrites it */
         if (node->tn >= best)
@@ -685,7 +691,7 @@ int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h)
                 continue;
             }
         }
-        if (node->depth == PN_MAX_DEPTH || at_float_precision(node->lo, node->hi)) {
+        if (node->depth == PN_MAX_DEPTH || splits == PN_MAX_SPLITS || at_float_precision(node->lo, node->hi)) {
             /* The exact sub-patch is inside this box: where the ray meets
              * it lies within the box's interval, in front of the origin
              * (an origin inside the box is on the surface to float
@@ -706,6 +712,7 @@ int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h)
         /* The children's boxes straight from the pool; only those the ray
          * enters are written out, the farthest first, so that the nearest
          * comes off the stack first. */
+        splits++;
         double err = split_pool(net, pool);
         double lo[4][3], hi[4][3], tn[4], tf[4];
         int order[4], n = 0;
