@@ -659,21 +659,7 @@ int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h)
         if (node->tn >= best)
             continue;
         const PnNet *net = &node->net;
-        if (mode == PN_FAST && node->depth == PN_FAST_DEPTH) {
-            double t, u, v;
-            if (newton(pn, &r, net, &t, &u, &v)) {
-                if (t < best) {
-                    best = t;
-                    bu = u;
-                    bv = v;
-                    berr = 0.0;
-                    found = 1;
-                }
-                continue;
-            }
-            /* Newton failed here: subdivide as exact mode does */
-        }
-        {
+        { /* culls a piece the ray misses before Newton's steps are spent on it */
             double m = 0.0, t, e, u, v;
             for (int a = 0; a < 3; a++)
                 m = max2(m, max2(fabs(node->lo[a]), fabs(node->hi[a])));
@@ -690,6 +676,20 @@ int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h)
                 }
                 continue;
             }
+        }
+        if (mode == PN_FAST && node->depth == PN_FAST_DEPTH) {
+            double t, u, v;
+            if (newton(pn, &r, net, &t, &u, &v)) {
+                if (t < best) {
+                    best = t;
+                    bu = u;
+                    bv = v;
+                    berr = 0.0;
+                    found = 1;
+                }
+                continue;
+            }
+            /* Newton failed here: subdivide as exact mode does */
         }
         if (node->depth == PN_MAX_DEPTH || splits == PN_MAX_SPLITS || at_float_precision(node->lo, node->hi)) {
             /* The exact sub-patch is inside this box: where the ray meets
