@@ -24,7 +24,11 @@ mkdir -p "$seeds/scene" "$seeds/rays" "$out"
 for t in mesh scene image; do
     "$san/test_$t" --seeds "$seeds" || { echo "fuzz: $san/test_$t --seeds failed" >&2; exit 1; }
 done
-cp scenes/*.scn scenes/*/*.scn "$seeds/scene/"
+# the scenes, named by their folder too: scenes/bunny.scn and
+# scenes/parity/bunny.scn are different seeds
+for f in scenes/*.scn scenes/*/*.scn; do
+    cp "$f" "$seeds/scene/$(echo "$f" | tr / -)"
+done
 printf 'image { width 6 height 4 }\ncamera { eye 0 1 -4 target 0 0 0 fov 50 }\nlight { position 2 4 -3 }\n'\
 'material m { color 1 0.5 0.2 }\nsphere { center 0 0 0 radius 1 material m }\n' >"$seeds/tiny.scn"
 "$san/lancer" render "$seeds/tiny.scn" -o "$seeds/exr/lancer-half.exr" -q &&
