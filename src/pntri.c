@@ -84,6 +84,11 @@ static Vec3 edge_normal(const double pi[3], const double pj[3], Vec3 ni, Vec3 nj
     return normalized_or(s[0] - v * d[0], s[1] - v * d[1], s[2] - v * d[2], sum);
 }
 
+int pn_mode_named(const char *name)
+{
+    return strcmp(name, "exact") == 0 ? PN_EXACT : strcmp(name, "fast") == 0 ? PN_FAST : -1;
+}
+
 void pn_patch_init(PnPatch *pn, const Vec3 p[3], const Vec3 n[3])
 {
     double P[3][3], N[3][3], e[6][3];

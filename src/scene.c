@@ -446,11 +446,8 @@ static int pn_mode_of(Parser *P, const char *what, const Value *v, int *mode)
     *mode = -1;
     if (!v->set)
         return 0;
-    if (strcmp(v->name, "exact") == 0)
-        *mode = PN_EXACT;
-    else if (strcmp(v->name, "fast") == 0)
-        *mode = PN_FAST;
-    else
+    *mode = pn_mode_named(v->name);
+    if (*mode < 0)
         return fail(P, v->value, "%s: 'pn_mode' must be 'exact' or 'fast', not '%s'", what, v->name);
     return 0;
 }

@@ -65,6 +65,17 @@ static void make_patch(PnPatch *pn, Vec3 a, Vec3 b, Vec3 c, Vec3 na, Vec3 nb, Ve
     pn_patch_init(pn, p, n);
 }
 
+/* The modes' names, and nothing else. */
+static void test_mode_names(void **state)
+{
+    (void)state;
+    assert_int_equal(pn_mode_named("exact"), PN_EXACT);
+    assert_int_equal(pn_mode_named("fast"), PN_FAST);
+    assert_int_equal(pn_mode_named("Fast"), -1);
+    assert_int_equal(pn_mode_named(""), -1);
+    assert_int_equal(pn_mode_named("exactly"), -1);
+}
+
 static void test_control_net(void **state)
 {
     (void)state;
@@ -658,6 +669,7 @@ static void test_cgal_meshes_do_not_leak(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_mode_names),
         cmocka_unit_test(test_control_net),
         cmocka_unit_test(test_derivatives),
         cmocka_unit_test(test_subdivision),

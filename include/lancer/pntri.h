@@ -43,6 +43,9 @@ typedef struct PnPatch {
 
 typedef enum { PN_EXACT, PN_FAST } PnMode;
 
+/* The PnMode named "exact" or "fast", or -1 for any other name. */
+int pn_mode_named(const char *name);
+
 /* A hit: t, a bound terr on its error (0 in PN_FAST: none), and the
  * domain point (u, v), the weights of P2 and P3. */
 typedef struct {

@@ -201,11 +201,8 @@ static int run(void *args, const char **pos, int npos)
     if (a->pn && !a->mesh)
         return cli_usage_error("bench", "--pn goes with --mesh");
     if (a->pn) {
-        if (!a->pn_mode || strcmp(a->pn_mode, "exact") == 0)
-            pn = 1 + PN_EXACT;
-        else if (strcmp(a->pn_mode, "fast") == 0)
-            pn = 1 + PN_FAST;
-        else
+        pn = 1 + (a->pn_mode ? pn_mode_named(a->pn_mode) : PN_EXACT);
+        if (!pn)
             return cli_usage_error("bench", "--pn-mode must be exact or fast, not '%s'", a->pn_mode);
     }
     if (mesh_scene(a->gen ? a->gen : a->mesh, pn, &s) != 0)

@@ -182,11 +182,8 @@ static int plan_options_of(const Args *a, PlanOptions *o)
     o->classic = a->classic;
     o->threads = a->threads;
     if (a->pn_mode) {
-        if (strcmp(a->pn_mode, "exact") == 0)
-            o->pn_mode = 1 + PN_EXACT;
-        else if (strcmp(a->pn_mode, "fast") == 0)
-            o->pn_mode = 1 + PN_FAST;
-        else
+        o->pn_mode = 1 + pn_mode_named(a->pn_mode);
+        if (!o->pn_mode)
             return cli_usage_error("render", "--pn-mode must be exact or fast, not '%s'", a->pn_mode);
     }
     if (a->scale > 0.0 || a->translate) {
