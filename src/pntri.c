@@ -411,18 +411,18 @@ static int slab(const double lo[3], const double hi[3], const double o[3], const
     return 1;
 }
 
+/* max(a, b) by a comparison: fmax is a libm call without -ffast-math */
+static double max2(double a, double b) { return a > b ? a : b; }
+
+static double maxabs3(const double v[3]) { return max2(fabs(v[0]), max2(fabs(v[1]), fabs(v[2]))); }
+
 /* 1 when every side of the box is within a few float spacings of its
- * largest coordinate: a split would no longer tell float points apart (a
+ * largest coordinate m: a split would no longer tell float points apart (a
  * patch lying in a plane through 0 has one coordinate far finer, which a
  * float hit point could not use). */
-static int at_float_precision(const double lo[3], const double hi[3])
+static int at_float_precision(const double lo[3], const double hi[3], double m)
 {
-    double m = 0x1p-149 / (double)FLT_EPSILON;
-    for (int a = 0; a < 3; a++) {
-        double x = fabs(lo[a]) > fabs(hi[a]) ? fabs(lo[a]) : fabs(hi[a]);
-        m = x > m ? x : m;
-    }
-    double ulp = m * (double)FLT_EPSILON;
+    double ulp = max2(m, 0x1p-149 / (double)FLT_EPSILON) * (double)FLT_EPSILON;
     for (int a = 0; a < 3; a++)
         if (hi[a] - lo[a] > 4.0 * ulp)
             return 0;
@@ -436,10 +436,6 @@ static int at_float_precision(const double lo[3], const double hi[3])
 
 static double norm1(const double v[3]) { return fabs(v[0]) + fabs(v[1]) + fabs(v[2]); }
 
-/* max(a, b) by a comparison: fmax is a libm call without -ffast-math */
-static double max2(double a, double b) { return a > b ? a : b; }
-
-static double maxabs3(const double v[3]) { return max2(fabs(v[0]), max2(fabs(v[1]), fabs(v[2]))); }
 
 /* A piece's exact surface lies within dev, on every axis, of the triangle
  * T of its corners: the net's points are within dev of those of T raised
@@ -639,23 +635,12 @@ int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h)
     int top = 0;
     double best = r.tmax, bu = 0.0, bv = 0.0, berr = 0.0;
     int found = 0;
-    /* Most rays that reach a patch miss its box (packets bring every ray
-     * of a packet to a leaf): test the float box before making the net.
-     * The root net has no error, so its box is this one. */
     PnNode *root = &stack[top];
-    Vec3 flo, fhi;
-    pn_bounds(pn, &flo, &fhi);
-    to_d(flo, root->lo);
-    to_d(fhi, root->hi);
-    for (int a = 0; a < 3; a++) { /* pn_net_box's pad for the rounding of its ends */
-        double pad = DBL_EPSILON * (-root->lo[a] > root->hi[a] ? -root->lo[a] : root->hi[a]);
-        root->lo[a] -= pad;
-        root->hi[a] += pad;
-    }
-    if (!slab(root->lo, root->hi, r.o, r.d, r.inv, best, &root->tn, &root->tf))
-        return 0;
     pn_net_root(pn, &root->net);
     root->depth = 0;
+    pn_net_box(&root->net, root->lo, root->hi);
+    if (!slab(root->lo, root->hi, r.o, r.d, r.inv, best, &root->tn, &root->tf))
+        return 0;
     top++;
     double pool[PN_POOL][3];
     int splits = 0;
@@ -664,10 +649,9 @@ int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h)
         if (node->tn >= best)
             continue;
         const PnNet *net = &node->net;
+        double m = max2(maxabs3(node->lo), maxabs3(node->hi)); /* the box's largest coordinate */
         { /* culls a piece the ray misses before Newton's steps are spent on it */
-            double m = 0.0, t, e, u, v;
-            for (int a = 0; a < 3; a++)
-                m = max2(m, max2(fabs(node->lo[a]), fabs(node->hi[a])));
+            double t, e, u, v;
             int f = flat_piece(net, r.o, r.d, best, m, &t, &e, &u, &v);
             if (f == 0)
                 continue;
@@ -696,7 +680,7 @@ int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h)
             }
             /* Newton failed here: subdivide as exact mode does */
         }
-        if (node->depth == PN_MAX_DEPTH || splits == PN_MAX_SPLITS || at_float_precision(node->lo, node->hi)) {
+        if (node->depth == PN_MAX_DEPTH || splits == PN_MAX_SPLITS || at_float_precision(node->lo, node->hi, m)) {
             /* The exact sub-patch is inside this box: where the ray meets
              * it lies within the box's interval, in front of the origin
              * (an origin inside the box is on the surface to float
