@@ -975,6 +975,19 @@ static Vec3 xf_normal(const float *xf, Vec3 n)
     return vec_normalize(det < 0.0f ? vec_neg(m) : m);
 }
 
+/* Triangle i of m mapped by xf into p, and with normals (n not NULL) its
+ * vertex normals too. Returns 0 for a triangle to drop: no area, or a
+ * point out of float range. */
+static int placed_triangle(const Mesh *m, int i, const float *xf, Vec3 p[3], Vec3 *n)
+{
+    for (int k = 0; k < 3; k++) {
+        p[k] = xf_point(xf, m->v[m->tri[i][k]]);
+        if (n)
+            n[k] = xf_normal(xf, m->n[m->ntri[i][k]]);
+    }
+    return tri_has_area(p[0], p[1], p[2]) && vec_is_finite(p[0]) && vec_is_finite(p[1]) && vec_is_finite(p[2]);
+}
+
 int scene_add_mesh(Scene *s, const Mesh *m, int material, int smooth, const float *xf, int *dropped)
 {
     size_t need = (size_t)s->nprims + (size_t)m->nt;
@@ -991,18 +1004,14 @@ int scene_add_mesh(Scene *s, const Mesh *m, int material, int smooth, const floa
         p->kind = smooth ? PRIM_SMOOTH_TRIANGLE : PRIM_TRIANGLE;
         p->material = material;
         Triangle *t = &p->g.tri;
-        t->a = xf_point(xf, m->v[m->tri[i][0]]);
-        t->b = xf_point(xf, m->v[m->tri[i][1]]);
-        t->c = xf_point(xf, m->v[m->tri[i][2]]);
-        if (!tri_has_area(t->a, t->b, t->c) || !vec_is_finite(t->a) || !vec_is_finite(t->b) || !vec_is_finite(t->c)) {
+        Vec3 v[3], n[3];
+        if (!placed_triangle(m, i, xf, v, smooth ? n : NULL)) {
             (*dropped)++;
             continue;
         }
-        if (smooth) {
-            t->na = xf_normal(xf, m->n[m->ntri[i][0]]);
-            t->nb = xf_normal(xf, m->n[m->ntri[i][1]]);
-            t->nc = xf_normal(xf, m->n[m->ntri[i][2]]);
-        }
+        t->a = v[0], t->b = v[1], t->c = v[2];
+        if (smooth)
+            t->na = n[0], t->nb = n[1], t->nc = n[2];
         s->nprims++;
     }
     return 0;
@@ -1033,12 +1042,12 @@ int scene_add_pn_mesh(Scene *s, const Mesh *m, int material, int mode, const flo
     *dropped = 0;
     for (int i = 0; i < m->nt; i++) {
         Vec3 p[3], n[3];
-        for (int k = 0; k < 3; k++) {
-            p[k] = xf_point(xf, m->v[m->tri[i][k]]);
-            n[k] = vec_normalize(xf_normal(xf, m->n[m->ntri[i][k]]));
+        int ok = placed_triangle(m, i, xf, p, n);
+        for (int k = 0; k < 3; k++) { /* the patch's normals must be unit (pn_patch_init) */
+            n[k] = vec_normalize(n[k]);
+            ok = ok && vec_is_finite(n[k]);
         }
-        if (!tri_has_area(p[0], p[1], p[2]) || !vec_is_finite(p[0]) || !vec_is_finite(p[1]) ||
-            !vec_is_finite(p[2]) || !vec_is_finite(n[0]) || !vec_is_finite(n[1]) || !vec_is_finite(n[2])) {
+        if (!ok) {
             (*dropped)++;
             continue;
         }
