@@ -196,6 +196,33 @@ void pn_bounds(const PnPatch *pn, Vec3 *lo, Vec3 *hi)
     *hi = h;
 }
 
+/* ---- tessellation ---- */
+
+void pn_tessellate(const PnPatch *pn, int n, Vec3 *pts, Vec3 *nrm, int (*faces)[3])
+{
+    int k = 0;
+    for (int a = 0; a <= n; a++)
+        for (int b = 0; a + b <= n; b++, k++) {
+            double pt[3];
+            pn_eval(pn, (double)a / n, (double)b / n, pt, NULL, NULL);
+            pts[k] = vec3((float)pt[0], (float)pt[1], (float)pt[2]);
+            nrm[k] = pn_shading_normal(pn, (float)a / (float)n, (float)b / (float)n);
+        }
+    /* point (a, b) is number a (n + 1) - a (a - 1) / 2 + b */
+#define PN_V(a, b) ((a) * (n + 1) - (a) * ((a) - 1) / 2 + (b))
+    k = 0;
+    for (int a = 0; a < n; a++)
+        for (int b = 0; a + b < n; b++) {
+            faces[k][0] = PN_V(a, b), faces[k][1] = PN_V(a + 1, b), faces[k][2] = PN_V(a, b + 1);
+            k++;
+            if (a + b < n - 1) {
+                faces[k][0] = PN_V(a + 1, b), faces[k][1] = PN_V(a + 1, b + 1), faces[k][2] = PN_V(a, b + 1);
+                k++;
+            }
+        }
+#undef PN_V
+}
+
 /* ---- subdivision ---- */
 
 void pn_net_root(const PnPatch *pn, PnNet *net)

@@ -123,37 +123,36 @@ static void material(FILE *f, const Material *m)
 /* A PN patch as a mesh2 of n segments per edge: the patch's points on the
  * (u, v) grid of step 1/n, with its shading normals, in the triangles'
  * order of (P1, P2, P3). Its error falls as 1/n^2 (docs/parity.md). */
-static void pn_mesh2(FILE *f, const PnPatch *pn, int n)
+/* Room for one patch's tessellation into n x n triangles. */
+typedef struct {
+    int n;
+    Vec3 *pts, *nrm;
+    int (*faces)[3];
+} PnGrid;
+
+static void pn_mesh2(FILE *f, const PnPatch *pn, const PnGrid *g)
 {
-    int nv = (n + 1) * (n + 2) / 2;
+    int n = g->n, nv = pn_grid_points(n);
+    Vec3 *pts = g->pts, *nrm = g->nrm;
+    int(*faces)[3] = g->faces;
+    pn_tessellate(pn, n, pts, nrm, faces);
     fprintf(f, "mesh2 {\n  vertex_vectors { %d", nv);
-    for (int a = 0; a <= n; a++)
-        for (int b = 0; a + b <= n; b++) {
-            double pt[3];
-            pn_eval(pn, (double)a / n, (double)b / n, pt, NULL, NULL);
-            fputs(", ", f);
-            vec(f, vec3((float)pt[0], (float)pt[1], (float)pt[2]));
-        }
+    for (int k = 0; k < nv; k++) {
+        fputs(", ", f);
+        vec(f, pts[k]);
+    }
     fprintf(f, " }\n  normal_vectors { %d", nv);
-    for (int a = 0; a <= n; a++)
-        for (int b = 0; a + b <= n; b++) {
-            fputs(", ", f);
-            vec(f, pn_shading_normal(pn, (float)a / (float)n, (float)b / (float)n));
-        }
-    /* vertex (a, b), a + b <= n, is number a (n + 1) - a (a - 1) / 2 + b */
-#define PN_V(a, b) ((a) * (n + 1) - (a) * ((a) - 1) / 2 + (b))
+    for (int k = 0; k < nv; k++) {
+        fputs(", ", f);
+        vec(f, nrm[k]);
+    }
     fprintf(f, " }\n  face_indices { %d", n * n);
-    for (int a = 0; a < n; a++)
-        for (int b = 0; a + b < n; b++) {
-            fprintf(f, ", <%d, %d, %d>", PN_V(a, b), PN_V(a + 1, b), PN_V(a, b + 1));
-            if (a + b < n - 1)
-                fprintf(f, ", <%d, %d, %d>", PN_V(a + 1, b), PN_V(a + 1, b + 1), PN_V(a, b + 1));
-        }
-#undef PN_V
+    for (int k = 0; k < n * n; k++)
+        fprintf(f, ", <%d, %d, %d>", faces[k][0], faces[k][1], faces[k][2]);
     fprintf(f, " }\n ");
 }
 
-static void prim(FILE *f, const Scene *s, const Prim *p, int pn_segments)
+static void prim(FILE *f, const Scene *s, const Prim *p, const PnGrid *grid)
 {
     const Triangle *t = &p->g.tri;
     switch (p->kind) {
@@ -215,7 +214,7 @@ static void prim(FILE *f, const Scene *s, const Prim *p, int pn_segments)
         break;
     }
     case PRIM_PN:
-        pn_mesh2(f, p->g.pn.patch, pn_segments);
+        pn_mesh2(f, p->g.pn.patch, grid);
         break;
     }
     const Material *m = &s->materials[p->material];
@@ -255,7 +254,19 @@ int pov_export(const Scene *s, int width, int height, int pn_segments, FILE *f)
     for (int i = 0; i < s->nmaterials; i++)
         material(f, &s->materials[i]);
     fprintf(f, "\n");
-    for (int i = 0; i < s->nprims; i++)
-        prim(f, s, &s->prims[i], pn_segments > 0 ? pn_segments : POV_PN_SEGMENTS);
-    return ferror(f) ? -1 : 0;
+    PnGrid g = {pn_segments > 0 ? pn_segments : POV_PN_SEGMENTS, NULL, NULL, NULL};
+    if (s->npatches > 0) {
+        g.pts = malloc(sizeof(Vec3) * (size_t)pn_grid_points(g.n));
+        g.nrm = malloc(sizeof(Vec3) * (size_t)pn_grid_points(g.n));
+        g.faces = malloc(sizeof(int[3]) * (size_t)g.n * (size_t)g.n);
+    }
+    int rc = 0;
+    if (s->npatches > 0 && (!g.pts || !g.nrm || !g.faces))
+        rc = -1;
+    for (int i = 0; rc == 0 && i < s->nprims; i++)
+        prim(f, s, &s->prims[i], &g);
+    free(g.pts);
+    free(g.nrm);
+    free(g.faces);
+    return rc != 0 || ferror(f) ? -1 : 0;
 }

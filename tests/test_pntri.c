@@ -410,6 +410,51 @@ static void test_closed_surface_does_not_leak(void **state)
         }
 }
 
+/* The tessellation: its points are the patch's at the grid, its faces
+ * cover the grid once, each turning as P1, P2, P3 do. */
+static void test_tessellation(void **state)
+{
+    (void)state;
+    PnPatch pn;
+    make_patch(&pn, vec3(0, 0, 0), vec3(1, 0, 0.2f), vec3(0, 1, -0.1f), vec3(0.3f, 0, 1), vec3(0, 0.4f, 1),
+               vec3(-0.2f, -0.1f, 1));
+    enum { N = 4 };
+    Vec3 pts[(N + 1) * (N + 2) / 2], nrm[(N + 1) * (N + 2) / 2];
+    int faces[N * N][3];
+    assert_int_equal(pn_grid_points(N), (N + 1) * (N + 2) / 2);
+    pn_tessellate(&pn, N, pts, nrm, faces);
+    int k = 0;
+    for (int a = 0; a <= N; a++)
+        for (int b = 0; a + b <= N; b++, k++) {
+            double pt[3];
+            pn_eval(&pn, (double)a / N, (double)b / N, pt, NULL, NULL);
+            assert_vec(pts[k], (float)pt[0], (float)pt[1], (float)pt[2], 0);
+            Vec3 s = pn_shading_normal(&pn, (float)a / N, (float)b / N);
+            assert_vec(nrm[k], s.x, s.y, s.z, 0);
+        }
+    assert_vec(pts[0], pn.b[PN_AT(3, 0)].x, pn.b[PN_AT(3, 0)].y, pn.b[PN_AT(3, 0)].z, 0);
+    /* in the domain, every face turns the same way as the patch, and the
+     * faces' areas add up to the domain's, 1/2 */
+    double area = 0;
+    for (int f = 0; f < N * N; f++) {
+        double uv[3][2];
+        for (int c = 0; c < 3; c++) {
+            int v = faces[f][c], a = 0;
+            assert_true(v >= 0 && v < pn_grid_points(N));
+            while (v > N - a) { /* row a holds N + 1 - a points */
+                v -= N + 1 - a;
+                a++;
+            }
+            uv[c][0] = (double)a / N;
+            uv[c][1] = (double)v / N;
+        }
+        double cross = (uv[1][0] - uv[0][0]) * (uv[2][1] - uv[0][1]) - (uv[1][1] - uv[0][1]) * (uv[2][0] - uv[0][0]);
+        assert_true(cross > 0);
+        area += cross / 2;
+    }
+    assert_float_equal(area, 0.5, 1e-12);
+}
+
 /* Exact mode's t holds its bound: rays aimed at points of a curved patch
  * (at 1, 10^-4 and 10^5 in size, near and far from the origin), from all
  * sides at a cosine above 0.3, hit it where its point is, within terr and
@@ -678,6 +723,7 @@ int main(void)
         cmocka_unit_test(test_flat_patch_is_the_triangle),
         cmocka_unit_test(test_sphere_approximation),
         cmocka_unit_test(test_closed_surface_does_not_leak),
+        cmocka_unit_test(test_tessellation),
         cmocka_unit_test(test_exact_hits_within_their_bound),
         cmocka_unit_test(test_grazing_rays),
         cmocka_unit_test(test_fast_mode),

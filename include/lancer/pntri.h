@@ -72,6 +72,16 @@ Vec3 pn_geometric_normal(const PnPatch *pn, float u, float v);
  * triangle lies in the convex hull of its net). */
 void pn_bounds(const PnPatch *pn, Vec3 *lo, Vec3 *hi);
 
+/* ---- tessellation ----
+ *
+ * The patch as n x n flat triangles on its (u, v) grid, for renderers that
+ * have no PN primitive (export-pov) and for comparing with one: pts and
+ * nrm get the (n + 1)(n + 2) / 2 points (a/n, b/n), a + b <= n, in rows of
+ * equal a, with the shading normals there; faces gets the n * n
+ * triangles, as indices into pts, in P1, P2, P3's turning order. */
+static inline int pn_grid_points(int n) { return (n + 1) * (n + 2) / 2; }
+void pn_tessellate(const PnPatch *pn, int n, Vec3 *pts, Vec3 *nrm, int (*faces)[3]);
+
 /* ---- subdivision, in double ----
  *
  * A sub-patch over the domain triangle with corners (u0, v0), (u0 + s, v0)

@@ -28,7 +28,7 @@
 /* Writes the scene to f, for an image of width x height pixels (0: the
  * scene's own size), each PN patch tessellated into pn_segments^2
  * triangles (0: POV_PN_SEGMENTS) with its shading normals. Returns 0, or
- * -1 if a write to f failed. */
+ * -1 if a write to f failed or memory ran out. */
 int pov_export(const Scene *s, int width, int height, int pn_segments, FILE *f);
 
 #endif

@@ -4,7 +4,7 @@
  * becomes its PN patch (lancer's own, from the file's vertex normals or
  * angle-weighted ones) tessellated into N x N triangles on its (u, v)
  * grid, with the patch's shading normals as vertex normals, as export-pov
- * writes it for POV-Ray. Written as a NOFF file.
+ * writes it for POV-Ray (pn_tessellate). Written as a NOFF file.
  *
  *     pn_tess MESH N OUT.off
  */
@@ -32,7 +32,13 @@ int main(int argc, char **argv)
         perror(argv[3]);
         return 1;
     }
-    long per = (long)(n + 1) * (n + 2) / 2;
+    long per = pn_grid_points(n);
+    Vec3 *pts = malloc(sizeof(Vec3) * (size_t)per), *nrm = malloc(sizeof(Vec3) * (size_t)per);
+    int(*faces)[3] = malloc(sizeof(int[3]) * (size_t)n * (size_t)n);
+    if (!pts || !nrm || !faces) {
+        fprintf(stderr, "pn_tess: out of memory\n");
+        return 1;
+    }
     fprintf(f, "NOFF\n%ld %ld 0\n", per * m.nt, (long)n * n * m.nt);
     for (int t = 0; t < m.nt; t++) {
         Vec3 p[3], nn[3];
@@ -42,25 +48,20 @@ int main(int argc, char **argv)
         }
         PnPatch pn;
         pn_patch_init(&pn, p, nn);
-        for (int a = 0; a <= n; a++)
-            for (int b = 0; a + b <= n; b++) {
-                double pt[3];
-                pn_eval(&pn, (double)a / n, (double)b / n, pt, NULL, NULL);
-                Vec3 s = pn_shading_normal(&pn, (float)a / (float)n, (float)b / (float)n);
-                fprintf(f, "%.9g %.9g %.9g %.9g %.9g %.9g\n", pt[0], pt[1], pt[2], (double)s.x, (double)s.y,
-                        (double)s.z);
-            }
+        pn_tessellate(&pn, n, pts, nrm, faces);
+        for (long k = 0; k < per; k++)
+            fprintf(f, "%.9g %.9g %.9g %.9g %.9g %.9g\n", (double)pts[k].x, (double)pts[k].y, (double)pts[k].z,
+                    (double)nrm[k].x, (double)nrm[k].y, (double)nrm[k].z);
     }
-    /* vertex (a, b), a + b <= n, of patch t */
-#define V(t, a, b) ((long)(t) * per + (a) * (n + 1) - (a) * ((a) - 1) / 2 + (b))
-    for (int t = 0; t < m.nt; t++)
-        for (int a = 0; a < n; a++)
-            for (int b = 0; a + b < n; b++) {
-                fprintf(f, "3 %ld %ld %ld\n", V(t, a, b), V(t, a + 1, b), V(t, a, b + 1));
-                if (a + b < n - 1)
-                    fprintf(f, "3 %ld %ld %ld\n", V(t, a + 1, b), V(t, a + 1, b + 1), V(t, a, b + 1));
-            }
-#undef V
+    /* the faces, after every point: every patch's are the same, from its
+     * own points, which start at t * per */
+    for (int t = 0; t < m.nt; t++) {
+        for (int k = 0; k < n * n; k++)
+            fprintf(f, "3 %ld %ld %ld\n", t * per + faces[k][0], t * per + faces[k][1], t * per + faces[k][2]);
+    }
+    free(pts);
+    free(nrm);
+    free(faces);
     mesh_free(&m);
     if (fclose(f) != 0) {
         perror(argv[3]);
