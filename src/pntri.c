@@ -335,10 +335,10 @@ static void make_split_program(void)
 }
 
 /* The split's pool: the parent's net, then every average the program
- * makes. Returns the children's error bound. */
+ * makes (made by then: pthread_once in the callers, once per net split or
+ * ray, not once per split). Returns the children's error bound. */
 static double split_pool(const PnNet *parent, double pool[PN_POOL][3])
 {
-    pthread_once(&split_once, make_split_program);
     const PnSplitProgram *g = &split_program;
     double m = 0.0;
     for (int i = 0; i < 10; i++)
@@ -374,6 +374,7 @@ static void split_child(const PnNet *dom, double pool[PN_POOL][3], double err, i
 
 void pn_net_split(const PnNet *parent, PnNet child[4])
 {
+    pthread_once(&split_once, make_split_program);
     double pool[PN_POOL][3];
     double err = split_pool(parent, pool);
     for (int c = 0; c < 4; c++)
@@ -669,6 +670,7 @@ int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h)
     if (!slab(root->lo, root->hi, r.o, r.d, r.inv, best, &root->tn, &root->tf))
         return 0;
     top++;
+    pthread_once(&split_once, make_split_program);
     double pool[PN_POOL][3];
     int splits = 0;
     while (top > 0) {
