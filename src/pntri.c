@@ -465,6 +465,41 @@ static int at_float_precision(const double lo[3], const double hi[3], double m)
 static double norm1(const double v[3]) { return fabs(v[0]) + fabs(v[1]) + fabs(v[2]); }
 
 
+/* The barycentrics (of B and C) of the point of the triangle A, A + e1,
+ * A + e2 nearest to A + q, for a q whose projection falls outside it: the
+ * nearest point of one of its edges. (Clamping the barycentrics one by one
+ * would move the point along a thin triangle by far more than its distance
+ * outside.) */
+static void nearest_on_triangle(const double q[3], const double e1[3], const double e2[3], double *lb, double *lc)
+{
+    const double zero[3] = {0.0, 0.0, 0.0};
+    double bc[3];
+    for (int a = 0; a < 3; a++)
+        bc[a] = e2[a] - e1[a];
+    /* the edges A B, A C and B C, as start + s dir */
+    const double *start[3] = {zero, zero, e1}, *dir[3] = {e1, e2, bc};
+    double best = INFINITY;
+    for (int k = 0; k < 3; k++) {
+        double w[3], wd = 0.0, dd = 0.0;
+        for (int a = 0; a < 3; a++) {
+            w[a] = q[a] - start[k][a];
+            wd += w[a] * dir[k][a];
+            dd += dir[k][a] * dir[k][a];
+        }
+        double s = dd > 0.0 ? wd / dd : 0.0, d2 = 0.0;
+        s = s < 0.0 ? 0.0 : s > 1.0 ? 1.0 : s;
+        for (int a = 0; a < 3; a++) {
+            double x = w[a] - s * dir[k][a];
+            d2 += x * x;
+        }
+        if (d2 < best) {
+            best = d2;
+            *lb = k == 0 ? s : k == 1 ? 0.0 : 1.0 - s;
+            *lc = k == 0 ? 0.0 : s;
+        }
+    }
+}
+
 /* A piece's exact surface lies within dev, on every axis, of the triangle
  * T of its corners: the net's points are within dev of those of T raised
  * to degree 3, and the difference of two Bezier triangles lies in the
@@ -562,8 +597,8 @@ static int flat_piece(const PnNet *net, const double o[3], const double d[3], do
         return -1;
     *t = 0.5 * (t1 + t2);
     *terr = 0.5 * (t2 - t1);
-    lb = lb < 0.0 ? 0.0 : lb > 1.0 ? 1.0 : lb;
-    lc = lc < 0.0 ? 0.0 : lc > 1.0 - lb ? 1.0 - lb : lc;
+    if (la < 0.0 || lb < 0.0 || lc < 0.0)
+        nearest_on_triangle(p, e1, e2, &lb, &lc);
     double sg = net->flip ? -net->s : net->s;
     *u = net->u0 + sg * lb;
     *v = net->v0 + sg * lc;
