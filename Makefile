@@ -166,7 +166,7 @@ $(EXACT_DIR)/%.o: tests/exact/%.cpp
 	$(CXX) -Iinclude $(EXACT_CXXFLAGS) -MMD -MP -c $< -o $@
 
 $(EXACT_DIR)/judge: $(EXACT_OBJ) build/liblancer.a
-	$(CXX) $(EXACT_OBJ) build/liblancer.a -lmpfr -lgmp -pthread -o $@
+	$(CXX) $(EXACT_OBJ) build/liblancer.a -lmpfr -lgmpxx -lgmp -pthread -o $@
 
 # The quick start, step one: dependencies, build, render the default scene.
 run: deps-run

@@ -114,7 +114,7 @@ bool gen_prim(Kind k, Rng &g, const Scene &S, Prim &p)
     double s = S.s;
     auto pt = [&]() { return fv(S.T + D3{g.uni(-1, 1), g.uni(-1, 1), g.uni(-1, 1)} * s); };
     switch (k) {
-    case K_PN: /* PN patches are case 9's alone (pn.cpp) */
+    case K_PN: /* PN patches are cases 9 and 10's alone (pn.cpp) */
         break;
     case K_SPHERE:
         p = make_prim(PRIM_SPHERE);
@@ -168,7 +168,7 @@ bool gen_prim(Kind k, Rng &g, const Scene &S, Prim &p)
 Vec3 interior_point(const Prim &p, Rng &g)
 {
     switch (p.kind) {
-    case PRIM_PN: /* PN patches are case 9's alone (pn.cpp) */
+    case PRIM_PN: /* PN patches are cases 9 and 10's alone (pn.cpp) */
         break;
     case PRIM_SPHERE: return fv(d3(p.g.sphere.c) + in_ball(g) * (0.999 * p.g.sphere.r));
     case PRIM_PLANE: {
@@ -229,7 +229,7 @@ Vec3 surface_point(const Prim &p, Rng &g)
 double prim_size(const Prim &p)
 {
     switch (p.kind) {
-    case PRIM_PN: /* PN patches are case 9's alone (pn.cpp) */
+    case PRIM_PN: /* PN patches are cases 9 and 10's alone (pn.cpp) */
         break;
     case PRIM_SPHERE: return p.g.sphere.r;
     case PRIM_PLANE: return std::max(1e-30, (double)std::fabs(p.g.plane.d));
@@ -792,7 +792,7 @@ void case_degenerate(int rid, Rng &g, Stats &st, uint64_t i, bool v)
         Vec3 o = vec3(0, 0, 0), tgt = vec3(0, 0, 0);
         unsigned forced = 0;
         switch (k) {
-        case K_PN: /* PN patches are case 9's alone (pn.cpp) */
+        case K_PN: /* PN patches are cases 9 and 10's alone (pn.cpp) */
             break;
         case K_PLANE: {
             p = make_prim(PRIM_PLANE);
@@ -1108,8 +1108,8 @@ void case_hits(int cs, int rid, Rng &g, Stats &st, uint64_t i, bool v)
 // The driver
 // ---------------------------------------------------------------------
 
-const char *CASE_NAMES[10] = {"",          "1-interior", "2-mesh",     "3-shared-edge", "4-box-edge",
-                              "5-degenerate", "6-sphere",   "7-t-accuracy", "8-self-hit", "9-pn-boxes"};
+const char *CASE_NAMES[11] = {"",           "1-interior", "2-mesh",       "3-shared-edge", "4-box-edge", "5-degenerate",
+                              "6-sphere",   "7-t-accuracy", "8-self-hit", "9-pn-boxes",   "10-pn-rays"};
 
 std::vector<int> case_routines(int cs)
 {
@@ -1119,10 +1119,11 @@ std::vector<int> case_routines(int cs)
     case 4: return {R_BOX, R_BOX_ROB, R_OBOX, R_OBOX_ROB};
     case 6: return {R_SPHERE, R_SPHERE_ROB};
     case 9: return {R_PN_BOX};
+    case 10: return {R_PN_EXACT, R_PN_FAST};
     default: {
         std::vector<int> all;
         for (int r = 0; r < N_ROUTINES; r++)
-            if (r != R_PN_BOX)
+            if (ROUTINES[r].kind != K_PN)
                 all.push_back(r);
         return all;
     }
@@ -1130,6 +1131,7 @@ std::vector<int> case_routines(int cs)
 }
 
 uint64_t g_seed = 0x1a2b3c4d5e6f7788ULL;
+const uint64_t PN_RAY_DIVISOR = 2000;
 
 void run_ray(int cs, int rid, uint64_t i, Stats &st, bool v)
 {
@@ -1145,6 +1147,7 @@ void run_ray(int cs, int rid, uint64_t i, Stats &st, bool v)
         case 7:
         case 8: case_hits(cs, rid, g, st, i, v); break;
         case 9: pn_box_ray(rid, g, st, i, v); break;
+        case 10: pn_ray(rid, g, st, i, v); break;
         }
     } catch (const std::exception &e) {
         st.c[C_INTERNAL]++;
@@ -1226,6 +1229,9 @@ std::vector<std::string> report(const Job &j, Stats &st, bool details)
         std::printf(" tri_miss=%llu", (ull)st.c[C_TRIMISS]);
     if (j.cs == 9)
         std::printf(" box_fail=%llu", (ull)st.c[C_BOXFAIL]);
+    if (j.cs == 10)
+        std::printf(" near_surface=%llu uv_fail=%llu undecided=%llu", (ull)st.c[C_NEARBAND], (ull)st.c[C_UVFAIL],
+                    (ull)st.c[C_UNDECIDED]);
     if (st.c[C_SKIP])
         std::printf(" skipped=%llu", (ull)st.c[C_SKIP]);
     if (st.c[C_INTERNAL])
@@ -1244,6 +1250,7 @@ std::vector<std::string> report(const Job &j, Stats &st, bool details)
         crit(st.c[C_TBFAIL] > 0, "t_bound_fail>0");
         crit(st.c[C_OUTBAND] > 0, "outside_band>0");
         crit(st.c[C_BOXFAIL] > 0, "box_fail>0");
+        crit(st.c[C_UVFAIL] > 0, "uv_fail>0");
     }
     // Details: every failure kind for robust routines; classic ones are only
     // measured (their details with --details).
@@ -1422,13 +1429,13 @@ int main(int argc, char **argv)
             return usage();
     }
     if (cases.empty())
-        for (int c = 1; c <= 9; c++)
+        for (int c = 1; c <= 10; c++)
             cases.insert(c);
     jobs = std::max(1, std::min(jobs, 64));
 
     std::vector<Job> js;
     for (int cs : cases) {
-        if (cs < 1 || cs > 9)
+        if (cs < 1 || cs > 10)
             return usage();
         std::vector<int> rs = case_routines(cs);
         std::vector<int> sel;
@@ -1436,9 +1443,11 @@ int main(int argc, char **argv)
             if (routine.empty() || routine == ROUTINES[r].name)
                 sel.push_back(r);
         // case 9's "rays" are patches split along a path of up to 14
-        // levels, each a box; a sixteenth as many keep its time in line
+        // levels, each a box, and case 10's are each an exact subdivision
+        // to below float precision: fewer of them keep their time in line
+        uint64_t per = cs == 9 ? 16 : cs == 10 ? PN_RAY_DIVISOR : 1;
         for (int r : sel)
-            js.push_back(Job{cs, r, std::max<uint64_t>(1, rays / rs.size() / (cs == 9 ? 16 : 1))});
+            js.push_back(Job{cs, r, std::max<uint64_t>(1, rays / rs.size() / per)});
     }
     if (js.empty()) {
         std::fprintf(stderr, "judge: nothing selected\n");

@@ -58,7 +58,8 @@ const Routine ROUTINES[N_ROUTINES] = {
     {"prim_triangle_hit", K_TRI, false},        {"prim_triangle_hit_watertight", K_TRI, true},
     {"prim_box_hit", K_BOX, false},             {"prim_box_hit_robust", K_BOX, true},
     {"prim_obox_hit", K_OBOX, false},           {"prim_obox_hit_robust", K_OBOX, true},
-    {"pn_net_box", K_PN, true},
+    {"pn_net_box", K_PN, true},                 {"pn_hit_exact", K_PN, true},
+    {"pn_hit_fast", K_PN, false},
 };
 
 int call_routine(int rid, const Prim &p, const Ray &r, PrimHit &h)
@@ -496,7 +497,7 @@ static Ex ex_obox(const OBox &b, const XRay &r)
 static Ex exact_eval(const Prim &p, const XRay &r)
 {
     switch (p.kind) {
-    case PRIM_PN: /* PN patches are case 9's alone (pn.cpp) */
+    case PRIM_PN: /* PN patches are cases 9 and 10's alone (pn.cpp) */
         break;
     case PRIM_PLANE: return ex_plane(p.g.plane, r);
     case PRIM_SPHERE: return ex_sphere(p.g.sphere, r);
@@ -577,7 +578,7 @@ static bool in_band_box(const Prim &p, const XRay &r)
 static bool in_band_kind(const Prim &p, const Ex &e, const XRay &r, bool false_hit)
 {
     switch (e.kind) {
-    case K_PN: /* PN patches are case 9's alone (pn.cpp) */
+    case K_PN: /* PN patches are cases 9 and 10's alone (pn.cpp) */
         break;
     case K_PLANE: return in_band_plane(e);
     case K_SPHERE: return in_band_sphere(e);
@@ -593,7 +594,7 @@ static double t_scale(const Prim &p, const Ray &r, const Ex &e)
 {
     double dm = vec_max_abs(r.d), m = vec_max_abs(r.o);
     switch (p.kind) {
-    case PRIM_PN: /* PN patches are case 9's alone (pn.cpp) */
+    case PRIM_PN: /* PN patches are cases 9 and 10's alone (pn.cpp) */
         break;
     case PRIM_PLANE: {
         double nm = vec_max_abs(p.g.plane.n);
@@ -765,7 +766,7 @@ static double t_ulp(const Ex &e, const Prim &p, const Ray &r, float t)
 std::string fmt_prim(const Prim &p)
 {
     switch (p.kind) {
-    case PRIM_PN: /* PN patches are case 9's alone (pn.cpp) */
+    case PRIM_PN: /* PN patches are cases 9 and 10's alone (pn.cpp) */
         break;
     case PRIM_PLANE: return "plane n=" + hv(p.g.plane.n) + " d=" + hexf(p.g.plane.d);
     case PRIM_SPHERE: return "sphere c=" + hv(p.g.sphere.c) + " r=" + hexf(p.g.sphere.r);

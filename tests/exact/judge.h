@@ -69,8 +69,24 @@ struct Routine {
     bool robust;
 };
 
-// R_PN_BOX is not an intersection routine: case 9 alone judges it (pn.cpp).
-enum { R_PLANE, R_PLANE_ROB, R_SPHERE, R_SPHERE_ROB, R_TRI, R_TRI_WT, R_BOX, R_BOX_ROB, R_OBOX, R_OBOX_ROB, R_PN_BOX, N_ROUTINES };
+// The PN routines are judged by cases 9 (R_PN_BOX, not an intersection
+// routine) and 10 (pn_hit in each mode) alone (pn.cpp).
+enum {
+    R_PLANE,
+    R_PLANE_ROB,
+    R_SPHERE,
+    R_SPHERE_ROB,
+    R_TRI,
+    R_TRI_WT,
+    R_BOX,
+    R_BOX_ROB,
+    R_OBOX,
+    R_OBOX_ROB,
+    R_PN_BOX,
+    R_PN_EXACT,
+    R_PN_FAST,
+    N_ROUTINES
+};
 extern const Routine ROUTINES[N_ROUTINES];
 
 int call_routine(int rid, const Prim &p, const Ray &r, PrimHit &h);
@@ -94,6 +110,8 @@ enum Cnt {
     C_INTERNAL, // judge self-checks that failed (never expected)
     C_OB_NONUNIT, // outside-band disagreements whose ray direction is far from unit length (|d|^2 not in [1/4, 4])
     C_BOXFAIL,    // case 9: PN boxes that miss a control point of their exact sub-patch
+    C_UVFAIL,     // case 10: hits whose (u, v) is not where the ray's point at t is
+    C_UNDECIDED,  // case 10: rays the exact side gave up on (its work cap), not judged
     N_CNT
 };
 
@@ -164,6 +182,8 @@ bool mesh_setup(const std::string &dir, uint64_t seed, bool verbose, std::string
 void mesh_ray(int rid, uint64_t base_seed, uint64_t ray, Stats &st, bool verbose);
 // Case 9 (pn.cpp): one PN patch split along a random path, each box checked.
 void pn_box_ray(int rid, Rng &g, Stats &st, uint64_t ray, bool verbose);
+// Case 10 (pn.cpp): one ray against one PN patch, pn_hit judged exactly.
+void pn_ray(int rid, Rng &g, Stats &st, uint64_t ray, bool verbose);
 
 } // namespace judge
 
