@@ -522,15 +522,17 @@ static int flat_piece(const PnNet *net, const double o[3], const double d[3], do
         sb[a] = (B[a] - A[a]) * (1.0 / 3.0);
         sc[a] = (C[a] - A[a]) * (1.0 / 3.0);
     }
-    for (int i = 0; i <= 3; i++)
-        for (int k = 0; k <= 3 - i; k++) {
-            double j = 3 - i - k, kk = k;
-            const double *p = net->b[PN_AT(i, k)];
-            for (int a = 0; a < 3; a++) {
-                double x = fabs(p[a] - (A[a] + j * sb[a] + kk * sc[a]));
-                dev = x > dev ? x : dev;
-            }
+    /* the seven points off the corners (which lie on T exactly) */
+    static const unsigned char at[7] = {PN_AT(2, 0), PN_AT(2, 1), PN_AT(1, 0), PN_AT(1, 1),
+                                        PN_AT(1, 2), PN_AT(0, 1), PN_AT(0, 2)};
+    static const double jj[7] = {1, 0, 2, 1, 0, 2, 1}, kk[7] = {0, 1, 0, 1, 2, 1, 2};
+    for (int n = 0; n < 7; n++) {
+        const double *p = net->b[at[n]];
+        for (int a = 0; a < 3; a++) {
+            double x = fabs(p[a] - (A[a] + jj[n] * sb[a] + kk[n] * sc[a]));
+            dev = x > dev ? x : dev;
         }
+    }
     dev += net->err + PN_SLACK * m;
     int flat = dev <= m * (double)FLT_EPSILON;
     double e1[3], e2[3], q[3], n[3];
