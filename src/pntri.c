@@ -257,6 +257,8 @@ typedef struct {
     int nops;
     unsigned char op[PN_POOL][2]; /* pool[10 + n] = avg(pool[op[n][0]], pool[op[n][1]]) */
     unsigned char child[4][10];   /* each child's net, as pool entries */
+    int nown[4];                  /* the ops child c needs, in order: */
+    unsigned char own[4][PN_POOL];
 } PnSplitProgram;
 
 static PnSplitProgram split_program;
@@ -332,6 +334,20 @@ static void make_split_program(void)
                 prog_step(g, q1, 1, args[2], q0);
                 g->child[c][PN_AT(i, k)] = (unsigned char)q0[0];
             }
+    /* each child's own ops: those its points are made from (an op only
+     * reads entries made before it) */
+    for (int c = 0; c < 4; c++) {
+        unsigned char need[10 + PN_POOL] = {0};
+        for (int i = 0; i < 10; i++)
+            need[g->child[c][i]] = 1;
+        for (int n = g->nops - 1; n >= 0; n--)
+            if (need[10 + n])
+                need[g->op[n][0]] = need[g->op[n][1]] = 1;
+        g->nown[c] = 0;
+        for (int n = 0; n < g->nops; n++)
+            if (need[10 + n])
+                g->own[c][g->nown[c]++] = (unsigned char)n;
+    }
 }
 
 /* The split's pool: the parent's net, then every average the program
@@ -354,6 +370,27 @@ static double split_pool(const PnNet *parent, double pool[PN_POOL][3])
         pool[10 + n][2] = (a[2] + b[2]) * 0.5;
     }
     /* three averages a point; halving a subnormal rounds, absolutely */
+    return parent->err + gamma_d(3) * m + 3.0 * 0x1p-1074;
+}
+
+/* As split_pool, but only the entries child c is made from. */
+static double split_pool_one(const PnNet *parent, double pool[PN_POOL][3], int c)
+{
+    const PnSplitProgram *g = &split_program;
+    double m = 0.0;
+    for (int i = 0; i < 10; i++)
+        for (int a = 0; a < 3; a++) {
+            pool[i][a] = parent->b[i][a];
+            double x = fabs(parent->b[i][a]);
+            m = x > m ? x : m;
+        }
+    for (int k = 0; k < g->nown[c]; k++) {
+        int n = g->own[c][k];
+        const double *a = pool[g->op[n][0]], *b = pool[g->op[n][1]];
+        pool[10 + n][0] = (a[0] + b[0]) * 0.5;
+        pool[10 + n][1] = (a[1] + b[1]) * 0.5;
+        pool[10 + n][2] = (a[2] + b[2]) * 0.5;
+    }
     return parent->err + gamma_d(3) * m + 3.0 * 0x1p-1074;
 }
 
@@ -513,8 +550,9 @@ static void nearest_on_triangle(const double q[3], const double e1[3], const dou
  * bound and the domain point; -1 otherwise (split on), and for every ray
  * that meets T's plane at a cosine below 1/4 and is not culled. */
 static int flat_piece(const PnNet *net, const double o[3], const double d[3], double tmax, double m, double *t,
-                      double *terr, double *u, double *v)
+                      double *terr, double *u, double *v, int *only)
 {
+    *only = -1;
     const double *A = net->b[PN_AT(3, 0)], *B = net->b[PN_AT(0, 0)], *C = net->b[PN_AT(0, 3)];
     /* T raised to degree 3: A + j (B - A) / 3 + k (C - A) / 3 at b_ijk */
     double sb[3], sc[3], dev = 0.0;
@@ -595,8 +633,21 @@ static int flat_piece(const PnNet *net, const double o[3], const double d[3], do
     double g = (1.0 + PN_SLACK) * rad / nn;
     if (la < -g * l3 || lb < -g * l2 || lc < -g * l1)
         return 0;
-    if (!flat || !steep)
+    if (!flat || !steep) {
+        /* The same reach, from the lines that part the children (a
+         * barycentric of 1/2): when it lies wholly on one child's side,
+         * only that child can hold a hit (NaN, for a ray in T's plane,
+         * picks none). */
+        if (la - 0.5 > g * l3)
+            *only = 0;
+        else if (lb - 0.5 > g * l2)
+            *only = 1;
+        else if (lc - 0.5 > g * l1)
+            *only = 2;
+        else if (0.5 - la > g * l3 && 0.5 - lb > g * l2 && 0.5 - lc > g * l1)
+            *only = 3;
         return -1;
+    }
     *t = 0.5 * (t1 + t2);
     *terr = 0.5 * (t2 - t1);
     if (la < 0.0 || lb < 0.0 || lc < 0.0)
@@ -716,9 +767,10 @@ int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h)
             continue;
         const PnNet *net = &node->net;
         double m = max2(maxabs3(node->lo), maxabs3(node->hi)); /* the box's largest coordinate */
+        int only;
         { /* culls a piece the ray misses before Newton's steps are spent on it */
             double t, e, u, v;
-            int f = flat_piece(net, r.o, r.d, best, m, &t, &e, &u, &v);
+            int f = flat_piece(net, r.o, r.d, best, m, &t, &e, &u, &v, &only);
             if (f == 0)
                 continue;
             if (f == 1) {
@@ -768,10 +820,10 @@ int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h)
          * enters are written out, the farthest first, so that the nearest
          * comes off the stack first. */
         splits++;
-        double err = split_pool(net, pool);
+        double err = only >= 0 ? split_pool_one(net, pool, only) : split_pool(net, pool);
         double lo[4][3], hi[4][3], tn[4], tf[4];
         int order[4], n = 0;
-        for (int c = 0; c < 4; c++) {
+        for (int c = only >= 0 ? only : 0; c < (only >= 0 ? only + 1 : 4); c++) {
             points_box(&pool[0][0], split_program.child[c], err, lo[c], hi[c]);
             if (slab(lo[c], hi[c], r.o, r.d, r.inv, best, &tn[c], &tf[c])) {
                 int j = n++;
