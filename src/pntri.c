@@ -560,15 +560,19 @@ static int flat_piece(const PnNet *net, const double o[3], const double d[3], do
         sb[a] = (B[a] - A[a]) * (1.0 / 3.0);
         sc[a] = (C[a] - A[a]) * (1.0 / 3.0);
     }
-    /* the seven points off the corners (which lie on T exactly) */
-    static const unsigned char at[7] = {PN_AT(2, 0), PN_AT(2, 1), PN_AT(1, 0), PN_AT(1, 1),
-                                        PN_AT(1, 2), PN_AT(0, 1), PN_AT(0, 2)};
-    static const double jj[7] = {1, 0, 2, 1, 0, 2, 1}, kk[7] = {0, 1, 0, 1, 2, 1, 2};
-    for (int n = 0; n < 7; n++) {
-        const double *p = net->b[at[n]];
-        for (int a = 0; a < 3; a++) {
-            double x = fabs(p[a] - (A[a] + jj[n] * sb[a] + kk[n] * sc[a]));
-            dev = x > dev ? x : dev;
+    /* the seven points off the corners (which lie on T exactly), b_ijk
+     * against A + j sb + k sc */
+    const double *b210 = net->b[PN_AT(2, 0)], *b201 = net->b[PN_AT(2, 1)], *b120 = net->b[PN_AT(1, 0)],
+                 *b111 = net->b[PN_AT(1, 1)], *b102 = net->b[PN_AT(1, 2)], *b021 = net->b[PN_AT(0, 1)],
+                 *b012 = net->b[PN_AT(0, 2)];
+    for (int a = 0; a < 3; a++) {
+        double s1 = A[a] + sb[a], s2 = A[a] + 2.0 * sb[a];
+        double x[7] = {b210[a] - s1,           b201[a] - (A[a] + sc[a]), b120[a] - s2,
+                       b111[a] - (s1 + sc[a]), b102[a] - (A[a] + 2.0 * sc[a]), b021[a] - (s2 + sc[a]),
+                       b012[a] - (s1 + 2.0 * sc[a])};
+        for (int n = 0; n < 7; n++) {
+            double y = fabs(x[n]);
+            dev = y > dev ? y : dev;
         }
     }
     dev += net->err + PN_SLACK * m;
