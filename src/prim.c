@@ -523,10 +523,75 @@ static Vec3 ray_point(const Ray *r, float t, float terr, Vec3 *err)
     return vec3(p[0], p[1], p[2]);
 }
 
+/* The hit point p of an oriented box's face f, off by up to s->perr, may
+ * lie outside another face by as much, near an edge: moving off face f
+ * along its normal does not take a spawned origin back inside. So where p
+ * is that near another face, pin is p moved towards the centre c by a
+ * fraction k of p - c, in double: every box coordinate l_i = N_i . (q - c)
+ * / det (N_i the cross product of the other two axes, in double from the
+ * float axes) scales by 1 - k, and k = 2 max (e_i + r_i), e_i bounding
+ * l_i's error at p and r_i the rounding of pin to float, takes each below
+ * 1 - r_i: (1 - k)(1 + e_i) + r_i < 1. Sets s->pin and s->pin_side (as
+ * Surface says, for ng = inv[f]; the caller turns it with ng), or leaves
+ * pin_side 0 where no pin is needed or the box is too thin. */
+static void obox_pin(const OBox *b, int f, Surface *s)
+{
+    const Vec3 ax[3] = {b->u, b->v, b->w};
+    double N[3][3], P[3], C[3], E[3], det = 0.0, cond = 0.0, dist = 0.0;
+    for (int i = 0; i < 3; i++) {
+        const Vec3 a = ax[(i + 1) % 3], c = ax[(i + 2) % 3];
+        /* products of floats are exact in double: one rounding each */
+        N[i][0] = (double)a.y * c.z - (double)a.z * c.y;
+        N[i][1] = (double)a.z * c.x - (double)a.x * c.z;
+        N[i][2] = (double)a.x * c.y - (double)a.y * c.x;
+        P[i] = vec_comp(s->p, i);
+        C[i] = vec_comp(b->c, i);
+        E[i] = vec_comp(s->perr, i);
+        dist += E[i];
+    }
+    for (int j = 0; j < 3; j++) {
+        det += (double)vec_comp(b->u, j) * N[0][j];
+        cond += fabs((double)vec_comp(b->u, j) * N[0][j]);
+    }
+    if (!(fabs(det) > 0.0) || !isfinite(det))
+        return;
+    cond /= fabs(det);
+    double l[3], e[3], r[3], kmax = 0.0;
+    int near = 0;
+    for (int i = 0; i < 3; i++) {
+        double dot = 0.0, mag = 0.0, pe = 0.0, ro = 0.0, mv = 0.0;
+        for (int j = 0; j < 3; j++) {
+            double x = P[j] - C[j], an = fabs(N[i][j]);
+            dot += N[i][j] * x;
+            mag += an * fabs(x);
+            pe += an * E[j];
+            ro += an * (double)FLT_EPSILON * fmax(fabs(P[j]), fabs(C[j]));
+            mv += an * (dist + 4.0 * (double)FLT_EPSILON * fabs(P[j])); /* a spawn's move off face f */
+        }
+        l[i] = dot / det;
+        /* the double roundings, generously: far below a float spacing */
+        e[i] = (pe + 0x1p-40 * mag * cond) / fabs(det);
+        r[i] = ro / fabs(det);
+        kmax = fmax(kmax, 2.0 * (e[i] + r[i]));
+        if (i != f && fabs(l[i]) >= 1.0 - 4.0 * (e[i] + r[i] + mv / fabs(det)))
+            near = 1;
+    }
+    if (!near || !(kmax < 0.5) || !isfinite(kmax))
+        return;
+    float q[3];
+    for (int j = 0; j < 3; j++)
+        q[j] = (float)(P[j] + kmax * (C[j] - P[j]));
+    s->pin = vec3(q[0], q[1], q[2]);
+    /* ng = inv[f] = N_f / det (up to rounding), and l_f = inv[f] . (p - c):
+     * ng points out of the box where l_f > 0 */
+    s->pin_side = l[f] > 0.0 ? -1 : 1;
+}
+
 void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, Surface *s)
 {
     int robust = v == PRIM_ROBUST;
     Vec3 ng = vec3(0.0f, 0.0f, 0.0f), ns, noff = ng;
+    s->pin_side = 0;
     int edge = 0; /* on a box's edge or corner: noff is the sum of its faces' normals */
     if (!robust)
         s->p = ray_at(r, h->t); /* perr: a heuristic, below */
@@ -615,6 +680,8 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
     }
     case PRIM_OBOX:
         ng = p->g.obox.inv[h->face];
+        if (robust)
+            obox_pin(&p->g.obox, h->face, s);
         break;
     case PRIM_PN:
         ng = pn_geometric_normal(p->g.pn.patch, h->u, h->v);
@@ -645,6 +712,8 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
      * normal turns with its face's normal, not by its own sign against the
      * ray: it must keep pointing out of (or into) every face it touches. */
     int back = vec_dot(ng, r->d) > 0.0f;
+    if (s->pin_side) /* obox_pin's side is the outward normal's: turn it with ng */
+        s->pin_side = back ? -s->pin_side : s->pin_side;
     s->ng = back ? vec_neg(ng) : ng;
     s->noff = back ? vec_neg(noff) : noff;
     s->ns = vec_dot(ns, r->d) > 0.0f ? vec_neg(ns) : ns;
@@ -652,6 +721,8 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
 
 Vec3 prim_spawn_origin(const Surface *s, Vec3 dir)
 {
+    if (s->pin_side && (vec_dot(s->ng, dir) > 0.0f) == (s->pin_side > 0))
+        return s->pin; /* into an oriented box, from beside one of its edges */
     Vec3 n = vec_dot(s->ng, dir) < 0.0f ? vec_neg(s->noff) : s->noff; /* the side dir leaves to */
     float dist = fabsf(n.x) * s->perr.x + fabsf(n.y) * s->perr.y + fabsf(n.z) * s->perr.z;
     Vec3 po = vec_madd(s->p, n, dist);

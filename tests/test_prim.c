@@ -356,6 +356,52 @@ static void test_robust_error_bounds(void **state)
     assert_true(fabsf(h.t - 4) <= h.terr && h.terr < 4e-6f);
 }
 
+/* Box coordinate i of q, in double: N_i . (q - c) / det, N_i the cross
+ * product of the other two axes (products of floats are exact in double). */
+static double obox_coord(const OBox *b, Vec3 q, int i)
+{
+    const Vec3 ax[3] = {b->u, b->v, b->w};
+    Vec3 a = ax[(i + 1) % 3], c = ax[(i + 2) % 3];
+    double n[3] = {(double)a.y * c.z - (double)a.z * c.y, (double)a.z * c.x - (double)a.x * c.z,
+                   (double)a.x * c.y - (double)a.y * c.x};
+    Vec3 u = ax[i];
+    double det = u.x * n[0] + u.y * n[1] + u.z * n[2];
+    return (n[0] * ((double)q.x - b->c.x) + n[1] * ((double)q.y - b->c.y) + n[2] * ((double)q.z - b->c.z)) / det;
+}
+
+static void test_obox_spawn_inside_near_edge(void **state)
+{
+    (void)state;
+    /* Two rays from inside oriented boxes that leave them beside an edge
+     * (found by the exact judge's case 8 at 10^8 rays): moved off the face
+     * along its normal, the origin spawned back inside stayed outside the
+     * neighbouring face, where the hit point's error had put it. */
+    static const float in[2][18] = {
+        {0x1.ea5d62p-10f, 0x1.0685dep+5f, -0x1.d3c1b4p-6f, 0x1.08a7b6p-5f, 0x1.2751e4p-4f, 0x1.26398cp-7f,
+         -0x1.4558a8p-6f, -0x1.d146a8p-8f, 0x1.07138ep-3f, 0x1.164316p-4f, -0x1.024dfep-5f, 0x1.1f0594p-7f,
+         -0x1.5f4baep-6f, 0x1.06a262p+5f, 0x1.c11c04p-5f, -0x1.9cac96p-1f, 0x1.2fde1ap-2f, 0x1.0638bcp-1f},
+        {0x1.0724acp+18f, 0x1.15b2dcp+10f, -0x1.a0d414p+10f, -0x1.534884p+8f, 0x1.120898p+4f, 0x1.e43bccp+7f,
+         0x1.1d1e66p+8f, 0x1.a267aap+9f, 0x1.545902p+8f, -0x1.955656p+7f, 0x1.7c0fdap+7f, -0x1.297242p+8f,
+         0x1.075276p+18f, 0x1.baae3ap+10f, -0x1.03e988p+10f, -0x1.a115f8p-3f, -0x1.d88676p-1f, -0x1.4e9cbep-2f},
+    };
+    for (int k = 0; k < 2; k++) {
+        const float *x = in[k];
+        Prim p = {PRIM_OBOX, 0, {.obox = {{x[0], x[1], x[2]}, {x[3], x[4], x[5]}, {x[6], x[7], x[8]},
+                                          {x[9], x[10], x[11]}, {{0, 0, 0}}}}};
+        assert_int_equal(prim_obox_init(&p.g.obox), 0);
+        Ray r = ray_make(vec3(x[12], x[13], x[14]), vec3(x[15], x[16], x[17]), INFINITY);
+        for (int i = 0; i < 3; i++)
+            assert_true(fabs(obox_coord(&p.g.obox, r.o, i)) < 1.0); /* the origin is inside */
+        PrimHit h;
+        assert_true(prim_obox_hit_robust(&p.g.obox, &r, &h));
+        Surface s;
+        prim_surface(&p, &r, &h, PRIM_ROBUST, &s);
+        Vec3 q = prim_spawn_origin(&s, vec_neg(r.d));
+        for (int i = 0; i < 3; i++)
+            assert_true(fabs(obox_coord(&p.g.obox, q, i)) < 1.0);
+    }
+}
+
 static void test_box_origin_on_slab_plane(void **state)
 {
     (void)state;
@@ -775,6 +821,7 @@ int main(void)
         cmocka_unit_test(test_edge_on_triangle_hit_near_origin),
         cmocka_unit_test(test_triray_init),
         cmocka_unit_test(test_obox_grazing_slab),
+        cmocka_unit_test(test_obox_spawn_inside_near_edge),
     };
     int failed = cmocka_run_group_tests_name("classic", tests, setup_classic, NULL);
     failed += cmocka_run_group_tests_name("robust", tests, setup_robust, NULL);

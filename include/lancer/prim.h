@@ -120,6 +120,12 @@ typedef struct {
     Vec3 noff; /* the direction spawned origins move along, on ng's side: ng,
                 * except on a box's edge or corner, where it is the sum of
                 * the normals of every face p lies on */
+    /* An oriented box's hit near another face (within its error of it):
+     * pin is a point strictly inside the box, where rays into it start;
+     * pin_side is +1 when ng points into the box, -1 when out of it, and 0
+     * everywhere else (no pin). */
+    Vec3 pin;
+    int pin_side;
 } Surface;
 
 typedef enum { PRIM_ROBUST, PRIM_CLASSIC } PrimVariant;
