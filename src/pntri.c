@@ -788,7 +788,10 @@ int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h)
                 continue;
             }
         }
-        if (mode == PN_FAST && node->depth == PN_FAST_DEPTH) {
+        /* Newton's method, from outside the patch's box: a ray that starts
+         * in it (a spawned ray, leaving the surface) needs the split that
+         * culls its own spot, and Newton's steps would be spent first */
+        if (mode == PN_FAST && node->depth == PN_FAST_DEPTH && node->tn > 0.0) {
             double t, u, v;
             if (newton(pn, &r, net, &t, &u, &v)) {
                 if (t < best) {
