@@ -257,9 +257,12 @@ typedef struct {
     int nops;
     unsigned char op[PN_POOL][2]; /* pool[10 + n] = avg(pool[op[n][0]], pool[op[n][1]]) */
     unsigned char child[4][10];   /* each child's net, as pool entries */
-    int nown[4];                  /* the ops child c needs, in order: */
-    unsigned char own[4][PN_POOL];
+    /* the ops to run, in order: own[c] those child c is made from, and
+     * own[PN_ALL] every op, for all four children */
+    int nown[5];
+    unsigned char own[5][PN_POOL];
 } PnSplitProgram;
+#define PN_ALL 4
 
 static PnSplitProgram split_program;
 static pthread_once_t split_once = PTHREAD_ONCE_INIT;
@@ -348,12 +351,15 @@ static void make_split_program(void)
             if (need[10 + n])
                 g->own[c][g->nown[c]++] = (unsigned char)n;
     }
+    g->nown[PN_ALL] = g->nops;
+    for (int n = 0; n < g->nops; n++)
+        g->own[PN_ALL][n] = (unsigned char)n;
 }
 
-/* The split's pool: the parent's net, then every average the program
- * makes (made by then: pthread_once in the callers, once per net split or
- * ray, not once per split). Returns the children's error bound. */
-static double split_pool(const PnNet *parent, double pool[PN_POOL][3])
+/* The split's pool: the parent's net, then the averages of own[which]
+ * (made by then: pthread_once in the callers, once per net split or ray,
+ * not once per split). Returns the children's error bound. */
+static double split_pool(const PnNet *parent, double pool[PN_POOL][3], int which)
 {
     const PnSplitProgram *g = &split_program;
     double m = 0.0;
@@ -363,34 +369,14 @@ static double split_pool(const PnNet *parent, double pool[PN_POOL][3])
             double x = fabs(parent->b[i][a]);
             m = x > m ? x : m;
         }
-    for (int n = 0; n < g->nops; n++) {
+    for (int k = 0; k < g->nown[which]; k++) {
+        int n = g->own[which][k];
         const double *a = pool[g->op[n][0]], *b = pool[g->op[n][1]];
         pool[10 + n][0] = (a[0] + b[0]) * 0.5;
         pool[10 + n][1] = (a[1] + b[1]) * 0.5;
         pool[10 + n][2] = (a[2] + b[2]) * 0.5;
     }
     /* three averages a point; halving a subnormal rounds, absolutely */
-    return parent->err + gamma_d(3) * m + 3.0 * 0x1p-1074;
-}
-
-/* As split_pool, but only the entries child c is made from. */
-static double split_pool_one(const PnNet *parent, double pool[PN_POOL][3], int c)
-{
-    const PnSplitProgram *g = &split_program;
-    double m = 0.0;
-    for (int i = 0; i < 10; i++)
-        for (int a = 0; a < 3; a++) {
-            pool[i][a] = parent->b[i][a];
-            double x = fabs(parent->b[i][a]);
-            m = x > m ? x : m;
-        }
-    for (int k = 0; k < g->nown[c]; k++) {
-        int n = g->own[c][k];
-        const double *a = pool[g->op[n][0]], *b = pool[g->op[n][1]];
-        pool[10 + n][0] = (a[0] + b[0]) * 0.5;
-        pool[10 + n][1] = (a[1] + b[1]) * 0.5;
-        pool[10 + n][2] = (a[2] + b[2]) * 0.5;
-    }
     return parent->err + gamma_d(3) * m + 3.0 * 0x1p-1074;
 }
 
@@ -413,7 +399,7 @@ void pn_net_split(const PnNet *parent, PnNet child[4])
 {
     pthread_once(&split_once, make_split_program);
     double pool[PN_POOL][3];
-    double err = split_pool(parent, pool);
+    double err = split_pool(parent, pool, PN_ALL);
     for (int c = 0; c < 4; c++)
         split_child(parent, pool, err, c, &child[c]);
 }
@@ -827,7 +813,7 @@ int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h)
          * enters are written out, the farthest first, so that the nearest
          * comes off the stack first. */
         splits++;
-        double err = only >= 0 ? split_pool_one(net, pool, only) : split_pool(net, pool);
+        double err = split_pool(net, pool, only >= 0 ? only : PN_ALL);
         double lo[4][3], hi[4][3], tn[4], tf[4];
         int order[4], n = 0;
         for (int c = only >= 0 ? only : 0; c < (only >= 0 ? only + 1 : 4); c++) {
