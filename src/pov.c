@@ -120,9 +120,6 @@ static void material(FILE *f, const Material *m)
     fprintf(f, " }\n  }\n}\n");
 }
 
-/* A PN patch as a mesh2 of n segments per edge: the patch's points on the
- * (u, v) grid of step 1/n, with its shading normals, in the triangles'
- * order of (P1, P2, P3). Its error falls as 1/n^2 (docs/parity.md). */
 /* Room for one patch's tessellation into n x n triangles. */
 typedef struct {
     int n;
@@ -130,6 +127,9 @@ typedef struct {
     int (*faces)[3];
 } PnGrid;
 
+/* A PN patch as a mesh2 of n segments per edge: the patch's points on the
+ * (u, v) grid of step 1/n, with its shading normals, in the triangles'
+ * order of (P1, P2, P3). Its error falls as 1/n^2 (docs/parity.md). */
 static void pn_mesh2(FILE *f, const PnPatch *pn, const PnGrid *g)
 {
     int n = g->n, nv = pn_grid_points(n);
