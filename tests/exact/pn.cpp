@@ -405,29 +405,31 @@ struct Interval {
 
 // What the exact subdivision found for one ray.
 struct Exact {
-    bool met = false;               // the ray meets an exact leaf box (ungrown)
     bool cert = false;              // a hit is certified
     mpq_class cert_tf;              // the nearest certified hit is before this
     std::vector<Interval> grown;    // the ray's intervals in the grown leaf boxes
     std::vector<Interval> core;     // and in the leaf boxes it meets ungrown
     bool undecided = false;         // RAY_NODES reached
     long nodes = 0;
+    bool met() const { return !core.empty(); } // the ray meets an exact leaf box
 };
 
 // Depth-first, nearest grown box first, over the sub-patches whose grown
 // box the ray meets: those whose own box it meets are split down to leaves
-// of beta / 2, the others only down to the grown margin's size (they only
-// say where a hit in the band can be). A node beyond the nearest certified
-// hit and beyond `keep` (the float hit's reach) is pruned.
+// of beta, the others only down to the grown margin's size (they only say
+// where a hit in the band can be). A node beyond the nearest certified hit
+// and beyond `keep` (the float hit's reach) is pruned.
 Exact exact_ray(const PnPatch &pn, const Ray &ray, const mpq_class &beta, const mpq_class &grow,
                 const mpq_class *keep)
 {
     Exact ex;
     QRay r(ray);
+    // a sub-patch, its box, and the ray's intervals in it grown and not
     struct Node {
         XNet net;
-        mpq_class tn;
-        bool core = false;
+        mpq_class lo[3], hi[3];
+        Interval grown, own;
+        bool core = false; // the ray meets the box itself
         int depth = 0;
     };
     static std::vector<Node *> pool;
@@ -435,66 +437,52 @@ Exact exact_ray(const PnPatch &pn, const Ray &ray, const mpq_class &beta, const 
     while (pool.size() < need)
         pool.push_back(new Node);
     const mpq_class zero(0), leaf = beta, front = 16 * beta;
-    // the ray's interval in the grown box of x, and whether it meets x's own
-    auto meets = [&](const XNet &x, mpq_class lo[3], mpq_class hi[3], Interval &iv, bool &core) {
-        box_of(x, lo, hi);
-        if (!r.interval(lo, hi, grow, iv.tn, iv.tf, iv.tf_inf))
+    // measures n's box; false when the ray misses it grown
+    auto measure = [&](Node &n) {
+        box_of(n.net, n.lo, n.hi);
+        if (!r.interval(n.lo, n.hi, grow, n.grown.tn, n.grown.tf, n.grown.tf_inf))
             return false;
-        mpq_class tn, tf;
-        bool inf;
-        core = r.interval(lo, hi, zero, tn, tf, inf);
+        n.core = r.interval(n.lo, n.hi, zero, n.own.tn, n.own.tf, n.own.tf_inf);
         return true;
     };
     root_net(pn, pool[0]->net);
-    {
-        mpq_class lo[3], hi[3];
-        Interval iv;
-        if (!meets(pool[0]->net, lo, hi, iv, pool[0]->core))
-            return ex;
-        pool[0]->tn = iv.tn;
-    }
+    if (!measure(*pool[0]))
+        return ex;
     pool[0]->depth = 0;
     size_t top = 1;
     static XNet parent;
     while (top > 0) {
         Node *nd = pool[--top];
-        if (ex.cert && nd->tn > ex.cert_tf && !(keep && nd->tn <= *keep))
+        if (ex.cert && nd->grown.tn > ex.cert_tf && !(keep && nd->grown.tn <= *keep))
             continue;
         if (++ex.nodes > RAY_NODES) {
             ex.undecided = true;
             break;
         }
-        mpq_class lo[3], hi[3];
-        Interval iv;
-        bool core;
-        meets(nd->net, lo, hi, iv, core);
-        if (core && certified(nd->net, r, beta)) {
+        if (nd->core && certified(nd->net, r, beta)) {
             mpq_class tn, tf;
             bool inf;
             // the hit is on the ray, and not the origin's own spot; it lies
             // in the sub-patch's own box
-            if (r.interval(lo, hi, front, tn, tf, inf) && sgn(tn) > 0 && !inf && (r.tmax_inf || tf < r.tmax) &&
-                r.interval(lo, hi, zero, tn, tf, inf) && (!ex.cert || tf < ex.cert_tf)) {
+            if (r.interval(nd->lo, nd->hi, front, tn, tf, inf) && sgn(tn) > 0 && !inf &&
+                (r.tmax_inf || tf < r.tmax) && !nd->own.tf_inf && (!ex.cert || nd->own.tf < ex.cert_tf)) {
                 ex.cert = true;
-                ex.cert_tf = tf;
+                ex.cert_tf = nd->own.tf;
             }
         }
         mpq_class ext = 0;
         for (int a = 0; a < 3; a++)
-            if (hi[a] - lo[a] > ext)
-                ext = hi[a] - lo[a];
-        if (ext <= (core ? leaf : grow) || nd->depth == RAY_DEPTH) {
-            ex.grown.push_back(iv);
-            if (core) {
-                Interval c;
-                r.interval(lo, hi, zero, c.tn, c.tf, c.tf_inf);
-                ex.core.push_back(c);
-                ex.met = true;
-            }
+            if (nd->hi[a] - nd->lo[a] > ext)
+                ext = nd->hi[a] - nd->lo[a];
+        if (ext <= (nd->core ? leaf : grow) || nd->depth == RAY_DEPTH) {
+            ex.grown.push_back(nd->grown);
+            if (nd->core)
+                ex.core.push_back(nd->own);
             continue;
         }
         // the children take the parent's slot and the three above it
         parent.set(nd->net);
+        int depth = nd->depth + 1;
         Node *kn[4];
         XNet *kid[4];
         for (int c = 0; c < 4; c++) {
@@ -507,17 +495,14 @@ Exact exact_ray(const PnPatch &pn, const Ray &ray, const mpq_class &beta, const 
         Node *kept[4], *dropped[4];
         int nk = 0, nd_ = 0;
         for (int c = 0; c < 4; c++) {
-            mpq_class clo[3], chi[3];
-            Interval civ;
-            if (meets(*kid[c], clo, chi, civ, kn[c]->core)) {
-                kn[c]->tn = civ.tn;
-                kn[c]->depth = nd->depth + 1;
+            if (measure(*kn[c])) {
+                kn[c]->depth = depth;
                 kept[nk++] = kn[c];
             } else
                 dropped[nd_++] = kn[c];
         }
         for (int i = 1; i < nk; i++)
-            for (int j = i; j > 0 && kept[j]->tn > kept[j - 1]->tn; j--)
+            for (int j = i; j > 0 && kept[j]->grown.tn > kept[j - 1]->grown.tn; j--)
                 std::swap(kept[j], kept[j - 1]);
         for (int i = 0; i < nk; i++)
             pool[top + i] = kept[i];
@@ -664,14 +649,14 @@ void pn_ray(int rid, Rng &g, Stats &st, uint64_t ray, bool verbose)
                   "patch scale=%g offset=%g kind=%d o=(%a %a %a) d=(%a %a %a) | float %s t=%.9g terr=%.3g u=%.6g v=%.6g "
                   "| exact met=%d cert=%d nodes=%ld",
                   s, off, kind, r.o.x, r.o.y, r.o.z, r.d.x, r.d.y, r.d.z, got ? "hit" : "miss", got ? fh.t : 0.0,
-                  got ? fh.terr : 0.0, got ? fh.u : 0.0, got ? fh.v : 0.0, ex.met, ex.cert, ex.nodes);
+                  got ? fh.terr : 0.0, got ? fh.u : 0.0, got ? fh.v : 0.0, ex.met(), ex.cert, ex.nodes);
     if (verbose)
         std::printf("  %s%s\n", buf, ex.undecided ? " undecided" : "");
     if (ex.undecided) {
         st.c[C_UNDECIDED]++;
         return;
     }
-    if (ex.met && !ex.cert)
+    if (ex.met() && !ex.cert)
         st.c[C_NEARBAND]++;
     if (!got) {
         if (ex.cert) {
@@ -704,7 +689,7 @@ void pn_ray(int rid, Rng &g, Stats &st, uint64_t ray, bool verbose)
     } else if (overlaps(ex.grown)) { // within the band of it
         st.c[C_FHIT]++;
         st.c[C_BAND]++;
-    } else if (ex.met) {
+    } else if (ex.met()) {
         st.c[C_TBFAIL]++;
         st.fail(ray, "t_bound_fail", std::string(buf) + " (t +- terr meets no exact box)");
     } else {
