@@ -721,9 +721,10 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
 
 Vec3 prim_spawn_origin(const Surface *s, Vec3 dir)
 {
-    if (s->pin_side && (vec_dot(s->ng, dir) > 0.0f) == (s->pin_side > 0))
+    float nd = vec_dot(s->ng, dir);
+    if (s->pin_side && (nd > 0.0f) == (s->pin_side > 0))
         return s->pin; /* into an oriented box, from beside one of its edges */
-    Vec3 n = vec_dot(s->ng, dir) < 0.0f ? vec_neg(s->noff) : s->noff; /* the side dir leaves to */
+    Vec3 n = nd < 0.0f ? vec_neg(s->noff) : s->noff; /* the side dir leaves to */
     float dist = fabsf(n.x) * s->perr.x + fabsf(n.y) * s->perr.y + fabsf(n.z) * s->perr.z;
     Vec3 po = vec_madd(s->p, n, dist);
     /* One float further along each component the normal moves, so that the
