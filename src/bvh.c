@@ -182,6 +182,25 @@ int bvh_prim_bounds(const Prim *p, float lo[3], float hi[3])
         hi[0] = h3.x, hi[1] = h3.y, hi[2] = h3.z;
         return 1;
     }
+    case PRIM_ELLIPSOID: {
+        /* x = M y + t for |y| = 1 spans t_i +- |row i of M|. M is A^-1 to
+         * within a relative cond(A) * few double ulps (A, as stored, is the
+         * primitive), covered by the pad. */
+        const Ellipsoid *e = p->g.ell.e;
+        double na = 0.0, nm = 0.0;
+        for (int k = 0; k < 9; k++) {
+            na += fabs(e->a[k]);
+            nm += fabs(e->m[k]);
+        }
+        double pad = 1.0 + 1e-13 * na * nm;
+        for (int i = 0; i < 3; i++) {
+            const double *row = e->m + 3 * i;
+            double ext = sqrt(row[0] * row[0] + row[1] * row[1] + row[2] * row[2]) * pad;
+            l[i] = e->m[9 + i] - ext - 1e-15 * fabs(e->m[9 + i]);
+            h[i] = e->m[9 + i] + ext + 1e-15 * fabs(e->m[9 + i]);
+        }
+        break;
+    }
     case PRIM_BOX: {
         const Box *b = &p->g.box;
         l[0] = b->lo.x, l[1] = b->lo.y, l[2] = b->lo.z;

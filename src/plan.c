@@ -4,6 +4,7 @@
  */
 #include "lancer/plan.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -15,7 +16,7 @@ PlanOptions plan_options(void)
     PlanOptions o;
     memset(&o, 0, sizeof o);
     o.threads = 1;
-    o.scale = 1.0f;
+    o.scale = 1.0;
     return o;
 }
 
@@ -63,18 +64,30 @@ int plan_build(RenderPlan *p, Scene *s, const PlanOptions *o, char *err, size_t 
             r->mode = o->pn_mode - 1;
         p->patches[p->variant == PRIM_CLASSIC ? PN_FAST : r->mode]++;
     }
-    if (o->move && (!(o->scale > 0.0f) || !vec_is_finite(o->translate) ||
-                    scene_transform(s, o->scale, o->translate) != 0))
-        return fail(err, errlen, "the scene degenerates at that scale or offset");
-    /* Robust mode renders in camera-relative coordinates: subtracting the
-     * eye is exact for every coordinate within a factor of two of it
-     * (Sterbenz), so a scene far from the origin keeps the precision it
-     * would have near it; float spawn origins far out would otherwise sit
-     * on a coarse grid. */
+    double scale = o->move ? o->scale : 1.0, t[3] = {0.0, 0.0, 0.0};
+    if (o->move) {
+        memcpy(t, o->translate, sizeof t);
+        if (!(scale > 0.0) || !isfinite(scale) || !isfinite(t[0]) || !isfinite(t[1]) || !isfinite(t[2]))
+            return fail(err, errlen, "the scene degenerates at that scale or offset");
+    }
+    /* Robust mode renders in camera-relative coordinates: the scene, kept
+     * in double, is moved so that the eye sits at the origin and only then
+     * rounded to float, so that what is near the camera is as precise as
+     * in a scene at the origin, wherever the camera is; float spawn origins
+     * far out would otherwise sit on a coarse grid. The options' move and
+     * this one are one move, so nothing is rounded in between. */
     if (p->variant == PRIM_ROBUST && !o->world) {
-        p->offset = s->camera.eye;
-        if (scene_transform(s, 1.0f, vec_neg(p->offset)) != 0)
-            return fail(err, errlen, "the scene degenerates in camera-relative coordinates");
+        for (int k = 0; k < 3; k++) {
+            double eye = s->placed ? s->camera.eye_at[k] : (double)vec_comp(s->camera.eye, k);
+            p->offset[k] = eye * scale + t[k]; /* the eye, moved by the options */
+            t[k] -= p->offset[k];
+        }
+        if (scene_transform(s, scale, t) != 0)
+            return fail(err, errlen,
+                        o->move ? "the scene degenerates at that scale or offset"
+                                : "the scene degenerates in camera-relative coordinates");
+    } else if (o->move && scene_transform(s, scale, t) != 0) {
+        return fail(err, errlen, "the scene degenerates at that scale or offset");
     }
     plan_interiors_at(s, s->camera.eye, &p->camera_in);
     for (int i = 0; i < s->nmaterials; i++) {

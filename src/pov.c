@@ -24,6 +24,31 @@ static void num(FILE *f, float v)
     fputs(buf, f);
 }
 
+/* The same for a double: up to 17 digits, so that a scene kept in double
+ * (Scene.place) is written as lancer holds it. */
+static void numd(FILE *f, double v)
+{
+    char buf[40];
+    for (int digits = 1; digits <= 17; digits++) {
+        snprintf(buf, sizeof buf, "%.*g", digits, v);
+        int plain = !strchr(buf, 'e') || fabs(v) >= 1e6 || fabs(v) < 1e-4;
+        if (strtod(buf, NULL) == v && plain)
+            break;
+    }
+    fputs(buf, f);
+}
+
+static void dvec(FILE *f, const double v[3])
+{
+    fputc('<', f);
+    numd(f, v[0]);
+    fputs(", ", f);
+    numd(f, v[1]);
+    fputs(", ", f);
+    numd(f, v[2]);
+    fputc('>', f);
+}
+
 static void vec(FILE *f, Vec3 v)
 {
     fputc('<', f);
@@ -45,6 +70,37 @@ static void vec3s(FILE *f, Vec3 a, Vec3 b, Vec3 c)
     vec(f, c);
 }
 
+/* The same, from doubles. */
+static void dvec3s(FILE *f, const Place *q)
+{
+    dvec(f, q->p[0]);
+    fputs(", ", f);
+    dvec(f, q->p[1]);
+    fputs(", ", f);
+    dvec(f, q->p[2]);
+}
+
+/* A point of the scene: in double where it has one, else its float. */
+static void point(FILE *f, const Scene *s, const double at[3], Vec3 v)
+{
+    if (s->placed)
+        dvec(f, at);
+    else
+        vec(f, v);
+}
+
+/* POV-Ray's matrix: the images of the axes as rows, then the
+ * translation; m holds the rows of M, then t. */
+static void matrix(FILE *f, const double m[12])
+{
+    fputs("matrix <", f);
+    for (int i = 0; i < 4; i++)
+        for (int j = 0; j < 3; j++) {
+            numd(f, i < 3 ? m[3 * j + i] : m[9 + j]);
+            fputs(i == 3 && j == 2 ? ">" : j == 2 ? ",  " : ", ", f);
+        }
+}
+
 /* k (with its leading blank or line break), a space, the value */
 static void key(FILE *f, const char *k, float v)
 {
@@ -52,25 +108,26 @@ static void key(FILE *f, const char *k, float v)
     num(f, v);
 }
 
-static void camera(FILE *f, const CameraSpec *c, int width, int height)
+static void camera(FILE *f, const Scene *s, int width, int height)
 {
+    const CameraSpec *c = &s->camera;
     double a = (double)width / (double)height;
     double t = tan((double)c->fovy * POV_PI / 360.0);
     double angle = 2.0 * atan(a * t) * 180.0 / POV_PI;
     /* look_at last: POV-Ray builds the camera basis from sky at that point. */
     fprintf(f, "camera {\n  perspective\n  location ");
-    vec(f, c->eye);
+    point(f, s, c->eye_at, c->eye);
     fprintf(f, "\n  sky ");
     vec(f, c->up);
     fprintf(f, "\n  up y\n  right -x*%.17g\n  angle %.17g\n  look_at ", a, angle);
-    vec(f, c->target);
+    point(f, s, c->target_at, c->target);
     fprintf(f, "\n}\n\n");
 }
 
-static void light(FILE *f, const Light *l)
+static void light(FILE *f, const Scene *s, const Light *l)
 {
     fprintf(f, "light_source {\n  ");
-    vec(f, l->pos);
+    point(f, s, l->at, l->pos);
     fprintf(f, "\n  color rgb ");
     vec(f, l->color);
     if (l->fade_power > 0.0f) {
@@ -152,65 +209,77 @@ static void pn_mesh2(FILE *f, const PnPatch *pn, const PnGrid *g)
     fprintf(f, " }\n ");
 }
 
+/* Every object as lancer holds it: a transform that gave an object of the
+ * same kind is already applied to it (an oriented box is POV-Ray's box
+ * with a matrix), and an ellipsoid is the unit sphere with its matrix.
+ * Coordinates come from the scene's doubles where it has them. */
 static void prim(FILE *f, const Scene *s, const Prim *p, const PnGrid *grid)
 {
     const Triangle *t = &p->g.tri;
+    Place q = scene_place(s, (int)(p - s->prims));
     switch (p->kind) {
     case PRIM_SPHERE:
         fprintf(f, "sphere { ");
-        vec(f, p->g.sphere.c);
+        dvec(f, q.p[0]);
         fprintf(f, ", ");
-        num(f, p->g.sphere.r);
+        numd(f, q.p[1][0]);
+        break;
+    case PRIM_ELLIPSOID:
+        fprintf(f, "sphere { <0, 0, 0>, 1\n  ");
+        matrix(f, p->g.ell.e->m);
+        fprintf(f, "\n ");
         break;
     case PRIM_PLANE: {
         /* POV-Ray's plane is the solid n.p < d, and a camera inside it
          * changes how refraction starts; lancer's plane is a surface only.
          * Facing n towards the camera keeps the camera outside, and draws
          * the same surface. */
-        Plane pl = p->g.plane;
-        if (vec_dot(pl.n, s->camera.eye) < pl.d) {
-            pl.n = vec_neg(pl.n);
-            pl.d = -pl.d;
+        double *n = q.p[0], d = q.p[1][0], e[3];
+        for (int k = 0; k < 3; k++)
+            e[k] = s->placed ? s->camera.eye_at[k] : vec_comp(s->camera.eye, k);
+        if (n[0] * e[0] + n[1] * e[1] + n[2] * e[2] < d) {
+            for (int k = 0; k < 3; k++)
+                n[k] = -n[k];
+            d = -d;
         }
         fprintf(f, "plane { ");
-        vec(f, pl.n);
+        dvec(f, n);
         fprintf(f, ", ");
-        num(f, pl.d);
+        numd(f, d);
         break;
     }
     case PRIM_TRIANGLE:
         fprintf(f, "triangle { ");
-        vec3s(f, t->a, t->b, t->c);
+        dvec3s(f, &q);
         break;
     case PRIM_SMOOTH_TRIANGLE:
         /* As a one-face mesh2: POV-Ray silently drops a smooth_triangle
          * whose vertex normals are not all on one side of its face. */
         fprintf(f, "mesh2 {\n  vertex_vectors { 3, ");
-        vec3s(f, t->a, t->b, t->c);
+        dvec3s(f, &q);
         fprintf(f, " }\n  normal_vectors { 3, ");
         vec3s(f, t->na, t->nb, t->nc);
         fprintf(f, " }\n  face_indices { 1, <0, 1, 2> }\n  normal_indices { 1, <0, 1, 2> }\n ");
         break;
     case PRIM_BOX:
         fprintf(f, "box { ");
-        vec(f, p->g.box.lo);
+        dvec(f, q.p[0]);
         fprintf(f, ", ");
-        vec(f, p->g.box.hi);
+        dvec(f, q.p[1]);
         break;
     case PRIM_OBOX: {
-        /* The unit cube mapped by x*u + y*v + z*w + c (POV-Ray's matrix takes
-         * the images of the axes as rows, then the translation). */
+        /* The unit cube mapped by x*u + y*v + z*w + c. */
         const OBox *b = &p->g.obox;
-        const Vec3 rows[4] = {b->u, b->v, b->w, b->c};
-        fprintf(f, "box { <-1, -1, -1>, <1, 1, 1>\n  matrix <");
-        for (int i = 0; i < 4; i++) {
-            num(f, rows[i].x);
-            fputs(", ", f);
-            num(f, rows[i].y);
-            fputs(", ", f);
-            num(f, rows[i].z);
-            fputs(i < 3 ? ",  " : ">\n ", f);
+        double m[12];
+        for (int k = 0; k < 3; k++) {
+            m[3 * k] = vec_comp(b->u, k);
+            m[3 * k + 1] = vec_comp(b->v, k);
+            m[3 * k + 2] = vec_comp(b->w, k);
+            m[9 + k] = q.p[0][k];
         }
+        fprintf(f, "box { <-1, -1, -1>, <1, 1, 1>\n  ");
+        matrix(f, m);
+        fprintf(f, "\n ");
         break;
     }
     case PRIM_PN:
@@ -247,9 +316,9 @@ int pov_export(const Scene *s, int width, int height, int pn_segments, FILE *f)
     fprintf(f, "background { color rgb ");
     vec(f, s->background);
     fprintf(f, " }\n\n");
-    camera(f, &s->camera, w, h);
+    camera(f, s, w, h);
     for (int i = 0; i < s->nlights; i++)
-        light(f, &s->lights[i]);
+        light(f, s, &s->lights[i]);
     fprintf(f, "\n");
     for (int i = 0; i < s->nmaterials; i++)
         material(f, &s->materials[i]);

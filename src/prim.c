@@ -220,11 +220,27 @@ static double sphere_g(const double f[3], const float d[3], double r2, double t,
     return g;
 }
 
-/* Certifies a root near t: widens a bracket until g changes sign across it
- * with certainty (then exactly one root lies inside). Returns the bracket's
- * half-width, or -1 when no certain sign change was found (a near-double
- * root: the ray is tangent to working precision). */
-static double sphere_certify(const double f[3], const float d[3], double r2, double t)
+/* An exact function of t along a ray, evaluated in double with a bound on
+ * its error: the sphere's or the ellipsoid's g. */
+typedef double (*GFn)(const void *ctx, double t, double *err);
+
+typedef struct {
+    const double *f;
+    const float *d;
+    double r2;
+} SphereG;
+
+static double sphere_gfn(const void *ctx, double t, double *err)
+{
+    const SphereG *c = ctx;
+    return sphere_g(c->f, c->d, c->r2, t, err);
+}
+
+/* Certifies a root of g near t: widens a bracket until g changes sign
+ * across it with certainty (then exactly one root lies inside). Returns the
+ * bracket's half-width, or -1 when no certain sign change was found (a
+ * near-double root: the ray is tangent to working precision). */
+static double certify_root(GFn g, const void *ctx, double t)
 {
     /* Start from the double computation's own accuracy, a few double ulps:
      * starting at float ulps would swallow both roots of a sphere less than
@@ -232,28 +248,27 @@ static double sphere_certify(const double f[3], const float d[3], double r2, dou
     double w = 16.0 * UNIT_D * fabs(t) + 1e-300;
     for (int k = 0; k < 24; k++, w *= 8.0) {
         double e_lo, e_hi;
-        double g_lo = sphere_g(f, d, r2, t - w, &e_lo);
-        double g_hi = sphere_g(f, d, r2, t + w, &e_hi);
+        double g_lo = g(ctx, t - w, &e_lo);
+        double g_hi = g(ctx, t + w, &e_hi);
         if (fabs(g_lo) > e_lo && fabs(g_hi) > e_hi && (g_lo > 0) != (g_hi > 0))
             return w;
     }
     return -1.0;
 }
 
-int prim_sphere_hit_robust(const Sphere *s, const Ray *r, PrimHit *h)
+/* The nearer root of |f + t d|^2 = r2 with t > 0 (the far one when the
+ * origin is inside), d here in double, by Ray Tracing Gems ch. 7: the
+ * discriminant from the vector l between the centre and the ray's closest
+ * point, which does not cancel the way b^2 - ac does for distant spheres.
+ * Returns 0 for none. */
+static int stable_root(const double f[3], const double d[3], double r2, double *t)
 {
-    const float d[3] = {r->d.x, r->d.y, r->d.z};
-    const double f[3] = {(double)r->o.x - s->c.x, (double)r->o.y - s->c.y, (double)r->o.z - s->c.z};
-    double r2 = (double)s->r * s->r; /* exact */
     double a = 0.0, b = 0.0, ff = 0.0;
     for (int i = 0; i < 3; i++) {
-        a += (double)d[i] * d[i];
+        a += d[i] * d[i];
         b += f[i] * d[i];
         ff += f[i] * f[i];
     }
-    /* Ray Tracing Gems ch. 7: the discriminant from the vector l between the
-     * centre and the ray's closest point, which does not cancel the way
-     * b^2 - ac does for distant spheres. */
     double k = b / a, l2 = 0.0;
     for (int i = 0; i < 3; i++) {
         double li = f[i] - k * d[i];
@@ -269,10 +284,119 @@ int prim_sphere_hit_robust(const Sphere *s, const Ray *r, PrimHit *h)
         t0 = t1;
         t1 = tmp;
     }
-    double t = t0 > 0.0 ? t0 : t1; /* the far root when the origin is inside */
-    if (!(t > 0.0) || q == 0.0)
+    *t = t0 > 0.0 ? t0 : t1;
+    return *t > 0.0 && q != 0.0;
+}
+
+int prim_sphere_hit_robust(const Sphere *s, const Ray *r, PrimHit *h)
+{
+    const float d[3] = {r->d.x, r->d.y, r->d.z};
+    const double dd[3] = {d[0], d[1], d[2]};
+    const double f[3] = {(double)r->o.x - s->c.x, (double)r->o.y - s->c.y, (double)r->o.z - s->c.z};
+    const SphereG g = {f, d, (double)s->r * s->r}; /* r^2 is exact */
+    double t;
+    if (!stable_root(f, dd, g.r2, &t))
         return 0;
-    double w = sphere_certify(f, d, r2, t);
+    double w = certify_root(sphere_gfn, &g, t);
+    if (w < 0.0)
+        return 0; /* tangent to working precision: a miss, by definition */
+    float tf = round_t(t, w, &h->terr);
+    if (!(tf > 0.0f && tf < r->tmax))
+        return 0;
+    h->t = tf;
+    return 1;
+}
+
+/* ---- ellipsoid ---- */
+
+int prim_ellipsoid_init(Ellipsoid *e)
+{
+    const double *m = e->m;
+    double c[9]; /* cofactors: the inverse times det */
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++) {
+            int r0 = (j + 1) % 3, r1 = (j + 2) % 3, c0 = (i + 1) % 3, c1 = (i + 2) % 3;
+            c[3 * i + j] = m[3 * r0 + c0] * m[3 * r1 + c1] - m[3 * r0 + c1] * m[3 * r1 + c0];
+        }
+    double det = m[0] * c[0] + m[1] * c[3] + m[2] * c[6];
+    if (!(fabs(det) > 0.0) || !isfinite(det))
+        return -1;
+    for (int k = 0; k < 9; k++)
+        e->a[k] = c[k] / det;
+    for (int i = 0; i < 3; i++)
+        e->a[9 + i] = -(e->a[3 * i] * m[9] + e->a[3 * i + 1] * m[10] + e->a[3 * i + 2] * m[11]);
+    for (int k = 0; k < 12; k++)
+        if (!isfinite(e->a[k]) || !isfinite(m[k]))
+            return -1;
+    return 0;
+}
+
+/* g(t) = |A (o + t d) + b|^2 - 1 in double, with a bound on its error: its
+ * sign is certain when |g| > *err. */
+typedef struct {
+    const double *a;
+    const float *o, *d;
+} EllG;
+
+static double ell_g(const void *ctx, double t, double *err)
+{
+    const EllG *c = ctx;
+    const double *a = c->a;
+    double y[3], ey[3];
+    for (int j = 0; j < 3; j++) {
+        double td = t * (double)c->d[j];
+        y[j] = (double)c->o[j] + td;
+        ey[j] = gamma_d(2) * (fabs((double)c->o[j]) + fabs(td)); /* t*d (1), the sum (1) */
+    }
+    double g = -1.0, e = 0.0, mag = 1.0;
+    for (int i = 0; i < 3; i++) {
+        double x = a[9 + i], m = fabs(a[9 + i]), ex = 0.0;
+        for (int j = 0; j < 3; j++) {
+            x += a[3 * i + j] * y[j];
+            m += fabs(a[3 * i + j] * y[j]);
+            ex += fabs(a[3 * i + j]) * ey[j];
+        }
+        /* y's errors through A, and the four-term sum's own roundings */
+        ex = ex * (1.0 + gamma_d(4)) + gamma_d(4) * m;
+        g += x * x;
+        e += 2.0 * fabs(x) * ex + ex * ex;
+        mag += x * x;
+    }
+    /* the bound's own arithmetic rounds too: a few ulps more */
+    *err = (e + gamma_d(5) * mag) * (1.0 + gamma_d(8));
+    return g;
+}
+
+/* The ray in the unit sphere's space: f = A o + b, and A d. */
+static void ell_ray(const double *a, const Ray *r, double f[3], double d[3])
+{
+    for (int i = 0; i < 3; i++) {
+        const double *row = a + 3 * i;
+        f[i] = row[0] * r->o.x + row[1] * r->o.y + row[2] * r->o.z + a[9 + i];
+        d[i] = row[0] * r->d.x + row[1] * r->d.y + row[2] * r->d.z;
+    }
+}
+
+int prim_ellipsoid_hit(const Ellipsoid *e, const Ray *r, PrimHit *h)
+{
+    double f[3], d[3];
+    ell_ray(e->a, r, f, d);
+    static const Sphere unit = {{0.0f, 0.0f, 0.0f}, 1.0f};
+    Ray o = *r;
+    o.o = vec3((float)f[0], (float)f[1], (float)f[2]);
+    o.d = vec3((float)d[0], (float)d[1], (float)d[2]);
+    return prim_sphere_hit(&unit, &o, h);
+}
+
+int prim_ellipsoid_hit_robust(const Ellipsoid *e, const Ray *r, PrimHit *h)
+{
+    const float o[3] = {r->o.x, r->o.y, r->o.z}, d[3] = {r->d.x, r->d.y, r->d.z};
+    double f[3], dd[3], t;
+    ell_ray(e->a, r, f, dd);
+    if (!stable_root(f, dd, 1.0, &t))
+        return 0;
+    const EllG g = {e->a, o, d};
+    double w = certify_root(ell_g, &g, t);
     if (w < 0.0)
         return 0; /* tangent to working precision: a miss, by definition */
     float tf = round_t(t, w, &h->terr);
@@ -497,6 +621,8 @@ int prim_intersect(const Prim *p, const Ray *r, PrimVariant v, PrimHit *h)
         return robust ? prim_box_hit_robust(&p->g.box, r, h) : prim_box_hit(&p->g.box, r, h);
     case PRIM_OBOX:
         return robust ? prim_obox_hit_robust(&p->g.obox, r, h) : prim_obox_hit(&p->g.obox, r, h);
+    case PRIM_ELLIPSOID:
+        return robust ? prim_ellipsoid_hit_robust(p->g.ell.e, r, h) : prim_ellipsoid_hit(p->g.ell.e, r, h);
     case PRIM_PN: { /* the classic variant traces patches fast */
         PnHit ph;
         if (!pn_hit(p->g.pn.patch, r, robust ? (PnMode)p->g.pn.mode : PN_FAST, &ph))
@@ -683,6 +809,17 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
         if (robust)
             obox_pin(&p->g.obox, h->face, s);
         break;
+    case PRIM_ELLIPSOID: { /* the gradient of |A x + b|^2: A^T (A p + b) */
+        const double *a = p->g.ell.e->a;
+        double x[3], n[3];
+        for (int i = 0; i < 3; i++)
+            x[i] = a[3 * i] * s->p.x + a[3 * i + 1] * s->p.y + a[3 * i + 2] * s->p.z + a[9 + i];
+        for (int j = 0; j < 3; j++)
+            n[j] = a[j] * x[0] + a[3 + j] * x[1] + a[6 + j] * x[2];
+        double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        ng = vec3((float)(n[0] / len), (float)(n[1] / len), (float)(n[2] / len));
+        break;
+    }
     case PRIM_PN:
         ng = pn_geometric_normal(p->g.pn.patch, h->u, h->v);
         if (robust) {
@@ -754,6 +891,15 @@ int prim_inside(const Prim *p, Vec3 q)
             if (!(fabsf(vec_dot(p->g.obox.inv[i], rel)) < 1.0f))
                 return 0;
         return 1;
+    }
+    case PRIM_ELLIPSOID: {
+        const double *a = p->g.ell.e->a;
+        double g = 0.0;
+        for (int i = 0; i < 3; i++) {
+            double x = a[3 * i] * q.x + a[3 * i + 1] * q.y + a[3 * i + 2] * q.z + a[9 + i];
+            g += x * x;
+        }
+        return g < 1.0;
     }
     case PRIM_PLANE:
     case PRIM_TRIANGLE:

@@ -38,7 +38,7 @@ typedef struct {
     Loc loc;
     const char *start;
     size_t len;
-    float num;
+    double num; /* numbers are read in double: the scene is kept as written */
 } Token;
 
 typedef struct {
@@ -49,7 +49,7 @@ typedef struct {
     char *err;
     size_t errlen;
     Scene *s;
-    int cap_materials, cap_lights, cap_prims, cap_patches;
+    int cap_materials, cap_lights, cap_prims, cap_place, cap_patches, cap_ellipsoids;
     int have_image, have_camera;
 } Parser;
 
@@ -129,9 +129,8 @@ static int next(Parser *P)
             return fail(P, t->loc, "number longer than %d characters", LIMIT_NUMBER_CHARS);
         memcpy(buf, P->p, n);
         buf[n] = '\0';
-        double d = strtod(buf, NULL);
-        t->num = (float)d;
-        if (!isfinite(t->num))
+        t->num = strtod(buf, NULL);
+        if (!isfinite((float)t->num))
             return fail(P, t->loc, "non-finite number '%s' (out of single-precision range)", buf);
         t->kind = TOK_NUMBER;
         t->len = n;
@@ -195,8 +194,8 @@ static const char *tok_desc(const Token *t, char *buf, size_t len)
 
 static int is_keyword(const Token *t)
 {
-    static const char *const kw[] = {"image", "camera", "light", "material",    "sphere", "plane",
-                                     "triangle", "smooth_triangle", "box",   "obox", "mesh", "pn_triangle"};
+    static const char *const kw[] = {"image",    "camera",          "light", "material", "sphere", "plane",
+                                     "triangle", "smooth_triangle", "box",   "obox",     "mesh",   "pn_triangle"};
     for (size_t i = 0; i < sizeof kw / sizeof kw[0]; i++)
         if (tok_is(t, kw[i]))
             return 1;
@@ -216,13 +215,15 @@ typedef struct {
 typedef struct {
     int set;
     Loc key, value; /* where the key and its first value stand */
-    float v[12];
+    double v[12];
     int n; /* how many numbers were given */
     char name[SCENE_NAME_MAX];
     char str[SCENE_PATH_MAX];
 } Value;
 
-#define MAX_FIELDS 12
+/* The transform keys every object takes, last in its table, in this order. */
+#define XF_FIELDS {"matrix", F_MAT}, {"scale", F_SCALE}, {"rotate", F_VEC}, { "translate", F_VEC }
+enum { XF_MATRIX, XF_SCALE, XF_ROTATE, XF_TRANSLATE, XF_N };
 
 static const char *kind_desc(FieldKind k)
 {
@@ -368,11 +369,15 @@ static int require(Parser *P, const char *what, const Field *f, const Value *val
     return 0;
 }
 
-static Vec3 vec_of(const Value *v) { return vec3(v->v[0], v->v[1], v->v[2]); }
+static Vec3 vec_of(const Value *v) { return vec3((float)v->v[0], (float)v->v[1], (float)v->v[2]); }
 
 static Vec3 vec_or(const Value *v, Vec3 dflt) { return v->set ? vec_of(v) : dflt; }
 
-static float num_or(const Value *v, float dflt) { return v->set ? v->v[0] : dflt; }
+static float num_or(const Value *v, float dflt) { return v->set ? (float)v->v[0] : dflt; }
+
+static void dvec_of(const Value *v, double out[3]) { memcpy(out, v->v, sizeof(double) * 3); }
+
+static Vec3 round3(const double v[3]) { return vec3((float)v[0], (float)v[1], (float)v[2]); }
 
 /* ---- growing the scene's arrays (bounded by the file size) ---- */
 
@@ -387,14 +392,20 @@ static void *grow(void *arr, int *cap, int count, size_t elem)
     return p;
 }
 
-static Prim *new_prim(Parser *P, PrimKind kind, Loc loc)
+/* A new primitive, and its Place (zeroed) in *pl. */
+static Prim *new_prim(Parser *P, PrimKind kind, Loc loc, Place **pl)
 {
     Prim *arr = grow(P->s->prims, &P->cap_prims, P->s->nprims, sizeof(Prim));
-    if (!arr) {
+    if (arr)
+        P->s->prims = arr;
+    Place *parr = arr ? grow(P->s->place, &P->cap_place, P->s->nprims, sizeof(Place)) : NULL;
+    if (!parr) {
         fail(P, loc, "out of memory");
         return NULL;
     }
-    P->s->prims = arr;
+    P->s->place = parr;
+    *pl = &parr[P->s->nprims];
+    memset(*pl, 0, sizeof **pl);
     Prim *p = &arr[P->s->nprims++];
     memset(p, 0, sizeof *p);
     p->kind = kind;
@@ -434,10 +445,10 @@ static int nonzero_vec(Parser *P, const char *what, const char *key, const Value
 /* ---- statements ---- */
 
 /* A whole number in [lo, hi]. */
-static int whole(const Value *v, int k, float lo, float hi)
+static int whole(const Value *v, int k, double lo, double hi)
 {
-    float x = v->v[k];
-    return x == floorf(x) && x >= lo && x <= hi;
+    double x = v->v[k];
+    return x == floor(x) && x >= lo && x <= hi;
 }
 
 /* An optional 'pn_mode exact|fast' into *mode, or -1 when it is not set. */
@@ -509,12 +520,17 @@ static int parse_camera(Parser *P, Loc at)
         if (i != UP && require(P, "camera", f, v, i, at))
             return -1;
     CameraSpec *c = &P->s->camera;
-    c->eye = vec_of(&v[EYE]);
-    c->target = vec_of(&v[TARGET]);
+    dvec_of(&v[EYE], c->eye_at);
+    dvec_of(&v[TARGET], c->target_at);
+    c->eye = round3(c->eye_at);
+    c->target = round3(c->target_at);
     c->up = vec_or(&v[UP], vec3(0, 1, 0));
-    c->fovy = v[FOV].v[0];
-    Vec3 fwd = vec_sub(c->target, c->eye);
-    if (c->target.x == c->eye.x && c->target.y == c->eye.y && c->target.z == c->eye.z)
+    c->fovy = (float)v[FOV].v[0];
+    /* the view direction in double: an eye and target far out may round to
+     * one float, and still be apart next to the camera */
+    const double *e = c->eye_at, *t = c->target_at;
+    Vec3 fwd = vec3((float)(t[0] - e[0]), (float)(t[1] - e[1]), (float)(t[2] - e[2]));
+    if (t[0] == e[0] && t[1] == e[1] && t[2] == e[2])
         return fail(P, v[TARGET].value, "camera: 'target' must differ from 'eye'");
     if (!(vec_length(fwd) > 0.0f && isfinite(vec_length(fwd))))
         return fail(P, v[TARGET].value, "camera: 'target' is too close to or too far from 'eye'");
@@ -538,6 +554,7 @@ static int parse_light(Parser *P, Loc at)
     if (parse_block(P, "light", f, N, v) || require(P, "light", f, v, POSITION, at))
         return -1;
     Light l;
+    dvec_of(&v[POSITION], l.at);
     l.pos = vec_of(&v[POSITION]);
     l.color = vec_or(&v[COLOR], vec3(1, 1, 1));
     l.fade_distance = num_or(&v[FADE_DISTANCE], 0.0f);
@@ -621,93 +638,214 @@ static int parse_material(Parser *P, Loc at)
     return 0;
 }
 
-static int parse_sphere(Parser *P, Loc at)
+/* ---- transforms: 3x4 affine maps in double, rows of M then t ---- */
+
+static const double XF_IDENTITY[12] = {1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0};
+
+/* c = a after b. */
+static void xf_compose(const double a[12], const double b[12], double c[12])
 {
-    enum { CENTER, RADIUS, MATERIAL, N };
-    static const Field f[N] = {{"center", F_VEC}, {"radius", F_NUM}, {"material", F_NAME}};
-    Value v[N];
-    int mat;
-    if (parse_block(P, "sphere", f, N, v) || require(P, "sphere", f, v, CENTER, at) ||
-        require(P, "sphere", f, v, RADIUS, at) || material_ref(P, "sphere", f, v, MATERIAL, at, &mat))
-        return -1;
-    if (!(v[RADIUS].v[0] > 0.0f))
-        return fail(P, v[RADIUS].value, "sphere: 'radius' must be positive");
-    Prim *p = new_prim(P, PRIM_SPHERE, at);
-    if (!p)
-        return -1;
-    p->material = mat;
-    p->g.sphere.c = vec_of(&v[CENTER]);
-    p->g.sphere.r = v[RADIUS].v[0];
+    double m[12];
+    for (int r = 0; r < 3; r++) {
+        for (int k = 0; k < 3; k++)
+            m[3 * r + k] = a[3 * r] * b[k] + a[3 * r + 1] * b[3 + k] + a[3 * r + 2] * b[6 + k];
+        m[9 + r] = a[3 * r] * b[9] + a[3 * r + 1] * b[10] + a[3 * r + 2] * b[11] + a[9 + r];
+    }
+    memcpy(c, m, sizeof m);
+}
+
+/* Rotation by deg degrees about axis 0, 1 or 2 (right-handed). Quarter
+ * turns are exact: a box turned by 90 degrees stays a box. */
+static void xf_rotation(int axis, double deg, double r[12])
+{
+    double c, sn, q = deg / 90.0;
+    if (q == floor(q)) {
+        static const double cs[4][2] = {{1, 0}, {0, 1}, {-1, 0}, {0, -1}};
+        int k = (int)fmod(fmod(q, 4.0) + 4.0, 4.0);
+        c = cs[k][0], sn = cs[k][1];
+    } else {
+        double rad = deg * 3.14159265358979323846 / 180.0;
+        c = cos(rad), sn = sin(rad);
+    }
+    memcpy(r, XF_IDENTITY, sizeof(double) * 12);
+    int i = (axis + 1) % 3, j = (axis + 2) % 3;
+    r[3 * i + i] = c;
+    r[3 * i + j] = -sn;
+    r[3 * j + i] = sn;
+    r[3 * j + j] = c;
+}
+
+/* The cofactor matrix of M (rows: the cross products of M's rows), which
+ * is det(M) times M^-T, and det(M). */
+static double xf_cofactors(const double *xf, double c[9])
+{
+    for (int r = 0; r < 3; r++) {
+        const double *a = xf + 3 * ((r + 1) % 3), *b = xf + 3 * ((r + 2) % 3);
+        c[3 * r] = a[1] * b[2] - a[2] * b[1];
+        c[3 * r + 1] = a[2] * b[0] - a[0] * b[2];
+        c[3 * r + 2] = a[0] * b[1] - a[1] * b[0];
+    }
+    return xf[0] * c[0] + xf[1] * c[1] + xf[2] * c[2];
+}
+
+static int xf_regular(const double *xf)
+{
+    double c[9], det = xf_cofactors(xf, c);
+    for (int k = 0; k < 12; k++)
+        if (!isfinite(xf[k]))
+            return 0;
+    return fabs(det) > 0.0 && isfinite(det);
+}
+
+/* M p + t (xf NULL: p). */
+static void xf_point(const double *xf, const double p[3], double out[3])
+{
+    double q[3];
+    for (int r = 0; r < 3; r++)
+        q[r] = xf ? xf[3 * r] * p[0] + xf[3 * r + 1] * p[1] + xf[3 * r + 2] * p[2] + xf[9 + r] : p[r];
+    memcpy(out, q, sizeof q);
+}
+
+/* M v: a direction. */
+static void xf_dir(const double *xf, const double v[3], double out[3])
+{
+    double q[3];
+    for (int r = 0; r < 3; r++)
+        q[r] = xf[3 * r] * v[0] + xf[3 * r + 1] * v[1] + xf[3 * r + 2] * v[2];
+    memcpy(out, q, sizeof q);
+}
+
+/* A normal, through the inverse transpose: the cofactor matrix, with the
+ * determinant's sign (its size is lost on normalising); unit length. */
+static void xf_normal(const double *xf, const double n[3], double out[3])
+{
+    double c[9], q[3];
+    if (!xf) {
+        memcpy(q, n, sizeof q);
+    } else {
+        double det = xf_cofactors(xf, c);
+        for (int r = 0; r < 3; r++)
+            q[r] = (c[3 * r] * n[0] + c[3 * r + 1] * n[1] + c[3 * r + 2] * n[2]) * (det < 0.0 ? -1.0 : 1.0);
+    }
+    double len = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
+    for (int r = 0; r < 3; r++)
+        out[r] = q[r] / len;
+}
+
+/* 1 when M is a rotation times a uniform scale s (> 0), to within what its
+ * double rounding leaves (a relative 1e-12, far below a float's spacing):
+ * M M^T = s^2 I. */
+static int xf_similarity(const double *xf, double *s)
+{
+    double g[9], s2 = 0.0;
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            g[3 * i + j] = xf[3 * i] * xf[3 * j] + xf[3 * i + 1] * xf[3 * j + 1] + xf[3 * i + 2] * xf[3 * j + 2];
+    s2 = (g[0] + g[4] + g[8]) / 3.0;
+    for (int k = 0; k < 9; k++)
+        if (!(fabs(g[k] - (k % 4 == 0 ? s2 : 0.0)) <= 1e-12 * s2))
+            return 0;
+    *s = sqrt(s2);
+    return 1;
+}
+
+/* 1 when M maps each axis onto an axis (a diagonal matrix, or one whose
+ * rows are permuted: quarter turns): it maps an axis-aligned box to one. */
+static int xf_axis_aligned(const double *xf)
+{
+    for (int r = 0; r < 3; r++)
+        if ((xf[3 * r] != 0.0) + (xf[3 * r + 1] != 0.0) + (xf[3 * r + 2] != 0.0) != 1)
+            return 0;
+    return 1; /* one non-zero per row, and M is regular: one per column too */
+}
+
+/* The transform of an object's keys (v: its XF_N values): matrix first,
+ * then scale, rotate (about x, then y, then z) and translate, as the
+ * README lists them. A singular or non-finite one is an error at its key.
+ * *any: whether a key was given. */
+static int parse_xf(Parser *P, const char *what, const Value *v, Loc at, double xf[12], int *any)
+{
+    memcpy(xf, XF_IDENTITY, sizeof(double) * 12);
+    *any = v[XF_MATRIX].set || v[XF_SCALE].set || v[XF_ROTATE].set || v[XF_TRANSLATE].set;
+    if (v[XF_MATRIX].set) {
+        memcpy(xf, v[XF_MATRIX].v, sizeof(double) * 12);
+        if (!xf_regular(xf))
+            return fail(P, v[XF_MATRIX].value, "%s: 'matrix' is singular: its 3x3 part has no inverse", what);
+    }
+    if (v[XF_SCALE].set) {
+        const Value *sc = &v[XF_SCALE];
+        double sx = sc->v[0], sy = sc->n == 3 ? sc->v[1] : sx, sz = sc->n == 3 ? sc->v[2] : sx;
+        if (sx == 0.0 || sy == 0.0 || sz == 0.0)
+            return fail(P, sc->value, "%s: 'scale' must not be zero", what);
+        const double m[12] = {sx, 0, 0, 0, sy, 0, 0, 0, sz, 0, 0, 0};
+        xf_compose(m, xf, xf);
+    }
+    for (int axis = 0; v[XF_ROTATE].set && axis < 3; axis++) {
+        double r[12];
+        xf_rotation(axis, v[XF_ROTATE].v[axis], r);
+        xf_compose(r, xf, xf);
+    }
+    if (v[XF_TRANSLATE].set)
+        for (int k = 0; k < 3; k++)
+            xf[9 + k] += v[XF_TRANSLATE].v[k];
+    if (!xf_regular(xf))
+        return fail(P, at, "%s: the transform is singular or not finite", what);
     return 0;
 }
 
-static int parse_plane(Parser *P, Loc at)
-{
-    enum { NORMAL, OFFSET, MATERIAL, N };
-    static const Field f[N] = {{"normal", F_VEC}, {"offset", F_NUM}, {"material", F_NAME}};
-    Value v[N];
-    int mat;
-    if (parse_block(P, "plane", f, N, v) || require(P, "plane", f, v, NORMAL, at) ||
-        material_ref(P, "plane", f, v, MATERIAL, at, &mat) || nonzero_vec(P, "plane", "normal", &v[NORMAL]))
-        return -1;
-    Prim *p = new_prim(P, PRIM_PLANE, at);
-    if (!p)
-        return -1;
-    p->material = mat;
-    p->g.plane.n = vec_normalize(vec_of(&v[NORMAL]));
-    p->g.plane.d = num_or(&v[OFFSET], 0.0f);
-    return 0;
-}
+/* ---- objects ---- */
 
 /* Not collinear (and no NaN): the triangle has a normal. */
 static int tri_has_area(Vec3 a, Vec3 b, Vec3 c) { return vec_length(vec_cross(vec_sub(b, a), vec_sub(c, a))) > 0.0f; }
 
-static int parse_triangle(Parser *P, Loc at, int smooth)
+/* The same in double. */
+static int tri_has_area_d(const double a[3], const double b[3], const double c[3])
 {
-    enum { A, B, C, NA, NB, NC, MATERIAL, N };
-    static const Field f[N] = {{"a", F_VEC},  {"b", F_VEC},  {"c", F_VEC},        {"na", F_VEC},
-                               {"nb", F_VEC}, {"nc", F_VEC}, {"material", F_NAME}};
-    const char *what = smooth ? "smooth_triangle" : "triangle";
-    Value v[N];
-    int mat;
-    /* A flat triangle takes no normals: its table ends before them. */
-    static const Field flat[4] = {{"a", F_VEC}, {"b", F_VEC}, {"c", F_VEC}, {"material", F_NAME}};
-    if (smooth) {
-        if (parse_block(P, what, f, N, v))
-            return -1;
-    } else {
-        Value fv[4];
-        if (parse_block(P, what, flat, 4, fv))
-            return -1;
-        memset(v, 0, sizeof v);
-        v[A] = fv[0];
-        v[B] = fv[1];
-        v[C] = fv[2];
-        v[MATERIAL] = fv[3];
+    double u[3], w[3];
+    for (int k = 0; k < 3; k++)
+        u[k] = b[k] - a[k], w[k] = c[k] - a[k];
+    double x = u[1] * w[2] - u[2] * w[1], y = u[2] * w[0] - u[0] * w[2], z = u[0] * w[1] - u[1] * w[0];
+    return x * x + y * y + z * z > 0.0;
+}
+
+/* Sets primitive i's float coordinates from its Place (Scene.place): each
+ * rounded once. Returns 0, or -1 when an oriented box's axes turn
+ * dependent. */
+static int derive(Scene *s, int i)
+{
+    Prim *p = &s->prims[i];
+    const Place *q = &s->place[i];
+    switch (p->kind) {
+    case PRIM_SPHERE:
+        p->g.sphere.c = round3(q->p[0]);
+        p->g.sphere.r = (float)q->p[1][0];
+        break;
+    case PRIM_PLANE:
+        p->g.plane.n = round3(q->p[0]);
+        p->g.plane.d = (float)q->p[1][0];
+        break;
+    case PRIM_TRIANGLE:
+    case PRIM_SMOOTH_TRIANGLE:
+        p->g.tri.a = round3(q->p[0]);
+        p->g.tri.b = round3(q->p[1]);
+        p->g.tri.c = round3(q->p[2]);
+        break;
+    case PRIM_BOX:
+        p->g.box.lo = round3(q->p[0]);
+        p->g.box.hi = round3(q->p[1]);
+        break;
+    case PRIM_OBOX:
+        p->g.obox.c = round3(q->p[0]);
+        return prim_obox_init(&p->g.obox);
+    case PRIM_PN: { /* the net again, from the rounded vertices: neighbours round alike */
+        PnPatch *pa = &s->patches[p->g.pn.index];
+        const Vec3 v[3] = {round3(q->p[0]), round3(q->p[1]), round3(q->p[2])}, n[3] = {pa->n[0], pa->n[1], pa->n[2]};
+        pn_patch_init(pa, v, n);
+        break;
     }
-    for (int i = A; i <= (smooth ? NC : C); i++)
-        if (require(P, what, f, v, i, at))
-            return -1;
-    if (material_ref(P, what, f, v, MATERIAL, at, &mat))
-        return -1;
-    if (smooth)
-        for (int i = NA; i <= NC; i++)
-            if (nonzero_vec(P, what, f[i].key, &v[i]))
-                return -1;
-    Triangle t;
-    t.a = vec_of(&v[A]);
-    t.b = vec_of(&v[B]);
-    t.c = vec_of(&v[C]);
-    if (!tri_has_area(t.a, t.b, t.c))
-        return fail(P, at, "%s: the three vertices are collinear (zero area)", what);
-    t.na = vec_normalize(vec_of(&v[NA])); /* zero for a flat triangle */
-    t.nb = vec_normalize(vec_of(&v[NB]));
-    t.nc = vec_normalize(vec_of(&v[NC]));
-    Prim *p = new_prim(P, smooth ? PRIM_SMOOTH_TRIANGLE : PRIM_TRIANGLE, at);
-    if (!p)
-        return -1;
-    p->material = mat;
-    p->g.tri = t;
+    case PRIM_ELLIPSOID:
+        break;
+    }
     return 0;
 }
 
@@ -723,11 +861,159 @@ static int add_patch(Scene *s, int *cap, const Vec3 p[3], const Vec3 n[3])
     return s->npatches++;
 }
 
+/* The object's transform, or an error; xf NULL-able through *use. */
+#define OBJECT_XF(what)                                                                                                \
+    double xf_[12];                                                                                                    \
+    int any_;                                                                                                          \
+    if (parse_xf(P, what, &v[MATRIX], at, xf_, &any_))                                                                 \
+        return -1;                                                                                                     \
+    const double *xf = any_ ? xf_ : NULL
+
+static int parse_sphere(Parser *P, Loc at)
+{
+    enum { CENTER, RADIUS, MATERIAL, MATRIX, N = MATRIX + XF_N };
+    static const Field f[N] = {{"center", F_VEC}, {"radius", F_NUM}, {"material", F_NAME}, XF_FIELDS};
+    Value v[N];
+    int mat;
+    if (parse_block(P, "sphere", f, N, v) || require(P, "sphere", f, v, CENTER, at) ||
+        require(P, "sphere", f, v, RADIUS, at) || material_ref(P, "sphere", f, v, MATERIAL, at, &mat))
+        return -1;
+    if (!((float)v[RADIUS].v[0] > 0.0f)) /* and not below float's range */
+        return fail(P, v[RADIUS].value, "sphere: 'radius' must be positive");
+    OBJECT_XF("sphere");
+    double c[3], r = v[RADIUS].v[0], k = 1.0;
+    dvec_of(&v[CENTER], c);
+    Place *pl;
+    Prim *p;
+    if (!xf || xf_similarity(xf, &k)) { /* a sphere again */
+        if (!(p = new_prim(P, PRIM_SPHERE, at, &pl)))
+            return -1;
+        xf_point(xf, c, pl->p[0]);
+        pl->p[1][0] = r * k;
+    } else { /* an ellipsoid: the unit sphere, scaled by r, moved to c, then xf */
+        Ellipsoid e;
+        for (int i = 0; i < 9; i++)
+            e.m[i] = xf[i] * r;
+        xf_point(xf, c, e.m + 9);
+        if (prim_ellipsoid_init(&e) != 0)
+            return fail(P, at, "sphere: the transform is singular or not finite");
+        Ellipsoid *arr = grow(P->s->ellipsoids, &P->cap_ellipsoids, P->s->nellipsoids, sizeof(Ellipsoid));
+        if (!arr)
+            return fail(P, at, "out of memory");
+        P->s->ellipsoids = arr;
+        arr[P->s->nellipsoids] = e;
+        if (!(p = new_prim(P, PRIM_ELLIPSOID, at, &pl)))
+            return -1;
+        p->g.ell.index = P->s->nellipsoids++;
+    }
+    p->material = mat;
+    derive(P->s, P->s->nprims - 1);
+    return 0;
+}
+
+static int parse_plane(Parser *P, Loc at)
+{
+    enum { NORMAL, OFFSET, MATERIAL, MATRIX, N = MATRIX + XF_N };
+    static const Field f[N] = {{"normal", F_VEC}, {"offset", F_NUM}, {"material", F_NAME}, XF_FIELDS};
+    Value v[N];
+    int mat;
+    if (parse_block(P, "plane", f, N, v) || require(P, "plane", f, v, NORMAL, at) ||
+        material_ref(P, "plane", f, v, MATERIAL, at, &mat) || nonzero_vec(P, "plane", "normal", &v[NORMAL]))
+        return -1;
+    OBJECT_XF("plane");
+    double n[3], d = v[OFFSET].set ? v[OFFSET].v[0] : 0.0, q[3];
+    dvec_of(&v[NORMAL], n);
+    xf_normal(NULL, n, n);
+    for (int k = 0; k < 3; k++)
+        q[k] = n[k] * d; /* a point of the plane, which xf moves with it */
+    Place *pl;
+    Prim *p = new_prim(P, PRIM_PLANE, at, &pl);
+    if (!p)
+        return -1;
+    p->material = mat;
+    xf_normal(xf, n, pl->p[0]);
+    xf_point(xf, q, q);
+    pl->p[1][0] = pl->p[0][0] * q[0] + pl->p[0][1] * q[1] + pl->p[0][2] * q[2];
+    derive(P->s, P->s->nprims - 1);
+    return 0;
+}
+
+/* The three vertices of a triangle's keys (v[0..2]) and, with smooth,
+ * its three normals (v[3..5]), through xf. Returns 0, or -1 when the
+ * vertices are collinear. */
+static int place_triangle(const Value *v, int smooth, const double *xf, double p[3][3], Vec3 n[3])
+{
+    for (int k = 0; k < 3; k++) {
+        double q[3];
+        dvec_of(&v[k], q);
+        xf_point(xf, q, p[k]);
+        if (smooth) {
+            dvec_of(&v[3 + k], q);
+            xf_normal(NULL, q, q); /* normalised before the transform, as a mesh's are */
+            xf_normal(xf, q, q);
+            n[k] = round3(q);
+        }
+    }
+    return tri_has_area_d(p[0], p[1], p[2]) ? 0 : -1;
+}
+
+static int parse_triangle(Parser *P, Loc at, int smooth)
+{
+    enum { A, B, C, NA, NB, NC, MATERIAL, MATRIX, N = MATRIX + XF_N };
+    static const Field f[N] = {{"a", F_VEC},  {"b", F_VEC},  {"c", F_VEC},        {"na", F_VEC},
+                               {"nb", F_VEC}, {"nc", F_VEC}, {"material", F_NAME}, XF_FIELDS};
+    const char *what = smooth ? "smooth_triangle" : "triangle";
+    Value v[N];
+    int mat;
+    /* A flat triangle takes no normals: its table skips them. */
+    static const Field flat[4 + XF_N] = {{"a", F_VEC}, {"b", F_VEC}, {"c", F_VEC}, {"material", F_NAME}, XF_FIELDS};
+    if (smooth) {
+        if (parse_block(P, what, f, N, v))
+            return -1;
+    } else {
+        Value fv[4 + XF_N];
+        if (parse_block(P, what, flat, 4 + XF_N, fv))
+            return -1;
+        memset(v, 0, sizeof v);
+        v[A] = fv[0];
+        v[B] = fv[1];
+        v[C] = fv[2];
+        v[MATERIAL] = fv[3];
+        memcpy(&v[MATRIX], &fv[4], sizeof(Value) * XF_N);
+    }
+    for (int i = A; i <= (smooth ? NC : C); i++)
+        if (require(P, what, f, v, i, at))
+            return -1;
+    if (material_ref(P, what, f, v, MATERIAL, at, &mat))
+        return -1;
+    if (smooth)
+        for (int i = NA; i <= NC; i++)
+            if (nonzero_vec(P, what, f[i].key, &v[i]))
+                return -1;
+    OBJECT_XF(what);
+    double pt[3][3];
+    Vec3 n[3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}}; /* zero for a flat triangle */
+    if (place_triangle(v, smooth, xf, pt, n) != 0)
+        return fail(P, at, "%s: the three vertices are collinear (zero area)", what);
+    Place *pl;
+    Prim *p = new_prim(P, smooth ? PRIM_SMOOTH_TRIANGLE : PRIM_TRIANGLE, at, &pl);
+    if (!p)
+        return -1;
+    p->material = mat;
+    memcpy(pl->p, pt, sizeof pt);
+    p->g.tri.na = n[0];
+    p->g.tri.nb = n[1];
+    p->g.tri.nc = n[2];
+    derive(P->s, P->s->nprims - 1);
+    return 0;
+}
+
 static int parse_pn_triangle(Parser *P, Loc at)
 {
-    enum { A, B, C, NA, NB, NC, MATERIAL, PN_MODE, N };
-    static const Field f[N] = {{"a", F_VEC},  {"b", F_VEC},  {"c", F_VEC},        {"na", F_VEC},
-                               {"nb", F_VEC}, {"nc", F_VEC}, {"material", F_NAME}, {"pn_mode", F_NAME}};
+    enum { A, B, C, NA, NB, NC, MATERIAL, PN_MODE, MATRIX, N = MATRIX + XF_N };
+    static const Field f[N] = {{"a", F_VEC},  {"b", F_VEC},  {"c", F_VEC},         {"na", F_VEC},
+                               {"nb", F_VEC}, {"nc", F_VEC}, {"material", F_NAME}, {"pn_mode", F_NAME},
+                               XF_FIELDS};
     const char *what = "pn_triangle";
     Value v[N];
     int mat, mode;
@@ -741,45 +1027,91 @@ static int parse_pn_triangle(Parser *P, Loc at)
     for (int i = NA; i <= NC; i++)
         if (nonzero_vec(P, what, f[i].key, &v[i]))
             return -1;
-    const Vec3 pts[3] = {vec_of(&v[A]), vec_of(&v[B]), vec_of(&v[C])};
-    const Vec3 nrm[3] = {vec_normalize(vec_of(&v[NA])), vec_normalize(vec_of(&v[NB])), vec_normalize(vec_of(&v[NC]))};
-    if (!tri_has_area(pts[0], pts[1], pts[2]))
+    OBJECT_XF(what);
+    double pt[3][3];
+    Vec3 nrm[3];
+    if (place_triangle(v, 1, xf, pt, nrm) != 0)
         return fail(P, at, "%s: the three vertices are collinear (zero area)", what);
+    const Vec3 pts[3] = {round3(pt[0]), round3(pt[1]), round3(pt[2])};
     int idx = add_patch(P->s, &P->cap_patches, pts, nrm);
-    Prim *p = idx < 0 ? NULL : new_prim(P, PRIM_PN, at);
+    Place *pl;
+    Prim *p = idx < 0 ? NULL : new_prim(P, PRIM_PN, at, &pl);
     if (!p)
         return idx < 0 ? fail(P, at, "out of memory") : -1;
     p->material = mat;
     p->g.pn.index = idx;
     p->g.pn.mode = mode;
+    memcpy(pl->p, pt, sizeof pt);
+    return 0;
+}
+
+/* An oriented box of centre c and axes ax[3] (double) into a new
+ * primitive. */
+static int add_obox(Parser *P, const char *what, Loc at, int mat, const double c[3], double ax[3][3])
+{
+    Place *pl;
+    Prim *p = new_prim(P, PRIM_OBOX, at, &pl);
+    if (!p)
+        return -1;
+    p->material = mat;
+    memcpy(pl->p[0], c, sizeof(double) * 3);
+    p->g.obox.u = round3(ax[0]);
+    p->g.obox.v = round3(ax[1]);
+    p->g.obox.w = round3(ax[2]);
+    if (derive(P->s, P->s->nprims - 1) != 0) {
+        P->s->nprims--;
+        return fail(P, at, "%s: axes 'u', 'v' and 'w' are linearly dependent (the box is flat) or too large", what);
+    }
     return 0;
 }
 
 static int parse_box(Parser *P, Loc at)
 {
-    enum { MIN, MAX, MATERIAL, N };
-    static const Field f[N] = {{"min", F_VEC}, {"max", F_VEC}, {"material", F_NAME}};
+    enum { MIN, MAX, MATERIAL, MATRIX, N = MATRIX + XF_N };
+    static const Field f[N] = {{"min", F_VEC}, {"max", F_VEC}, {"material", F_NAME}, XF_FIELDS};
     Value v[N];
     int mat;
     if (parse_block(P, "box", f, N, v) || require(P, "box", f, v, MIN, at) || require(P, "box", f, v, MAX, at) ||
         material_ref(P, "box", f, v, MATERIAL, at, &mat))
         return -1;
-    Vec3 lo = vec_of(&v[MIN]), hi = vec_of(&v[MAX]);
-    if (!(lo.x < hi.x && lo.y < hi.y && lo.z < hi.z))
+    double lo[3], hi[3];
+    dvec_of(&v[MIN], lo);
+    dvec_of(&v[MAX], hi);
+    if (!(lo[0] < hi[0] && lo[1] < hi[1] && lo[2] < hi[2]))
         return fail(P, v[MAX].value, "box: 'max' must exceed 'min' on every axis");
-    Prim *p = new_prim(P, PRIM_BOX, at);
+    OBJECT_XF("box");
+    if (xf && !xf_axis_aligned(xf)) { /* turned or sheared: an oriented box */
+        double c[3], ax[3][3] = {{0}};
+        for (int k = 0; k < 3; k++) {
+            c[k] = 0.5 * (lo[k] + hi[k]);
+            ax[k][k] = 0.5 * (hi[k] - lo[k]);
+            xf_dir(xf, ax[k], ax[k]);
+        }
+        xf_point(xf, c, c);
+        return add_obox(P, "box", at, mat, c, ax);
+    }
+    Place *pl;
+    Prim *p = new_prim(P, PRIM_BOX, at, &pl);
     if (!p)
         return -1;
     p->material = mat;
-    p->g.box.lo = lo;
-    p->g.box.hi = hi;
+    xf_point(xf, lo, pl->p[0]);
+    xf_point(xf, hi, pl->p[1]);
+    for (int k = 0; k < 3; k++) /* a negative scale or a quarter turn swaps the ends */
+        if (pl->p[0][k] > pl->p[1][k]) {
+            double t = pl->p[0][k];
+            pl->p[0][k] = pl->p[1][k];
+            pl->p[1][k] = t;
+        }
+    derive(P->s, P->s->nprims - 1);
     return 0;
 }
 
 static int parse_obox(Parser *P, Loc at)
 {
-    enum { CENTER, U, V, W, MATERIAL, N };
-    static const Field f[N] = {{"center", F_VEC}, {"u", F_VEC}, {"v", F_VEC}, {"w", F_VEC}, {"material", F_NAME}};
+    enum { CENTER, U, V, W, MATERIAL, MATRIX, N = MATRIX + XF_N };
+    static const Field f[N] = {{"center", F_VEC}, {"u", F_VEC}, {"v", F_VEC}, {"w", F_VEC}, {"material", F_NAME},
+                               XF_FIELDS};
     Value v[N];
     int mat;
     if (parse_block(P, "obox", f, N, v))
@@ -792,45 +1124,16 @@ static int parse_obox(Parser *P, Loc at)
     for (int i = U; i <= W; i++)
         if (nonzero_vec(P, "obox", f[i].key, &v[i]))
             return -1;
-    OBox b;
-    b.c = vec_of(&v[CENTER]);
-    b.u = vec_of(&v[U]);
-    b.v = vec_of(&v[V]);
-    b.w = vec_of(&v[W]);
-    if (prim_obox_init(&b) != 0)
-        return fail(P, at, "obox: axes 'u', 'v' and 'w' are linearly dependent (the box is flat) or too large");
-    Prim *p = new_prim(P, PRIM_OBOX, at);
-    if (!p)
-        return -1;
-    p->material = mat;
-    p->g.obox = b;
-    return 0;
-}
-
-/* c = a after b, for 3x4 affine maps stored as rows of M then t. */
-static void xf_compose(const float a[12], const float b[12], float c[12])
-{
-    float m[12];
-    for (int r = 0; r < 3; r++) {
-        for (int k = 0; k < 3; k++)
-            m[3 * r + k] = a[3 * r] * b[k] + a[3 * r + 1] * b[3 + k] + a[3 * r + 2] * b[6 + k];
-        m[9 + r] = a[3 * r] * b[9] + a[3 * r + 1] * b[10] + a[3 * r + 2] * b[11] + a[9 + r];
+    OBJECT_XF("obox");
+    double c[3], ax[3][3];
+    dvec_of(&v[CENTER], c);
+    xf_point(xf, c, c);
+    for (int k = 0; k < 3; k++) {
+        dvec_of(&v[U + k], ax[k]);
+        if (xf)
+            xf_dir(xf, ax[k], ax[k]);
     }
-    memcpy(c, m, sizeof m);
-}
-
-/* Rotation by deg degrees about axis 0, 1 or 2 (right-handed). */
-static void xf_rotation(int axis, float deg, float r[12])
-{
-    double rad = (double)deg * 3.14159265358979323846 / 180.0;
-    float c = (float)cos(rad), sn = (float)sin(rad);
-    memset(r, 0, sizeof(float) * 12);
-    int i = (axis + 1) % 3, j = (axis + 2) % 3;
-    r[4 * axis] = 1.0f;
-    r[3 * i + i] = c;
-    r[3 * i + j] = -sn;
-    r[3 * j + i] = sn;
-    r[3 * j + j] = c;
+    return add_obox(P, "obox", at, mat, c, ax);
 }
 
 /* Records that the scene read the file at path. Returns 0, or -1 when out
@@ -849,10 +1152,9 @@ static int add_input(Scene *s, const char *path)
 
 static int parse_mesh(Parser *P, Loc at)
 {
-    enum { FILE_, MATERIAL, FLAT, SMOOTH, PN, PN_MODE, MATRIX, SCALE, ROTATE, TRANSLATE, N };
-    static const Field f[N] = {{"file", F_STRING}, {"material", F_NAME}, {"flat", F_FLAG},    {"smooth", F_FLAG},
-                               {"pn", F_FLAG},     {"pn_mode", F_NAME},  {"matrix", F_MAT},   {"scale", F_SCALE},
-                               {"rotate", F_VEC},  {"translate", F_VEC}};
+    enum { FILE_, MATERIAL, FLAT, SMOOTH, PN, PN_MODE, MATRIX, N = MATRIX + XF_N };
+    static const Field f[N] = {{"file", F_STRING}, {"material", F_NAME}, {"flat", F_FLAG}, {"smooth", F_FLAG},
+                               {"pn", F_FLAG},     {"pn_mode", F_NAME},  XF_FIELDS};
     Value v[N];
     int mat, mode;
     if (parse_block(P, "mesh", f, N, v) || require(P, "mesh", f, v, FILE_, at) ||
@@ -862,26 +1164,7 @@ static int parse_mesh(Parser *P, Loc at)
         return fail(P, (v[PN].set ? v[PN] : v[SMOOTH]).key, "mesh: 'flat', 'smooth' and 'pn' exclude each other");
     if (v[PN_MODE].set && !v[PN].set)
         return fail(P, v[PN_MODE].key, "mesh: 'pn_mode' is for a 'pn' mesh");
-    /* The transform: matrix first, then scale, rotate (about x, then y,
-     * then z) and translate, as they are listed in the README. */
-    float xf[12] = {1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0};
-    if (v[MATRIX].set)
-        memcpy(xf, v[MATRIX].v, sizeof xf);
-    if (v[SCALE].set) {
-        float sx = v[SCALE].v[0], sy = v[SCALE].n == 3 ? v[SCALE].v[1] : sx, sz = v[SCALE].n == 3 ? v[SCALE].v[2] : sx;
-        if (sx == 0.0f || sy == 0.0f || sz == 0.0f)
-            return fail(P, v[SCALE].value, "mesh: 'scale' must not be zero");
-        const float m[12] = {sx, 0, 0, 0, sy, 0, 0, 0, sz, 0, 0, 0};
-        xf_compose(m, xf, xf);
-    }
-    for (int axis = 0; v[ROTATE].set && axis < 3; axis++) {
-        float r[12];
-        xf_rotation(axis, v[ROTATE].v[axis], r);
-        xf_compose(r, xf, xf);
-    }
-    if (v[TRANSLATE].set)
-        for (int k = 0; k < 3; k++)
-            xf[9 + k] += v[TRANSLATE].v[k];
+    OBJECT_XF("mesh");
     /* A relative path is relative to the scene file's folder. */
     char path[2 * SCENE_PATH_MAX];
     const char *slash = strrchr(P->name, '/');
@@ -906,7 +1189,7 @@ static int parse_mesh(Parser *P, Loc at)
     }
     int rc = v[PN].set ? scene_add_pn_mesh(P->s, &m, mat, mode, xf, &dropped)
                        : scene_add_mesh(P->s, &m, mat, smooth, xf, &dropped);
-    P->cap_prims = P->s->nprims; /* the arrays hold at least this many */
+    P->cap_prims = P->cap_place = P->s->nprims; /* the arrays hold at least this many */
     P->cap_patches = P->s->npatches;
     P->s->degenerate += m.degenerate + dropped;
     mesh_free(&m);
@@ -952,105 +1235,97 @@ static int parse_statement(Parser *P)
     return fail(P, kw.loc, "unknown keyword %s", tok_desc(&kw, buf, sizeof buf)); /* not reached */
 }
 
-/* M p + t for xf = rows of M, then t. */
-static Vec3 xf_point(const float *xf, Vec3 p)
+/* Triangle i of m mapped by xf into p (double) and, with normals (n not
+ * NULL), its vertex normals too. Returns 0 for a triangle to drop: no area,
+ * or a point out of float range. */
+static int placed_triangle(const Mesh *m, int i, const double *xf, double p[3][3], Vec3 *n)
 {
-    if (!xf)
-        return p;
-    return vec3(xf[0] * p.x + xf[1] * p.y + xf[2] * p.z + xf[9], xf[3] * p.x + xf[4] * p.y + xf[5] * p.z + xf[10],
-                xf[6] * p.x + xf[7] * p.y + xf[8] * p.z + xf[11]);
-}
-
-/* Normals go through the inverse transpose: the cofactor matrix of M, which
- * differs from it only by the determinant's factor, lost on normalising.
- * Its rows are the cross products of M's rows. */
-static Vec3 xf_normal(const float *xf, Vec3 n)
-{
-    if (!xf)
-        return n;
-    Vec3 r0 = vec3(xf[0], xf[1], xf[2]), r1 = vec3(xf[3], xf[4], xf[5]), r2 = vec3(xf[6], xf[7], xf[8]);
-    Vec3 c0 = vec_cross(r1, r2), c1 = vec_cross(r2, r0), c2 = vec_cross(r0, r1);
-    float det = vec_dot(r0, c0);
-    Vec3 m = vec3(vec_dot(c0, n), vec_dot(c1, n), vec_dot(c2, n));
-    return vec_normalize(det < 0.0f ? vec_neg(m) : m);
-}
-
-/* Triangle i of m mapped by xf into p, and with normals (n not NULL) its
- * vertex normals too. Returns 0 for a triangle to drop: no area, or a
- * point out of float range. */
-static int placed_triangle(const Mesh *m, int i, const float *xf, Vec3 p[3], Vec3 *n)
-{
+    int ok = 1;
     for (int k = 0; k < 3; k++) {
-        p[k] = xf_point(xf, m->v[m->tri[i][k]]);
-        if (n)
-            n[k] = xf_normal(xf, m->n[m->ntri[i][k]]);
+        Vec3 v = m->v[m->tri[i][k]];
+        const double q[3] = {v.x, v.y, v.z};
+        xf_point(xf, q, p[k]);
+        ok = ok && vec_is_finite(round3(p[k]));
+        if (n) {
+            Vec3 nv = m->n[m->ntri[i][k]];
+            double d[3] = {nv.x, nv.y, nv.z};
+            xf_normal(xf, d, d);
+            n[k] = round3(d);
+            ok = ok && vec_is_finite(n[k]);
+        }
     }
-    return tri_has_area(p[0], p[1], p[2]) && vec_is_finite(p[0]) && vec_is_finite(p[1]) && vec_is_finite(p[2]);
+    return ok && tri_has_area_d(p[0], p[1], p[2]);
 }
 
-int scene_add_mesh(Scene *s, const Mesh *m, int material, int smooth, const float *xf, int *dropped)
+/* Room for need primitives and their places. Returns 0, or -1. */
+static int reserve_prims(Scene *s, size_t need)
 {
-    size_t need = (size_t)s->nprims + (size_t)m->nt;
     if (need > (size_t)INT32_MAX)
         return -1;
     Prim *arr = realloc(s->prims, sizeof(Prim) * (need ? need : 1));
     if (!arr)
         return -1;
     s->prims = arr;
+    Place *pl = realloc(s->place, sizeof(Place) * (need ? need : 1));
+    if (!pl)
+        return -1;
+    s->place = pl;
+    return 0;
+}
+
+int scene_add_mesh(Scene *s, const Mesh *m, int material, int smooth, const double *xf, int *dropped)
+{
+    if (reserve_prims(s, (size_t)s->nprims + (size_t)m->nt) != 0)
+        return -1;
     *dropped = 0;
     for (int i = 0; i < m->nt; i++) {
         Prim *p = &s->prims[s->nprims];
+        Place *pl = &s->place[s->nprims];
         memset(p, 0, sizeof *p);
         p->kind = smooth ? PRIM_SMOOTH_TRIANGLE : PRIM_TRIANGLE;
         p->material = material;
-        Triangle *t = &p->g.tri;
-        Vec3 v[3], n[3];
-        if (!placed_triangle(m, i, xf, v, smooth ? n : NULL)) {
+        Vec3 n[3];
+        if (!placed_triangle(m, i, xf, pl->p, smooth ? n : NULL)) {
             (*dropped)++;
             continue;
         }
-        t->a = v[0], t->b = v[1], t->c = v[2];
         if (smooth)
-            t->na = n[0], t->nb = n[1], t->nc = n[2];
-        s->nprims++;
+            p->g.tri.na = n[0], p->g.tri.nb = n[1], p->g.tri.nc = n[2];
+        derive(s, s->nprims++);
     }
     return 0;
 }
 
-/* Points every PN primitive at its patch: after the array of patches has
- * moved. */
+/* Points every PN primitive at its patch and every ellipsoid at its own:
+ * after their arrays have moved. */
 static void link_patches(Scene *s)
 {
-    for (int i = 0; i < s->nprims; i++)
+    for (int i = 0; i < s->nprims; i++) {
         if (s->prims[i].kind == PRIM_PN)
             s->prims[i].g.pn.patch = &s->patches[s->prims[i].g.pn.index];
+        if (s->prims[i].kind == PRIM_ELLIPSOID)
+            s->prims[i].g.ell.e = &s->ellipsoids[s->prims[i].g.ell.index];
+    }
 }
 
-int scene_add_pn_mesh(Scene *s, const Mesh *m, int material, int mode, const float *xf, int *dropped)
+int scene_add_pn_mesh(Scene *s, const Mesh *m, int material, int mode, const double *xf, int *dropped)
 {
-    size_t need = (size_t)s->nprims + (size_t)m->nt, needp = (size_t)s->npatches + (size_t)m->nt;
-    if (need > (size_t)INT32_MAX || needp > (size_t)INT32_MAX || !m->n)
+    size_t needp = (size_t)s->npatches + (size_t)m->nt;
+    if (needp > (size_t)INT32_MAX || !m->n || reserve_prims(s, (size_t)s->nprims + (size_t)m->nt) != 0)
         return -1;
-    Prim *arr = realloc(s->prims, sizeof(Prim) * (need ? need : 1));
-    if (!arr)
-        return -1;
-    s->prims = arr;
     PnPatch *pa = realloc(s->patches, sizeof(PnPatch) * (needp ? needp : 1));
     if (!pa)
         return -1;
     s->patches = pa;
     *dropped = 0;
     for (int i = 0; i < m->nt; i++) {
-        Vec3 p[3], n[3];
-        int ok = placed_triangle(m, i, xf, p, n);
-        for (int k = 0; k < 3; k++) { /* the patch's normals must be unit (pn_patch_init) */
-            n[k] = vec_normalize(n[k]);
-            ok = ok && vec_is_finite(n[k]);
-        }
-        if (!ok) {
+        Place *pl = &s->place[s->nprims];
+        Vec3 n[3];
+        if (!placed_triangle(m, i, xf, pl->p, n)) {
             (*dropped)++;
             continue;
         }
+        const Vec3 p[3] = {round3(pl->p[0]), round3(pl->p[1]), round3(pl->p[2])};
         pn_patch_init(&s->patches[s->npatches], p, n);
         Prim *q = &s->prims[s->nprims++];
         memset(q, 0, sizeof *q);
@@ -1063,57 +1338,137 @@ int scene_add_pn_mesh(Scene *s, const Mesh *m, int material, int mode, const flo
     return 0;
 }
 
-static Vec3 move(Vec3 p, float scale, Vec3 offset) { return vec_add(vec_scale(p, scale), offset); }
-
-int scene_transform(Scene *s, float scale, Vec3 offset)
+Place scene_place(const Scene *s, int i)
 {
+    if (s->place)
+        return s->place[i];
+    const Prim *p = &s->prims[i];
+    Vec3 v[3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
+    switch (p->kind) {
+    case PRIM_SPHERE:
+        v[0] = p->g.sphere.c, v[1].x = p->g.sphere.r;
+        break;
+    case PRIM_PLANE:
+        v[0] = p->g.plane.n, v[1].x = p->g.plane.d;
+        break;
+    case PRIM_TRIANGLE:
+    case PRIM_SMOOTH_TRIANGLE:
+        v[0] = p->g.tri.a, v[1] = p->g.tri.b, v[2] = p->g.tri.c;
+        break;
+    case PRIM_BOX:
+        v[0] = p->g.box.lo, v[1] = p->g.box.hi;
+        break;
+    case PRIM_OBOX:
+        v[0] = p->g.obox.c;
+        break;
+    case PRIM_PN: /* the patch's corners */
+        v[0] = p->g.pn.patch->b[PN_AT(3, 0)], v[1] = p->g.pn.patch->b[PN_AT(0, 0)];
+        v[2] = p->g.pn.patch->b[PN_AT(0, 3)];
+        break;
+    case PRIM_ELLIPSOID:
+        break;
+    }
+    Place q;
+    for (int j = 0; j < 3; j++)
+        for (int k = 0; k < 3; k++)
+            q.p[j][k] = vec_comp(v[j], k);
+    return q;
+}
+
+/* Places from the floats, for a scene built in code (Scene.place). */
+static int place_from_floats(Scene *s)
+{
+    if (!s->placed) {
+        CameraSpec *c = &s->camera;
+        for (int k = 0; k < 3; k++) {
+            c->eye_at[k] = vec_comp(c->eye, k);
+            c->target_at[k] = vec_comp(c->target, k);
+        }
+        for (int i = 0; i < s->nlights; i++)
+            for (int k = 0; k < 3; k++)
+                s->lights[i].at[k] = vec_comp(s->lights[i].pos, k);
+        s->placed = 1;
+    }
+    if (s->place || s->nprims == 0)
+        return 0;
+    Place *pl = malloc(sizeof(Place) * (size_t)s->nprims);
+    if (!pl)
+        return -1;
+    for (int i = 0; i < s->nprims; i++)
+        pl[i] = scene_place(s, i);
+    s->place = pl;
+    return 0;
+}
+
+/* p * scale + offset, in place. */
+static void move(double p[3], double scale, const double offset[3])
+{
+    for (int k = 0; k < 3; k++)
+        p[k] = p[k] * scale + offset[k];
+}
+
+static Vec3 scaled(Vec3 v, double scale)
+{
+    return vec3((float)(v.x * scale), (float)(v.y * scale), (float)(v.z * scale));
+}
+
+int scene_transform(Scene *s, double scale, const double offset[3])
+{
+    if (place_from_floats(s) != 0)
+        return -1;
     CameraSpec *c = &s->camera;
-    c->eye = move(c->eye, scale, offset);
-    c->target = move(c->target, scale, offset);
+    move(c->eye_at, scale, offset);
+    move(c->target_at, scale, offset);
+    c->eye = round3(c->eye_at);
+    c->target = round3(c->target_at);
     for (int i = 0; i < s->nlights; i++) {
         Light *l = &s->lights[i];
-        l->pos = move(l->pos, scale, offset);
-        l->area_u = vec_scale(l->area_u, scale);
-        l->area_v = vec_scale(l->area_v, scale);
-        l->fade_distance *= scale;
+        move(l->at, scale, offset);
+        l->pos = round3(l->at);
+        l->area_u = scaled(l->area_u, scale);
+        l->area_v = scaled(l->area_v, scale);
+        l->fade_distance = (float)(l->fade_distance * scale);
     }
     for (int i = 0; i < s->nprims; i++) {
         Prim *p = &s->prims[i];
+        Place *q = &s->place[i];
         switch (p->kind) {
         case PRIM_SPHERE:
-            p->g.sphere.c = move(p->g.sphere.c, scale, offset);
-            p->g.sphere.r *= scale;
+            move(q->p[0], scale, offset);
+            q->p[1][0] *= scale;
             break;
         case PRIM_PLANE: /* n.p = d becomes n.p' = d*scale + n.offset */
-            p->g.plane.d = p->g.plane.d * scale + vec_dot(p->g.plane.n, offset);
+            q->p[1][0] = q->p[1][0] * scale + q->p[0][0] * offset[0] + q->p[0][1] * offset[1] + q->p[0][2] * offset[2];
             break;
         case PRIM_TRIANGLE:
         case PRIM_SMOOTH_TRIANGLE:
-            p->g.tri.a = move(p->g.tri.a, scale, offset);
-            p->g.tri.b = move(p->g.tri.b, scale, offset);
-            p->g.tri.c = move(p->g.tri.c, scale, offset);
+        case PRIM_PN:
+            for (int k = 0; k < 3; k++)
+                move(q->p[k], scale, offset);
             break;
         case PRIM_BOX:
-            p->g.box.lo = move(p->g.box.lo, scale, offset);
-            p->g.box.hi = move(p->g.box.hi, scale, offset);
+            move(q->p[0], scale, offset);
+            move(q->p[1], scale, offset);
             break;
         case PRIM_OBOX:
-            p->g.obox.c = move(p->g.obox.c, scale, offset);
-            p->g.obox.u = vec_scale(p->g.obox.u, scale);
-            p->g.obox.v = vec_scale(p->g.obox.v, scale);
-            p->g.obox.w = vec_scale(p->g.obox.w, scale);
-            if (prim_obox_init(&p->g.obox) != 0)
+            move(q->p[0], scale, offset);
+            p->g.obox.u = scaled(p->g.obox.u, scale);
+            p->g.obox.v = scaled(p->g.obox.v, scale);
+            p->g.obox.w = scaled(p->g.obox.w, scale);
+            break;
+        case PRIM_ELLIPSOID: {
+            Ellipsoid *e = &s->ellipsoids[p->g.ell.index];
+            for (int k = 0; k < 9; k++)
+                e->m[k] *= scale;
+            move(e->m + 9, scale, offset);
+            if (prim_ellipsoid_init(e) != 0)
                 return -1;
             break;
-        case PRIM_PN: /* its patch, below */
-            break;
         }
+        }
+        if (derive(s, i) != 0)
+            return -1;
     }
-    /* A patch is its control net: an affine map moves the net (points on a
-     * shared edge move alike, so the edge stays shared). */
-    for (int i = 0; i < s->npatches; i++)
-        for (int k = 0; k < 10; k++)
-            s->patches[i].b[k] = move(s->patches[i].b[k], scale, offset);
     char err[128];
     return scene_validate(s, err, sizeof err); /* nothing overflowed or collapsed */
 }
@@ -1199,6 +1554,15 @@ int scene_validate(const Scene *s, char *err, size_t errlen)
                 ok = has_length(r->patch->n[k]);
             break;
         }
+        case PRIM_ELLIPSOID: {
+            const EllRef *r = &p->g.ell;
+            ok = r->index >= 0 && r->index < s->nellipsoids && r->e == &s->ellipsoids[r->index];
+            if (ok) {
+                Ellipsoid e = *r->e;
+                ok = prim_ellipsoid_init(&e) == 0;
+            }
+            break;
+        }
         default:
             ok = 0;
         }
@@ -1238,43 +1602,61 @@ int scene_split_triangles(Scene *s)
     for (int i = 0; i < s->nprims; i++)
         ntri += s->prims[i].kind == PRIM_TRIANGLE || s->prims[i].kind == PRIM_SMOOTH_TRIANGLE;
     size_t n = (size_t)s->nprims + (size_t)ntri;
-    if (n > (size_t)INT32_MAX)
+    if (n > (size_t)INT32_MAX || place_from_floats(s) != 0)
         return -1;
     Prim *np = malloc(sizeof(Prim) * (n ? n : 1));
-    if (!np)
+    Place *nq = malloc(sizeof(Place) * (n ? n : 1));
+    if (!np || !nq) {
+        free(np);
+        free(nq);
         return -1;
+    }
     size_t k = 0;
     for (int i = 0; i < s->nprims; i++) {
         const Prim *p = &s->prims[i];
         np[k] = *p;
+        nq[k] = s->place[i];
         if (p->kind != PRIM_TRIANGLE && p->kind != PRIM_SMOOTH_TRIANGLE) {
             k++;
             continue;
         }
         const Triangle *t = &p->g.tri;
-        Vec3 v[3] = {t->a, t->b, t->c}, nv[3] = {t->na, t->nb, t->nc};
+        const Place *v = &s->place[i];
+        Vec3 nv[3] = {t->na, t->nb, t->nc};
         int c = 0; /* the corner opposite the longest edge */
-        float best = -1.0f;
+        double best = -1.0;
         for (int j = 0; j < 3; j++) {
-            Vec3 e = vec_sub(v[(j + 1) % 3], v[(j + 2) % 3]);
-            if (vec_dot(e, e) > best) {
-                best = vec_dot(e, e);
+            double e2 = 0.0;
+            for (int a = 0; a < 3; a++)
+                e2 += (v->p[(j + 1) % 3][a] - v->p[(j + 2) % 3][a]) * (v->p[(j + 1) % 3][a] - v->p[(j + 2) % 3][a]);
+            if (e2 > best) {
+                best = e2;
                 c = j;
             }
         }
         int b = (c + 1) % 3, d = (c + 2) % 3;
-        Vec3 m = vec_scale(vec_add(v[b], v[d]), 0.5f), nm = vec_normalize(vec_add(nv[b], nv[d]));
+        double m[3];
+        for (int a = 0; a < 3; a++)
+            m[a] = 0.5 * (v->p[b][a] + v->p[d][a]);
+        Vec3 nm = vec_normalize(vec_add(nv[b], nv[d]));
         np[k + 1] = np[k];
         Triangle *t0 = &np[k].g.tri, *t1 = &np[k + 1].g.tri;
-        t0->a = v[c], t0->b = v[b], t0->c = m;
         t0->na = nv[c], t0->nb = nv[b], t0->nc = nm;
-        t1->a = v[c], t1->b = m, t1->c = v[d];
         t1->na = nv[c], t1->nb = nm, t1->nc = nv[d];
+        const double *c0[3] = {v->p[c], v->p[b], m}, *c1[3] = {v->p[c], m, v->p[d]};
+        for (int j = 0; j < 3; j++) {
+            memcpy(nq[k].p[j], c0[j], sizeof(double) * 3);
+            memcpy(nq[k + 1].p[j], c1[j], sizeof(double) * 3);
+        }
         k += 2;
     }
     free(s->prims);
+    free(s->place);
     s->prims = np;
+    s->place = nq;
     s->nprims = (int)n;
+    for (int i = 0; i < s->nprims; i++)
+        derive(s, i);
     return 0;
 }
 
@@ -1283,7 +1665,9 @@ void scene_free(Scene *s)
     free(s->materials);
     free(s->lights);
     free(s->prims);
+    free(s->place);
     free(s->patches);
+    free(s->ellipsoids);
     for (int i = 0; i < s->ninputs; i++)
         free(s->inputs[i]);
     free(s->inputs);
@@ -1324,6 +1708,7 @@ int scene_parse(const char *name, const char *text, size_t len, Scene *s, char *
         if (s->prims[i].kind == PRIM_PN && s->prims[i].g.pn.mode < 0)
             s->prims[i].g.pn.mode = s->image.pn_mode;
     link_patches(s);
+    s->placed = 1;
     return 0;
 }
 

@@ -18,11 +18,14 @@
 
 static unsigned long long rng = 0x9E3779B97F4A7C15ULL;
 
-/* n primitives of every bounded kind, plus a plane, scattered in a cube. */
+/* n primitives of every bounded kind, plus a plane, scattered in a cube.
+ * The ellipsoids live in the same block, after the primitives, so that
+ * one free releases both. */
 static Prim *random_prims(int n)
 {
-    Prim *p = calloc((size_t)n + 1, sizeof(Prim));
+    Prim *p = calloc(1, sizeof(Prim) * ((size_t)n + 1) + sizeof(Ellipsoid) * (size_t)n);
     assert_non_null(p);
+    Ellipsoid *ells = (Ellipsoid *)(void *)(p + n + 1);
     for (int i = 0; i < n; i++) {
         Vec3 c = test_rvec(&rng, -10, 10);
         switch (i % 4) {
@@ -30,6 +33,17 @@ static Prim *random_prims(int n)
             p[i].kind = PRIM_SPHERE;
             p[i].g.sphere.c = c;
             p[i].g.sphere.r = test_uniform(&rng, 0.1f, 1.5f);
+            if (i % 8 == 4) { /* every other one an ellipsoid: any map of the unit sphere */
+                Ellipsoid *e = &ells[i];
+                for (int k = 0; k < 9; k++)
+                    e->m[k] = test_uniform(&rng, -1.5f, 1.5f);
+                e->m[9] = c.x, e->m[10] = c.y, e->m[11] = c.z;
+                if (prim_ellipsoid_init(e) == 0) {
+                    p[i].kind = PRIM_ELLIPSOID;
+                    p[i].g.ell.e = e;
+                    p[i].g.ell.index = i;
+                }
+            }
             break;
         case 1:
             p[i].kind = PRIM_TRIANGLE;

@@ -11,14 +11,14 @@
 
 static CameraSpec spec(float fovy)
 {
-    CameraSpec c = {{0, 0, 0}, {0, 0, 1}, {0, 1, 0}, fovy};
+    CameraSpec c = {.eye = {0, 0, 0}, .target = {0, 0, 1}, .up = {0, 1, 0}, .fovy = fovy};
     return c;
 }
 
 static void test_centre_pixel_looks_at_target(void **state)
 {
     (void)state;
-    CameraSpec c = {{1, 2, 3}, {1, 2, 10}, {0, 1, 0}, 40};
+    CameraSpec c = {.eye = {1, 2, 3}, .target = {1, 2, 10}, .up = {0, 1, 0}, .fovy = 40};
     Camera cam;
     camera_init(&cam, &c, 5, 3); /* odd sizes: pixel (2, 1) is centred */
     Ray r = camera_ray(&cam, 2.5f, 1.5f);
@@ -62,7 +62,7 @@ static void test_rays_are_camera_ray(void **state)
      * for every count, on cameras looking every way. */
     unsigned long long rng = 7;
     for (int c = 0; c < 200; c++) {
-        CameraSpec cs = {test_rvec(&rng, -5, 5), test_rvec(&rng, -5, 5), {0, 1, 0}, test_uniform(&rng, 5, 150)};
+        CameraSpec cs = {.eye = test_rvec(&rng, -5, 5), .target = test_rvec(&rng, -5, 5), .up = {0, 1, 0}, .fovy = test_uniform(&rng, 5, 150)};
         Camera cam;
         camera_init(&cam, &cs, 640, 480);
         float x[11], y[11];

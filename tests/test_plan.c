@@ -115,10 +115,10 @@ static void test_errors(void **state)
     assert_string_equal(err, "spp must be a whole number from 1 to 16");
     o = plan_options();
     o.move = 1;
-    o.translate = vec3(0, INFINITY, 0);
+    o.translate[1] = INFINITY;
     assert_int_equal(plan_build(&p, &s, &o, err, sizeof err), -1);
     assert_string_equal(err, "the scene degenerates at that scale or offset");
-    o.translate = vec3(0, 0, 0);
+    o.translate[1] = 0;
     o.scale = 0;
     assert_int_equal(plan_build(&p, &s, &o, err, sizeof err), -1);
     scene_free(&s);
@@ -126,10 +126,15 @@ static void test_errors(void **state)
     load(&s, "obox { center 0 0 0 u 1e-10 0 0 v 0 1e-10 0 w 0 0 1e-10 material m }\n");
     o = plan_options();
     o.move = 1;
-    o.scale = 1e-30f;
+    o.scale = 1e-30;
     assert_int_equal(plan_build(&p, &s, &o, err, sizeof err), -1);
     assert_string_equal(err, "the scene degenerates at that scale or offset");
     scene_free(&s);
+}
+
+static void assert_offset(const RenderPlan *p, double x, double y, double z)
+{
+    assert_true(p->offset[0] == x && p->offset[1] == y && p->offset[2] == z);
 }
 
 /* Robust plans put the eye at the origin and keep the offset; classic
@@ -141,7 +146,7 @@ static void test_coordinates(void **state)
     RenderPlan p;
     PlanOptions o = plan_options();
     load_plan(&s, &p, "", &o);
-    assert_vec(p.offset, 1, 2, -8, 0);
+    assert_offset(&p, 1, 2, -8);
     assert_vec(s.camera.eye, 0, 0, 0, 0);
     assert_vec(s.camera.target, 0, 0, 8, 0);
     assert_vec(s.lights[0].pos, 2, 2, 3, 0);
@@ -155,7 +160,7 @@ static void test_coordinates(void **state)
         o.classic = k == 0;
         o.world = k == 1;
         load_plan(&s, &p, "", &o);
-        assert_vec(p.offset, 0, 0, 0, 0);
+        assert_offset(&p, 0, 0, 0);
         assert_vec(s.camera.eye, 1, 2, -8, 0);
         done(&s, &p);
     }
@@ -164,9 +169,9 @@ static void test_coordinates(void **state)
     o = plan_options();
     o.move = 1;
     o.scale = 2;
-    o.translate = vec3(10, 0, 0);
+    o.translate[0] = 10;
     load_plan(&s, &p, "", &o);
-    assert_vec(p.offset, 12, 4, -16, 0);
+    assert_offset(&p, 12, 4, -16);
     assert_vec(s.camera.eye, 0, 0, 0, 0);
     assert_vec(s.lights[0].pos, 4, 4, 6, 0);
     assert_float_equal(s.prims[0].g.sphere.r, 1, 0);

@@ -26,12 +26,13 @@ static const char *scene_text =
     "material glass { color 0.9 1 0.8 filter 0.5 transmit 0.25 ior 1.5 }\n"
     "sphere { center 0 1 0 radius 0.5 material glass }\n";
 
-/* The export of scene_text, as a string the caller frees. */
-static char *export(void)
+/* The export of text (NULL: scene_text), as a string the caller frees. */
+static char *export_of(const char *text)
 {
     Scene s;
     char err[256];
-    assert_int_equal(scene_parse("t.scn", scene_text, strlen(scene_text), &s, err, sizeof err), 0);
+    text = text ? text : scene_text;
+    assert_int_equal(scene_parse("t.scn", text, strlen(text), &s, err, sizeof err), 0);
     char *buf = NULL;
     size_t len = 0;
     FILE *f = open_memstream(&buf, &len);
@@ -41,6 +42,8 @@ static char *export(void)
     scene_free(&s);
     return buf;
 }
+
+static char *export(void) { return export_of(NULL); }
 
 static void expect(const char *text, const char *piece)
 {
@@ -95,11 +98,35 @@ static void test_lights_materials_objects(void **state)
     free(t);
 }
 
+/* Transformed objects go out as lancer holds them, and coordinates as
+ * they were written, not as the nearest float. */
+static void test_transforms_and_doubles(void **state)
+{
+    (void)state;
+    char *t = export_of("camera { eye 100000.8 0 -5 target 100000.8 0 0 fov 40 }\n"
+                        "light { position 100003.3 1 0 }\n"
+                        "material m { }\n"
+                        "sphere { center 100000.81 0 0 radius 0.5 material m }\n"
+                        "sphere { center 0 0 0 radius 1 scale 2 1 1 matrix 1 0.5 0 0 1 0 0 0 1 0 0 0 "
+                        "translate 1 2 3 material m }\n"
+                        "box { min 0 0 0 max 2 2 2 rotate 0 0 90 material m }\n");
+    expect(t, "location <100000.8, 0, -5>");
+    expect(t, "look_at <100000.8, 0, 0>");
+    expect(t, "light_source {\n  <100003.3, 1, 0>");
+    expect(t, "sphere { <100000.81, 0, 0>, 0.5 texture");
+    /* the unit sphere under M = scale(2, 1, 1) after the shear, whose axes' images are the rows */
+    expect(t, "sphere { <0, 0, 0>, 1\n  matrix <2, 0, 0,  1, 1, 0,  0, 0, 1,  1, 2, 3>");
+    /* a quarter turn keeps the box axis-aligned */
+    expect(t, "box { <-2, 0, 0>, <0, 2, 2> texture");
+    free(t);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_globals_and_camera),
         cmocka_unit_test(test_lights_materials_objects),
+        cmocka_unit_test(test_transforms_and_doubles),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

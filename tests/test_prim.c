@@ -147,6 +147,90 @@ static void test_sphere_tangent_and_inside(void **state)
     assert_vec(sf.ng, 0, 0, 1, 1e-6); /* flipped to face the ray: inward */
 }
 
+/* ---- ellipsoid ---- */
+
+/* An ellipsoid of semi-axes 2, 1, 0.5 along x, y, z, centred at c: m maps
+ * the unit sphere onto it. */
+static Ellipsoid ellipsoid(double cx, double cy, double cz)
+{
+    Ellipsoid e = {{2, 0, 0, 0, 1, 0, 0, 0, 0.5, cx, cy, cz}, {0}};
+    assert_int_equal(prim_ellipsoid_init(&e), 0);
+    return e;
+}
+
+static void test_ellipsoid(void **state)
+{
+    (void)state;
+    Ellipsoid e = ellipsoid(1, 2, 3);
+    /* the inverse: x / 2, y, 2 z, less the centre's image */
+    assert_true(e.a[0] == 0.5 && e.a[4] == 1 && e.a[8] == 2 && e.a[9] == -0.5 && e.a[10] == -2 && e.a[11] == -6);
+    Prim p = {PRIM_ELLIPSOID, 0, {.ell = {&e, 0}}};
+    PrimHit h;
+    Surface sf;
+    /* along each axis, from outside: the semi-axis decides where */
+    const float o[3][3] = {{-9, 2, 3}, {1, -8, 3}, {1, 2, -7}}, d[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    const float want[3] = {8, 9, 9.5f};
+    for (int k = 0; k < 3; k++) {
+        Ray r = ray(o[k][0], o[k][1], o[k][2], d[k][0], d[k][1], d[k][2]);
+        assert_true(prim_intersect(&p, &r, V, &h));
+        assert_float_equal(h.t, want[k], 1e-5);
+        if (V == PRIM_ROBUST)
+            assert_true(fabsf(h.t - want[k]) <= h.terr);
+        prim_surface(&p, &r, &h, V, &sf);
+        assert_vec(sf.ng, -d[k][0], -d[k][1], -d[k][2], 1e-6); /* facing the ray */
+    }
+    /* an oblique hit: the normal is the gradient A^T (A p + b), not p - c */
+    Ray r = ray(1 + 2 * 0.3f, 2 + 0.4f, -5, 0, 0, 1); /* the unit sphere's (0.3, 0.4, -sqrt(0.75)) */
+    assert_true(prim_intersect(&p, &r, V, &h));
+    assert_float_equal(h.t, 8 - sqrtf(0.75f) / 2, 1e-5);
+    prim_surface(&p, &r, &h, V, &sf);
+    float g[3] = {0.15f, 0.4f, -2 * sqrtf(0.75f)}, len = sqrtf(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+    assert_vec(sf.ng, g[0] / len, g[1] / len, g[2] / len, 1e-5);
+    /* a miss beside the long axis, where a sphere of radius 2 would be hit */
+    r = ray(1, 3.5f, -5, 0, 0, 1);
+    assert_false(prim_intersect(&p, &r, V, &h));
+    /* from inside: the far side */
+    r = ray(1, 2, 3, 1, 0, 0);
+    assert_true(prim_intersect(&p, &r, V, &h));
+    assert_float_equal(h.t, 2, 1e-6);
+    assert_true(prim_inside(&p, vec3(2.9f, 2, 3)));
+    assert_false(prim_inside(&p, vec3(1, 2, 3.6f)));
+    /* a singular map has no ellipsoid */
+    Ellipsoid flat = {{1, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0}, {0}};
+    assert_int_equal(prim_ellipsoid_init(&flat), -1);
+    flat.m[8] = NAN;
+    assert_int_equal(prim_ellipsoid_init(&flat), -1);
+}
+
+/* The robust ellipsoid's spawned rays leave on the side they go to, for
+ * hits all over a thin, turned ellipsoid far from the origin. */
+static void test_ellipsoid_spawn(void **state)
+{
+    (void)state;
+    double c = cos(0.5), sn = sin(0.5);
+    Ellipsoid e = {{300 * c, -0.02 * sn, 0, 300 * sn, 0.02 * c, 0, 0, 0, 5, 1000, -2000, 500}, {0}};
+    assert_int_equal(prim_ellipsoid_init(&e), 0);
+    Prim p = {PRIM_ELLIPSOID, 0, {.ell = {&e, 0}}};
+    unsigned long long rng = 7;
+    int hits = 0;
+    for (int i = 0; i < 2000; i++) {
+        Vec3 q = test_rvec(&rng, -1, 1), from = vec_add(vec3(1000, -2000, 500), vec_scale(test_rvec(&rng, -1, 1), 600));
+        Vec3 to = vec3((float)(1000 + 300 * c * q.x), (float)(-2000 + 300 * sn * q.x), (float)(500 + 5 * q.z));
+        Ray r = ray_make(from, vec_normalize(vec_sub(to, from)), INFINITY);
+        PrimHit h;
+        Surface sf;
+        if (!prim_intersect(&p, &r, PRIM_ROBUST, &h))
+            continue;
+        hits++;
+        prim_surface(&p, &r, &h, PRIM_ROBUST, &sf);
+        /* out again (reflection) and in (refraction): outside, then inside */
+        Vec3 out = vec_neg(r.d);
+        assert_false(prim_inside(&p, prim_spawn_origin(&sf, out)));
+        assert_true(prim_inside(&p, prim_spawn_origin(&sf, r.d)) || prim_inside(&p, vec3(from.x, from.y, from.z)));
+    }
+    assert_true(hits > 500);
+}
+
 /* ---- plane ---- */
 
 static void test_plane(void **state)
@@ -801,6 +885,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_sphere),
         cmocka_unit_test(test_sphere_tangent_and_inside),
+        cmocka_unit_test(test_ellipsoid),
         cmocka_unit_test(test_plane),
         cmocka_unit_test(test_triangle),
         cmocka_unit_test(test_smooth_triangle_normal),
@@ -822,6 +907,7 @@ int main(void)
         cmocka_unit_test(test_triray_init),
         cmocka_unit_test(test_obox_grazing_slab),
         cmocka_unit_test(test_obox_spawn_inside_near_edge),
+        cmocka_unit_test(test_ellipsoid_spawn),
     };
     int failed = cmocka_run_group_tests_name("classic", tests, setup_classic, NULL);
     failed += cmocka_run_group_tests_name("robust", tests, setup_robust, NULL);

@@ -496,6 +496,24 @@ static const BadCase bad_cases[] = {
     BAD("missing } after a trailing comment",
         PRE "sphere { center 0 0 0 radius 1 material m # no brace",
         "t.scn:3:53: sphere: missing '}' before end of file (to close the '{' at 3:8)"),
+    BAD("singular matrix on a sphere",
+        PRE "sphere { center 0 0 0 radius 1 matrix 1 0 0 0 1 0 0 0 0 0 0 0 material m }",
+        "t.scn:3:39: sphere: 'matrix' is singular: its 3x3 part has no inverse"),
+    BAD("singular matrix on a box",
+        PRE "box { min 0 0 0 max 1 1 1 matrix 1 2 3 2 4 6 0 0 1 0 0 0 material m }",
+        "t.scn:3:34: box: 'matrix' is singular: its 3x3 part has no inverse"),
+    BAD("zero scale on a triangle",
+        PRE "triangle { a 0 0 0 b 1 0 0 c 0 1 0 scale 1 0 1 material m }",
+        "t.scn:3:42: triangle: 'scale' must not be zero"),
+    BAD("zero scale on a plane",
+        PRE "plane { normal 0 1 0 scale 0 material m }",
+        "t.scn:3:28: plane: 'scale' must not be zero"),
+    BAD("singular matrix on a mesh",
+        PRE "mesh { file \"q.off\" matrix 0 0 0 0 0 0 0 0 0 1 2 3 material m }",
+        "t.scn:3:28: mesh: 'matrix' is singular: its 3x3 part has no inverse"),
+    BAD("rotate takes three numbers",
+        PRE "obox { center 0 0 0 u 1 0 0 v 0 1 0 w 0 0 1 rotate 30 material m }",
+        "t.scn:3:55: obox: missing value for 'rotate' (expects three numbers, got 1)"),
     BAD("error after many objects",
         PRE "sphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nbogus\n",
         "t.scn:23:1: unknown keyword 'bogus'"),
@@ -811,7 +829,7 @@ static void test_transform(void **state)
              "triangle { a 0 0 0 b 1 0 0 c 0 1 0 material m }\n",
              &s);
     /* p -> 2p + (10, 20, 30) */
-    assert_int_equal(scene_transform(&s, 2, vec3(10, 20, 30)), 0);
+    assert_int_equal(scene_transform(&s, 2, (double[3]){10, 20, 30}), 0);
     assert_vec(s.camera.eye, 10, 22, 20, 0);
     assert_vec(s.camera.target, 10, 20, 30, 0);
     assert_vec(s.lights[0].pos, 12, 24, 36, 0);
@@ -826,11 +844,92 @@ static void test_transform(void **state)
     assert_vec(s.prims[4].g.tri.b, 12, 20, 30, 0);
     /* a move that overflows float, or collapses the camera, is refused:
      * the scene scaled by 1e38 once rendered from an eye at infinity */
-    assert_int_equal(scene_transform(&s, 1e38f, vec3(0, 0, 0)), -1);
+    assert_int_equal(scene_transform(&s, 1e38, (double[3]){0, 0, 0}), -1);
     scene_free(&s);
     parse_ok("camera { eye 0 1 -5 target 0 0 0 fov 40 }\nmaterial m { }\nsphere { center 0 0 0 radius 1 material m }\n",
              &s);
-    assert_int_equal(scene_transform(&s, 1e-45f, vec3(0, 0, 0)), -1);
+    assert_int_equal(scene_transform(&s, 1e-45, (double[3]){0, 0, 0}), -1);
+    scene_free(&s);
+}
+
+/* Every object takes matrix, scale, rotate and translate; where the result
+ * is an object of a kind lancer has, it is built, else the sphere becomes
+ * an ellipsoid. */
+static void test_object_transforms(void **state)
+{
+    (void)state;
+    Scene s;
+    parse_ok(CAM "material m { }\n"
+                 "sphere { center 1 0 0 radius 0.5 rotate 0 0 90 scale 2 translate 0 0 1 material m }\n"
+                 "sphere { center 0 0 0 radius 1 scale 2 1 1 translate 0 1 0 material m }\n"
+                 "plane { normal 0 1 0 offset 1 rotate 90 0 0 material m }\n"
+                 "box { min 0 0 0 max 1 2 3 rotate 0 90 0 material m }\n"
+                 "box { min -1 -1 -1 max 1 1 1 rotate 0 45 0 translate 5 0 0 material m }\n"
+                 "triangle { a 0 0 0 b 1 0 0 c 0 1 0 matrix 1 0 0 0 1 0 0 0 1 1 2 3 material m }\n"
+                 "smooth_triangle { a 0 0 0 b 1 0 0 c 0 1 0 na 1 0 1 nb 0 0 1 nc 0 0 1 scale 1 1 2 material m }\n"
+                 "obox { center 0 0 0 u 1 0 0 v 0 1 0 w 0 0 1 scale 2 translate 1 1 1 material m }\n"
+                 "pn_triangle { a 0 0 0 b 1 0 0 c 0 1 0 na 0 0 1 nb 0 0 1 nc 0 0 1 translate 0 0 4 material m }\n"
+                 "box { min 0 0 0 max 1 1 1 scale -2 1 1 material m }\n",
+             &s);
+    assert_int_equal(s.nprims, 10);
+    /* a quarter turn about z takes (1, 0, 0) to (0, 1, 0), exactly */
+    assert_int_equal(s.prims[0].kind, PRIM_SPHERE);
+    assert_vec(s.prims[0].g.sphere.c, 0, 2, 1, 0);
+    assert_float_equal(s.prims[0].g.sphere.r, 1, 0);
+    /* a non-uniform scale: an ellipsoid, whose inverse maps (2, 1, 0) to the unit sphere */
+    assert_int_equal(s.prims[1].kind, PRIM_ELLIPSOID);
+    assert_ptr_equal(s.prims[1].g.ell.e, &s.ellipsoids[0]);
+    const double *a = s.prims[1].g.ell.e->a;
+    assert_true(a[0] == 0.5 && a[4] == 1 && a[8] == 1 && a[10] == -1);
+    /* y = 1 turned by 90 degrees about x: z = 1 */
+    assert_int_equal(s.prims[2].kind, PRIM_PLANE);
+    assert_vec(s.prims[2].g.plane.n, 0, 0, 1, 0);
+    assert_float_equal(s.prims[2].g.plane.d, 1, 0);
+    /* a quarter turn keeps a box a box; 45 degrees makes it an oriented one */
+    assert_int_equal(s.prims[3].kind, PRIM_BOX);
+    assert_vec(s.prims[3].g.box.lo, 0, 0, -1, 0);
+    assert_vec(s.prims[3].g.box.hi, 3, 2, 0, 0);
+    assert_int_equal(s.prims[4].kind, PRIM_OBOX);
+    assert_vec(s.prims[4].g.obox.c, 5, 0, 0, 0);
+    assert_vec(s.prims[4].g.obox.u, 0.70710678f, 0, -0.70710678f, 1e-7);
+    assert_int_equal(s.prims[5].kind, PRIM_TRIANGLE);
+    assert_vec(s.prims[5].g.tri.b, 2, 2, 3, 0);
+    /* normals go through the inverse transpose: (1, 0, 1) under scale z by 2 leans to x */
+    assert_int_equal(s.prims[6].kind, PRIM_SMOOTH_TRIANGLE);
+    assert_vec(s.prims[6].g.tri.na, 0.89442719f, 0, 0.44721360f, 1e-7);
+    assert_int_equal(s.prims[7].kind, PRIM_OBOX);
+    assert_vec(s.prims[7].g.obox.c, 1, 1, 1, 0);
+    assert_vec(s.prims[7].g.obox.w, 0, 0, 2, 0);
+    assert_int_equal(s.prims[8].kind, PRIM_PN);
+    assert_vec(s.patches[0].b[PN_AT(0, 3)], 0, 1, 4, 0);
+    /* a negative scale swaps a box's ends */
+    assert_vec(s.prims[9].g.box.lo, -2, 0, 0, 0);
+    assert_vec(s.prims[9].g.box.hi, 0, 1, 1, 0);
+    scene_free(&s);
+}
+
+/* Coordinates are kept in double until the last move: a scene far from
+ * the origin, moved next to its camera, keeps what a float far out would
+ * lose (100000.81 is 100000.8125 in float, 100000.8 is 100000.796875). */
+static void test_double_coordinates(void **state)
+{
+    (void)state;
+    Scene s;
+    parse_ok("camera { eye 100000.8 0 -5 target 100000.8 0 0 fov 40 }\n"
+             "light { position 100003.3 1 0 }\n"
+             "material m { }\n"
+             "sphere { center 100000.81 0 0 radius 0.5 material m }\n"
+             "triangle { a 100000.83 0 0 b 100001.83 0 0 c 100000.83 1 0 material m }\n"
+             "plane { normal 1 0 0 offset 100000.85 material m }\n",
+             &s);
+    assert_true(s.camera.eye_at[0] == 100000.8);
+    assert_true(s.place[0].p[0][0] == 100000.81);
+    assert_int_equal(scene_transform(&s, 1.0, (double[3]){-100000.8, 0, 5}), 0);
+    assert_vec(s.camera.eye, 0, 0, 0, 0);
+    assert_vec(s.lights[0].pos, 2.5f, 1, 5, 1e-9);
+    assert_vec(s.prims[0].g.sphere.c, 0.01f, 0, 5, 1e-9);
+    assert_vec(s.prims[1].g.tri.a, 0.03f, 0, 5, 1e-9);
+    assert_float_equal(s.prims[2].g.plane.d, 0.05f, 1e-9);
     scene_free(&s);
 }
 
@@ -939,7 +1038,7 @@ static void test_pn_statements(void **state)
              &s);
     assert_int_equal(s.prims[0].g.pn.mode, PN_EXACT); /* the default */
     /* a scene transform moves the net */
-    assert_int_equal(scene_transform(&s, 2.0f, vec3(1, 0, 0)), 0);
+    assert_int_equal(scene_transform(&s, 2.0, (double[3]){1, 0, 0}), 0);
     assert_vec(s.patches[0].b[PN_AT(0, 0)], 3, 0, 0, 0);
     scene_free(&s);
     remove(path);
@@ -1220,6 +1319,8 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_crlf_and_tabs),
         cmocka_unit_test(test_utf8_bom),
         cmocka_unit_test(test_transform),
+        cmocka_unit_test(test_object_transforms),
+        cmocka_unit_test(test_double_coordinates),
         cmocka_unit_test(test_mesh_statement),
         cmocka_unit_test(test_pn_statements),
         cmocka_unit_test(test_number_forms),

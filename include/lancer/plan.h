@@ -46,8 +46,8 @@ typedef struct {
     int world;         /* 1: keep the scene's coordinates, no camera-relative move
                         * (for callers that trace rays of their own in them) */
     int move;          /* 1: move the scene by p -> p*scale + translate first */
-    float scale;       /* > 0 */
-    Vec3 translate;
+    double scale;      /* > 0 */
+    double translate[3];
 } PlanOptions;
 
 
@@ -69,7 +69,7 @@ typedef struct {
     int width, height, spp, max_depth, threads;
     PrimVariant variant;
     int patches[2];        /* the PN patches traced in each PnMode (the classic variant traces all fast) */
-    Vec3 offset;           /* added to the plan's coordinates, gives the scene's as moved by the options */
+    double offset[3];      /* added to the plan's coordinates, gives the scene's as moved by the options */
     Interiors camera_in;   /* the solids the camera is inside, in scene order: where camera rays start */
     int transparent;       /* some material lets light through (filter or transmit) */
     int reflective;        /* some material reflects */
@@ -79,7 +79,8 @@ typedef struct {
 /* Options that keep every setting of the scene, on one thread. */
 PlanOptions plan_options(void);
 
-/* Builds the plan for scene s, moving s as described above. Returns 0, or
+/* Builds the plan for scene s, moving s as described above, in double:
+ * the scene's floats are rounded after the last move (Scene.place). Returns 0, or
  * -1 with a message in err: a setting out of range, a move that is not
  * finite or makes an oriented box degenerate (s may then be partly
  * moved: load it again), or no memory. On error p needs no plan_free. */

@@ -66,6 +66,16 @@ typedef struct {
     Vec3 inv[3];
 } OBox;
 
+/* A sphere under a general affine map (an ellipsoid): the points x with
+ * |A x + b| = 1. m maps the unit sphere to the world (rows of M, then t);
+ * a is its inverse (rows of A = M^-1, then b = -A t), both in double. The
+ * robust routine takes a, as stored, as the exact primitive; m serves the
+ * bounds. Fill a with prim_ellipsoid_init. */
+typedef struct Ellipsoid {
+    double m[12];
+    double a[12];
+} Ellipsoid;
+
 typedef enum {
     PRIM_SPHERE,
     PRIM_PLANE,
@@ -73,7 +83,8 @@ typedef enum {
     PRIM_SMOOTH_TRIANGLE,
     PRIM_BOX,
     PRIM_OBOX,
-    PRIM_PN
+    PRIM_PN,
+    PRIM_ELLIPSOID
 } PrimKind;
 
 /* A PN triangle (pntri.h), kept out of line so that it does not grow every
@@ -86,6 +97,13 @@ typedef struct {
     int mode;
 } PnRef;
 
+/* An ellipsoid, kept out of line like a PN patch: e points into the
+ * scene's array of ellipsoids, at index. */
+typedef struct {
+    const Ellipsoid *e;
+    int index;
+} EllRef;
+
 typedef struct {
     PrimKind kind;
     int material;
@@ -96,6 +114,7 @@ typedef struct {
         Box box;
         OBox obox;
         PnRef pn;
+        EllRef ell;
     } g;
 } Prim;
 
@@ -144,6 +163,10 @@ int prim_triangle_hit(const Triangle *tr, const Ray *r, PrimHit *h);
 int prim_box_hit(const Box *b, const Ray *r, PrimHit *h);
 /* Oriented box: three pairs of slab planes; a hit when max(t_near) < min(t_far). */
 int prim_obox_hit(const OBox *b, const Ray *r, PrimHit *h);
+/* Ellipsoid: the ray mapped by A, b into the unit sphere's space in float,
+ * where the textbook quadratic is solved (POV-Ray's way with a transformed
+ * sphere); t is the same in both spaces, as the direction is not normalised. */
+int prim_ellipsoid_hit(const Ellipsoid *e, const Ray *r, PrimHit *h);
 
 /* ---- robust ---- */
 
@@ -219,6 +242,18 @@ int prim_box_hit_robust(const Box *b, const Ray *r, PrimHit *h);
  * bound, for a ray that grazes a face (docs/robustness.md). */
 int prim_obox_hit_robust(const OBox *b, const Ray *r, PrimHit *h);
 
+/* Ellipsoid: the ray mapped into the unit sphere's space in double and
+ * the stable quadratic solved there, as for the sphere; each root is then
+ * certified by the sign of the exact g(t) = |A (o + t d) + b|^2 - 1 on
+ * both sides of it, evaluated from the float ray and the double A, b with
+ * a forward error bound. Band: near-tangent rays, where no sign change is
+ * certain in double. */
+int prim_ellipsoid_hit_robust(const Ellipsoid *e, const Ray *r, PrimHit *h);
+
+/* Computes e->a from e->m. Returns 0, or -1 when m is singular or not
+ * finite, or its inverse is not finite. */
+int prim_ellipsoid_init(Ellipsoid *e);
+
 /* Computes b->inv from u, v, w. Returns 0, or -1 when the axes are linearly
  * dependent (the box would be flat). */
 int prim_obox_init(OBox *b);
@@ -247,8 +282,8 @@ static inline int prim_hit_wins(float t, int id, float best_t, int best)
 /* Dispatches to the routine for p->kind in the given variant. */
 int prim_intersect(const Prim *p, const Ray *r, PrimVariant v, PrimHit *h);
 
-/* 1 when q lies strictly inside a solid primitive (sphere, box, oriented
- * box). Planes and triangles are surfaces: nothing is inside them. */
+/* 1 when q lies strictly inside a solid primitive (sphere, ellipsoid, box,
+ * oriented box). Planes and triangles are surfaces: nothing is inside them. */
 int prim_inside(const Prim *p, Vec3 q);
 
 /* Fills the hit point, normals and error bound for a hit found by

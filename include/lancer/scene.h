@@ -51,6 +51,7 @@ typedef struct {
  * spanning area_u and area_v (full edge vectors) centred on pos. */
 typedef struct {
     Vec3 pos, color;
+    double at[3]; /* pos in double, as placed (Scene.place says why) */
     float fade_distance, fade_power; /* fade_power 0: no attenuation */
     int shadowless;
     Vec3 area_u, area_v;
@@ -59,8 +60,22 @@ typedef struct {
 
 typedef struct {
     Vec3 eye, target, up;
-    float fovy; /* vertical field of view, degrees */
+    float fovy;                       /* vertical field of view, degrees */
+    double eye_at[3], target_at[3];   /* eye and target in double, as placed */
 } CameraSpec;
+
+/* Where a primitive stands, in double, as the scene file placed it and the
+ * moves since (scene_transform) took it: its float coordinates are these,
+ * rounded. Per kind:
+ *   sphere: p[0] the centre, p[1][0] the radius;
+ *   plane: p[0] the unit normal, p[1][0] the offset;
+ *   triangle, smooth triangle, PN triangle: p[0..2] the vertices;
+ *   box: p[0] min, p[1] max;
+ *   oriented box: p[0] the centre (its axes are directions: float is enough);
+ *   ellipsoid: unused (its Ellipsoid is in double). */
+typedef struct {
+    double p[3][3];
+} Place;
 
 /* The file's image block, or its defaults: what the plan starts from. */
 typedef struct {
@@ -83,6 +98,16 @@ typedef struct {
     int nprims;
     PnPatch *patches; /* the PN patches, which PRIM_PN primitives point into */
     int npatches;
+    Ellipsoid *ellipsoids; /* the ellipsoids, which PRIM_ELLIPSOID primitives point into */
+    int nellipsoids;
+    /* The coordinates in double: a scene far from the origin is kept as
+     * written until the render plan has moved it next to the camera, and
+     * only then rounded to float. place is NULL or parallel to prims;
+     * placed says that the camera's and lights' doubles are set. A scene
+     * built in code, with floats only, gets both from its floats when it
+     * is first moved. */
+    Place *place;
+    int placed;
     int degenerate; /* mesh triangles dropped for having no area */
     char **inputs;  /* the files read: the scene file (scene_load), then each mesh */
     int ninputs;
@@ -96,18 +121,18 @@ int scene_load(const char *path, Scene *s, char *err, size_t errlen);
 int scene_parse(const char *name, const char *text, size_t len, Scene *s, char *err, size_t errlen);
 
 /* Appends the mesh's triangles to the scene with material `material`, each
- * point p mapped to M p + t, where xf holds the rows of M then t (12
- * floats; NULL for none); normals are mapped by the inverse transpose.
+ * point p mapped to M p + t in double, where xf holds the rows of M then t
+ * (12 doubles; NULL for none); normals are mapped by the inverse transpose.
  * smooth: smooth_triangles with the mesh's vertex normals (m->n must be
  * set), else flat triangles. Triangles that the transform flattens are
  * dropped and counted in *dropped. Returns 0, or -1 when memory runs out. */
-int scene_add_mesh(Scene *s, const Mesh *m, int material, int smooth, const float *xf, int *dropped);
+int scene_add_mesh(Scene *s, const Mesh *m, int material, int smooth, const double *xf, int *dropped);
 
 /* Appends the mesh's triangles as PN patches (pntri.h) with material
  * `material` and PnMode `mode`, each from the mesh's vertex normals (m->n
  * must be set), mapped by xf as scene_add_mesh maps them. Returns 0, or -1
  * when memory runs out. */
-int scene_add_pn_mesh(Scene *s, const Mesh *m, int material, int mode, const float *xf, int *dropped);
+int scene_add_pn_mesh(Scene *s, const Mesh *m, int material, int mode, const double *xf, int *dropped);
 
 /* A new scene of the mesh's flat triangles and one default material (the
  * benchmarks' scene). Returns 0, or -1 when memory runs out (the scene is
@@ -127,11 +152,16 @@ int scene_from_pn_mesh(Scene *s, const Mesh *m, int mode);
 int scene_split_triangles(Scene *s);
 
 /* Moves the whole scene, camera and lights included, by p -> p*scale +
- * offset (scale > 0). Shading does not change: fade distances scale too,
- * and every angle stays. The render plan moves scenes so (plan.h). Returns
- * 0, or -1 when the moved scene no longer passes scene_validate: a
- * coordinate overflowed, or a shape or the camera degenerated in float. */
-int scene_transform(Scene *s, float scale, Vec3 offset);
+ * offset (scale > 0), in double, then rounds it to float again. Shading
+ * does not change: fade distances scale too, and every angle stays. The
+ * render plan moves scenes so (plan.h). Returns 0, or -1 when the moved
+ * scene no longer passes scene_validate: a coordinate overflowed, or a
+ * shape or the camera degenerated in float. */
+int scene_transform(Scene *s, double scale, const double offset[3]);
+
+/* Primitive i's Place: its doubles, or for a scene built in code its
+ * floats widened (an ellipsoid has none: its Ellipsoid is in double). */
+Place scene_place(const Scene *s, int i);
 
 /* Checks what a loaded scene promises (the top of this file): settings in
  * range, every number finite, the camera, every material, light and

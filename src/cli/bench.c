@@ -42,7 +42,10 @@ int bench_gen_rays(const Scene *s, const Accel *a, int w, int h, unsigned long l
     /* Frame the bounds from the front, a little above, 40 degrees high. */
     Vec3 c = vec_scale(vec_add(lo, hi), 0.5f);
     float radius = 0.5f * vec_length(vec_sub(hi, lo));
-    CameraSpec spec = {vec_madd(c, vec_normalize(vec3(0.0f, 0.3f, 1.0f)), 3.0f * radius), c, vec3(0, 1, 0), 40.0f};
+    CameraSpec spec = {.eye = vec_madd(c, vec_normalize(vec3(0.0f, 0.3f, 1.0f)), 3.0f * radius),
+                       .target = c,
+                       .up = vec3(0, 1, 0),
+                       .fovy = 40.0f};
     Vec3 light = vec_madd(c, vec3(1.5f, 3.0f, 2.0f), radius);
     Camera cam;
     camera_init(&cam, &spec, w, h);

@@ -125,8 +125,8 @@ static void write_plan(FILE *f, const RenderPlan *p)
             "{\"width\": %d, \"height\": %d, \"spp\": %d, \"max_depth\": %d, \"threads\": %d, "
             "\"intersect\": \"%s\",\n",
             p->width, p->height, p->spp, p->max_depth, p->threads, p->variant == PRIM_CLASSIC ? "classic" : "robust");
-    fprintf(f, "           \"camera_offset\": [%.9g, %.9g, %.9g], \"camera_inside\": [", (double)p->offset.x,
-            (double)p->offset.y, (double)p->offset.z);
+    fprintf(f, "           \"camera_offset\": [%.9g, %.9g, %.9g], \"camera_inside\": [", p->offset[0], p->offset[1],
+            p->offset[2]);
     for (int i = 0; i < p->camera_in.n; i++)
         fprintf(f, "%s%d", i ? ", " : "", p->camera_in.prim[i]);
     fprintf(f, "],\n           \"pn_patches\": {\"exact\": %d, \"fast\": %d},", p->patches[PN_EXACT],
@@ -189,9 +189,9 @@ static int plan_options_of(const Args *a, PlanOptions *o)
     if (a->scale > 0.0 || a->translate) {
         char tail;
         o->move = 1;
-        o->scale = a->scale > 0.0 ? (float)a->scale : 1.0f;
-        if (a->translate && sscanf(a->translate, "%f,%f,%f%c", &o->translate.x, &o->translate.y,
-                                   &o->translate.z, &tail) != 3)
+        o->scale = a->scale > 0.0 ? a->scale : 1.0;
+        if (a->translate && sscanf(a->translate, "%lf,%lf,%lf%c", &o->translate[0], &o->translate[1],
+                                   &o->translate[2], &tail) != 3)
             return cli_usage_error("render", "--translate needs X,Y,Z, not '%s'", a->translate);
     }
     return 0;
