@@ -261,7 +261,7 @@ static double certify_root(GFn g, const void *ctx, double t)
  * discriminant from the vector l between the centre and the ray's closest
  * point, which does not cancel the way b^2 - ac does for distant spheres.
  * Returns 0 for none. */
-static int stable_root(const double f[3], const double d[3], double r2, double *t)
+static inline int stable_root(const double f[3], const double d[3], double r2, double *t)
 {
     double a = 0.0, b = 0.0, ff = 0.0;
     for (int i = 0; i < 3; i++) {
