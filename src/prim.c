@@ -251,7 +251,7 @@ static double certify_root(GFn g, const void *ctx, double t)
         double g_lo = g(ctx, t - w, &e_lo);
         double g_hi = g(ctx, t + w, &e_hi);
         if (fabs(g_lo) > e_lo && fabs(g_hi) > e_hi && (g_lo > 0) != (g_hi > 0))
-            return w;
+            return w + 2.0 * UNIT_D * (fabs(t) + w); /* t -+ w rounded: the bracket g was evaluated on */
     }
     return -1.0;
 }
