@@ -9,6 +9,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "lancer/bvh.h"
 #include "lancer/image.h"
 
 PlanOptions plan_options(void)
@@ -26,6 +27,89 @@ void plan_interiors_at(const Scene *s, Vec3 q, Interiors *in)
     for (int i = 0; i < s->nprims && in->n < LIMIT_INTERIORS; i++)
         if (prim_inside(&s->prims[i], q))
             in->prim[in->n++] = i;
+}
+
+/* Where the box lo..hi lies against plane pl and point l: 1 when every
+ * corner is farther than pad on l's side of the plane, -1 when every corner
+ * is farther than pad on the other side, 2 when it is clear of the slab
+ * between the plane and the parallel plane through l (where every segment
+ * from the plane to l lies), 0 else. */
+static int box_side(const Plane *pl, const float lo[3], const float hi[3], Vec3 l, double pad)
+{
+    double sl = (double)vec_dot(pl->n, l) - pl->d;
+    if (fabs(sl) <= pad)
+        return 0;
+    double mn = INFINITY, mx = -INFINITY; /* the corners' distances, positive on l's side */
+    for (int c = 0; c < 8; c++) {
+        double v = -(double)pl->d;
+        for (int k = 0; k < 3; k++)
+            v += (double)vec_comp(pl->n, k) * (c >> k & 1 ? hi[k] : lo[k]);
+        v = sl > 0.0 ? v : -v;
+        mn = fmin(mn, v);
+        mx = fmax(mx, v);
+    }
+    if (mx < -pad)
+        return -1;
+    if (mn > fabs(sl) + pad)
+        return 2;
+    return mn > pad ? 1 : 0;
+}
+
+/* Whether primitive q may stand between point light l and some point of
+ * primitive p (p != q), conservatively: boxes grown by pad, and any
+ * doubt a yes. A segment from a point of p to l lies in the box of p's box
+ * and l; a plane is crossed only by segments from its other side. */
+static int may_shadow(const Prim *q, const Prim *p, Vec3 l, double pad)
+{
+    float qlo[3], qhi[3], plo[3], phi[3];
+    int qb = bvh_prim_bounds(q, qlo, qhi), pb = bvh_prim_bounds(p, plo, phi);
+    if (!qb && !pb)
+        return 1; /* two planes */
+    if (!pb) { /* p a plane: q must reach into the slab between it and l */
+        int side = box_side(&p->g.plane, qlo, qhi, l, pad);
+        return side != -1 && side != 2;
+    }
+    if (!qb) { /* q a plane: p must reach its far side from l */
+        int side = box_side(&q->g.plane, plo, phi, l, pad);
+        return side != 1 && side != 2;
+    }
+    for (int k = 0; k < 3; k++) {
+        double lo = fmin(plo[k], vec_comp(l, k)) - pad, hi = fmax(phi[k], vec_comp(l, k)) + pad;
+        if (qhi[k] < lo || qlo[k] > hi)
+            return 0;
+    }
+    return 1;
+}
+
+/* 1 when no primitive of s can shadow any point of any primitive from
+ * light l, so that its shadow rays would all find nothing: a point light
+ * (a solid shadows itself from part of an area light), no PN patch (a
+ * curved patch may shadow itself), and no pair of primitives that
+ * may_shadow() cannot rule out. The pad covers spawned origins and the
+ * shadow ray's rounding: a relative 2^-10 of the scene's extent. */
+static int light_is_clear(const Scene *s, const Light *l)
+{
+    if (l->area_n1 * l->area_n2 != 1 || s->nprims > PLAN_CLEAR_PRIMS)
+        return 0;
+    double ext = vec_max_abs(l->pos);
+    for (int i = 0; i < s->nprims; i++) {
+        float lo[3], hi[3];
+        if (s->prims[i].kind == PRIM_PN)
+            return 0;
+        if (bvh_prim_bounds(&s->prims[i], lo, hi))
+            for (int k = 0; k < 3; k++)
+                ext = fmax(ext, fmax(fabs(lo[k]), fabs(hi[k])));
+        else
+            ext = fmax(ext, fabs(s->prims[i].g.plane.d));
+    }
+    if (!isfinite(ext))
+        return 0;
+    double pad = ext * 0x1p-10 + 1e-30;
+    for (int i = 0; i < s->nprims; i++)
+        for (int j = 0; j < s->nprims; j++)
+            if (i != j && may_shadow(&s->prims[j], &s->prims[i], l->pos, pad))
+                return 0;
+    return 1;
 }
 
 static int fail(char *err, size_t errlen, const char *msg)
@@ -89,22 +173,73 @@ int plan_build(RenderPlan *p, Scene *s, const PlanOptions *o, char *err, size_t 
     } else if (o->move && scene_transform(s, scale, t) != 0) {
         return fail(err, errlen, "the scene degenerates at that scale or offset");
     }
-    plan_interiors_at(s, s->camera.eye, &p->camera_in);
     for (int i = 0; i < s->nmaterials; i++) {
         const Material *m = &s->materials[i];
         p->transparent |= m->filter + m->transmit > 0.0f;
         p->reflective |= m->reflection > 0.0f;
     }
+    if (p->transparent || o->full) /* only refraction reads the solids a ray is in */
+        plan_interiors_at(s, s->camera.eye, &p->camera_in);
     if (s->nlights > 0) {
         p->shadow = malloc(sizeof(PlanShadow) * (size_t)s->nlights);
         if (!p->shadow)
             return fail(err, errlen, "out of memory");
     }
+    p->full = o->full;
     for (int i = 0; i < s->nlights; i++)
-        p->shadow[i] = s->lights[i].shadowless ? PLAN_SHADOW_NONE
-                       : p->transparent        ? PLAN_SHADOW_FILTERED
-                                               : PLAN_SHADOW_OPAQUE;
+        p->shadow[i] = s->lights[i].shadowless                  ? PLAN_SHADOW_NONE
+                       : !o->full && light_is_clear(s, &s->lights[i]) ? PLAN_SHADOW_CLEAR
+                       : p->transparent                         ? PLAN_SHADOW_FILTERED
+                                                                : PLAN_SHADOW_OPAQUE;
     return 0;
+}
+
+/* Appends a note, if there is room. */
+static void note(PlanNote *notes, int max, int *n, int skipped, const char *what, const char *why)
+{
+    if (*n < max) {
+        PlanNote *t = &notes[*n];
+        snprintf(t->what, sizeof t->what, "%s", what);
+        snprintf(t->why, sizeof t->why, "%s", why);
+        t->skipped = skipped;
+    }
+    (*n)++;
+}
+
+int plan_notes(const RenderPlan *p, PlanNote *notes, int max)
+{
+    const Scene *s = p->scene;
+    int n = 0, smooth = 0;
+    char what[64], why[192];
+    for (int i = 0; i < s->nlights; i++) {
+        static const char *const how[] = {
+            "a shadowless light",
+            "a point light that nothing can stand in front of: no primitive lies between it and another's points",
+            "any hit blocks it: any-hit queries, in packets for a point light",
+            "transparent surfaces filter it: every surface on the way is found"};
+        snprintf(what, sizeof what, "shadow rays toward light %d", i);
+        PlanShadow m = p->shadow[i];
+        int clear_possible = !s->lights[i].shadowless && s->lights[i].area_n1 * s->lights[i].area_n2 == 1;
+        snprintf(why, sizeof why, "%s%s", how[m],
+                 p->full && clear_possible ? " (--no-plan: not looked for)" : "");
+        note(notes, max, &n, m <= PLAN_SHADOW_CLEAR, what, why);
+    }
+    note(notes, max, &n, !p->reflective && !p->full, "reflection rays",
+         p->reflective ? "some material reflects"
+         : p->full     ? "no material reflects; traced all the same, weighed 0 (--no-plan)"
+                       : "no material reflects");
+    note(notes, max, &n, !p->transparent && !p->full, "refraction rays and interior lists",
+         p->transparent ? "some material lets light through"
+         : p->full      ? "no material lets light through; traced all the same, weighed 0 (--no-plan)"
+                        : "no material lets light through");
+    for (int i = 0; i < s->nprims; i++)
+        smooth += s->prims[i].kind == PRIM_SMOOTH_TRIANGLE || s->prims[i].kind == PRIM_PN;
+    snprintf(why, sizeof why, smooth ? "%d smooth triangles or PN patches" : "no smooth triangle or PN patch: the shading normal is the geometric one", smooth);
+    note(notes, max, &n, !smooth, "normal interpolation", why);
+    snprintf(why, sizeof why, p->patches[0] + p->patches[1] ? "%d patches in exact mode, %d in fast mode" : "no PN patch",
+             p->patches[PN_EXACT], p->patches[PN_FAST]);
+    note(notes, max, &n, p->patches[0] + p->patches[1] == 0, "PN patch tracing", why);
+    return n;
 }
 
 void plan_free(RenderPlan *p)

@@ -255,8 +255,10 @@ static Vec3 shade_rest(const Ctx *c, const Ray *r, int i, const Material *m, con
     Vec3 f = pass_factor(m);
     if (refracts(f))
         tir = refract(c, i, m, f, sf, r, level, in, &col);
+    else if (c->p->full) /* --no-plan: traced, and weighed by f, 0 */
+        refract(c, i, m, f, sf, r, level, in, &col);
     float w = tir ? 1.0f : m->reflection; /* total internal reflection: the mirror ray, unfiltered */
-    if (w > 0.0f) {
+    if (w > 0.0f || c->p->full) {
         Ray rr = mirror_ray(c, r, sf);
         col = vec_madd(col, trace(c, &rr, level, 0, in), w);
     }
@@ -309,8 +311,8 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
             Vec3 L;
             float dist;
             lit[k] = best[k] >= 0 && light_term(m[k], &sf[k], &r[k], l, &L, &dist, &term[k], &lc[k]);
-            if (!lit[k] || mode == PLAN_SHADOW_NONE)
-                continue;
+            if (!lit[k] || mode == PLAN_SHADOW_NONE || mode == PLAN_SHADOW_CLEAR)
+                continue; /* the light reaches the point whole */
             if (together) { /* as transmittance() */
                 sr[ns] = ray_make(prim_spawn_origin(&sf[k], L), L, dist);
                 c->st->shadow++;
@@ -335,7 +337,7 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
     for (int k = 0; k < n; k++) {
         if (best[k] < 0)
             continue;
-        if (refracts(pass_factor(m[k])))
+        if (refracts(pass_factor(m[k])) || c->p->full)
             out[k] = shade_rest(c, &r[k], best[k], m[k], &sf[k], out[k], level, in);
         else if (m[k]->reflection > 0.0f) {
             rr[nr] = mirror_ray(c, &r[k], &sf[k]);

@@ -258,5 +258,25 @@ expect 0 "$LANCER" bench --mesh "$T/tet.off" --pn --pn-mode fast --rays "$T/rays
 expect 2 "$LANCER" bench --mesh "$T/tet.off" --pn-mode fast --rays "$T/rays/primary.rays" --kind closest
 has "$T/err" "--pn-mode needs --pn"
 
+# The render plan: --explain shows it, --stats carries it, and --no-plan,
+# which skips nothing, draws every scene of scenes/ bit for bit the same
+printf 'image { width 32 height 24 }\ncamera { eye 0 2 -6 target 0 0 0 fov 40 }\nlight { position 1 5 -2 }\nmaterial m { }\nplane { normal 0 1 0 material m }\n' >"$T/floor.scn"
+expect 0 "$LANCER" render "$T/floor.scn" -o "$T/floor.exr" --explain --stats "$T/floor.json" -q
+has "$T/out" "skipped  shadow rays toward light 0: a point light that nothing can stand in front of"
+has "$T/out" "rays: 768 camera, 0 shadow, 0 reflection, 0 refraction (768 in all)"
+has "$T/out" "time: parse "
+has "$T/floor.json" '"shadows": "clear"'
+has "$T/floor.json" '{"what": "reflection rays", "skipped": true, "why": "no material reflects"}'
+has "$T/floor.json" '"phases_share": {"parse": '
+expect 0 "$LANCER" render "$T/floor.scn" -o "$T/floor-full.exr" --no-plan --explain -q
+has "$T/out" "done     shadow rays toward light 0: any hit blocks it"
+has "$T/out" "rays: 768 camera, 736 shadow, 736 reflection, 736 refraction (2976 in all)"
+for scn in scenes/*.scn scenes/parity/*.scn scenes/stability/*.scn; do
+    case $scn in *bunny*) [ -e build/cgal-data/meshes/bunny00.off ] || continue ;; esac
+    expect 0 "$LANCER" render "$scn" -o "$T/planned.exr" --float --width 96 --height 72 -q
+    expect 0 "$LANCER" render "$scn" -o "$T/full.exr" --float --width 96 --height 72 --no-plan -q
+    if cmp -s "$T/planned.exr" "$T/full.exr"; then ok; else bad "$scn: --no-plan changed the picture"; fi
+done
+
 echo "cli: $pass passed, $fail failed"
 [ "$fail" -eq 0 ]

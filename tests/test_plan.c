@@ -11,8 +11,10 @@
 
 #include "testutil.h"
 
+#include "lancer/accel.h"
 #include "lancer/image.h"
 #include "lancer/plan.h"
+#include "lancer/render.h"
 
 static const char *base =
     "image { width 200 height 100 spp 2 max_depth 4 }\n"
@@ -225,9 +227,8 @@ static void test_decisions(void **state)
     assert_int_equal(p.shadow[0], PLAN_SHADOW_OPAQUE);
     assert_int_equal(p.shadow[1], PLAN_SHADOW_NONE);
     assert_int_equal(p.shadow[2], PLAN_SHADOW_OPAQUE);
-    /* the camera sits at the sphere's centre, inside it, and outside the box */
-    assert_int_equal(p.camera_in.n, 1);
-    assert_int_equal(p.camera_in.prim[0], 0);
+    /* the camera sits inside the sphere, but only refraction reads that */
+    assert_int_equal(p.camera_in.n, 0);
     plan_free(&p);
     assert_null(p.shadow);
     scene_free(&s);
@@ -239,10 +240,13 @@ static void test_decisions(void **state)
     assert_int_equal(p.shadow[0], PLAN_SHADOW_FILTERED);
     assert_int_equal(p.shadow[1], PLAN_SHADOW_NONE);
     assert_int_equal(p.shadow[2], PLAN_SHADOW_FILTERED);
+    /* the camera sits at the sphere's centre, inside it, and outside the box */
+    assert_int_equal(p.camera_in.n, 1);
+    assert_int_equal(p.camera_in.prim[0], 0);
     done(&s, &p);
 
     /* nested solids, in scene order, and none: a scene without lights */
-    const char *nested = "camera { eye 0 0 0 target 0 0 1 fov 40 }\nmaterial m { }\n"
+    const char *nested = "camera { eye 0 0 0 target 0 0 1 fov 40 }\nmaterial m { transmit 0.5 }\n"
                          "sphere { center 0 0 0 radius 2 material m }\n"
                          "sphere { center 5 0 0 radius 1 material m }\n"
                          "obox { center 0 0 0.5 u 1 0 0 v 0 1 0 w 0 0 1 material m }\n";
@@ -256,9 +260,108 @@ static void test_decisions(void **state)
     done(&s, &p);
 }
 
+/* Renders scene text at 40 x 30, with --no-plan when full, into *img (NULL:
+ * freed), and returns the rays traced and the light's plan in *shadow. */
+static RayStats rays_of(const char *text, int full, Image *img, PlanShadow *shadow)
+{
+    Scene s;
+    RenderPlan p;
+    char err[512];
+    assert_int_equal(scene_parse("t.scn", text, strlen(text), &s, err, sizeof err), 0);
+    PlanOptions o = plan_options();
+    o.width = 40;
+    o.height = 30;
+    o.full = full;
+    build_ok(&p, &s, &o);
+    if (shadow)
+        *shadow = p.shadow[0];
+    Accel *a = accel_build(&s, p.variant, 1);
+    assert_non_null(a);
+    Image own;
+    Image *im = img ? img : &own;
+    assert_int_equal(image_init(im, p.width, p.height), 0);
+    RayStats st = {0, 0, 0, 0, 0};
+    assert_int_equal(render_image(&p, a, NULL, im, &st), 0);
+    if (!img)
+        image_free(im);
+    accel_free(a);
+    done(&s, &p);
+    return st;
+}
+
+#define SKY "camera { eye 0 2 -6 target 0 0.5 0 fov 50 }\n"
+
+/* The plan's skips, counted in rays: each scene below traces none of the
+ * kind it does not need, and with --no-plan traces them, to the same
+ * picture bit for bit. */
+static void test_skips(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *text;
+        int shadow, reflection, refraction; /* rays expected: 0 none, 1 some */
+        PlanShadow mode;
+    } cases[] = {
+        /* diffuse only: no reflection or refraction rays */
+        {SKY "light { position 2 6 -3 }\nmaterial m { }\nplane { normal 0 1 0 material m }\n"
+             "sphere { center 0 1 0 radius 1 material m }\n",
+         1, 0, 0, PLAN_SHADOW_OPAQUE},
+        /* every light shadowless: no shadow rays */
+        {SKY "light { position 2 6 -3 shadowless }\nlight { position -2 6 -3 shadowless }\nmaterial m { }\n"
+             "plane { normal 0 1 0 material m }\nsphere { center 0 1 0 radius 1 material m }\n",
+         0, 0, 0, PLAN_SHADOW_NONE},
+        /* a plane lit from above, and nothing else */
+        {SKY "light { position 1 5 -2 }\nmaterial m { }\nplane { normal 0 1 0 material m }\n", 0, 0, 0,
+         PLAN_SHADOW_CLEAR},
+        /* a lone convex solid cannot shadow itself from a point light */
+        {SKY "light { position 1 5 -2 }\nmaterial m { reflection 0.3 }\n"
+             "sphere { center 0 1 0 radius 1 scale 1 0.5 1 material m }\n",
+         0, 1, 0, PLAN_SHADOW_CLEAR},
+        /* a floor, and a box above the light: out of the way of every ray from the floor */
+        {SKY "light { position 1 5 -2 }\nmaterial m { }\nplane { normal 0 1 0 material m }\n"
+             "box { min -1 6 -1 max 1 7 1 material m }\n",
+         0, 0, 0, PLAN_SHADOW_CLEAR},
+        /* a box under the floor: the floor shadows it */
+        {SKY "light { position 1 5 -2 }\nmaterial m { }\nplane { normal 0 1 0 material m }\n"
+             "box { min -1 -3 -1 max 1 -1 1 material m }\n",
+         1, 0, 0, PLAN_SHADOW_OPAQUE},
+        /* the same box on the floor can shadow it */
+        {SKY "light { position 1 5 -2 }\nmaterial m { }\nplane { normal 0 1 0 material m }\n"
+             "box { min -1 0 -1 max 1 1 1 material m }\n",
+         1, 0, 0, PLAN_SHADOW_OPAQUE},
+        /* an area light: a solid shadows itself from part of it */
+        {SKY "light { position 1 5 -2 area_u 4 0 0 area_v 0 0 4 area_samples 3 3 }\nmaterial m { }\n"
+             "sphere { center 0 1 0 radius 1 material m }\n",
+         1, 0, 0, PLAN_SHADOW_OPAQUE},
+        /* glass: refraction rays, and shadows filtered */
+        {SKY "light { position 1 5 -2 }\nmaterial g { transmit 0.8 ior 1.5 }\nmaterial m { }\n"
+             "plane { normal 0 1 0 material m }\nsphere { center 0 1 0 radius 1 material g }\n",
+         1, 0, 1, PLAN_SHADOW_FILTERED},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        Image a, b;
+        PlanShadow mode;
+        RayStats st = rays_of(cases[i].text, 0, &a, &mode);
+        RayStats full = rays_of(cases[i].text, 1, &b, NULL);
+        if ((st.shadow > 0) != cases[i].shadow || (st.reflection > 0) != cases[i].reflection ||
+            (st.refraction > 0) != cases[i].refraction || mode != cases[i].mode)
+            fail_msg("case %zu: %llu shadow, %llu reflection, %llu refraction rays, plan %d", i, st.shadow,
+                     st.reflection, st.refraction, (int)mode);
+        /* --no-plan does the work, and draws the same picture */
+        assert_true(full.reflection > 0 && full.refraction > 0);
+        assert_true(full.shadow >= st.shadow);
+        if (mode == PLAN_SHADOW_CLEAR)
+            assert_true(full.shadow > 0);
+        assert_memory_equal(a.rgb, b.rgb, sizeof(float) * 3 * 40 * 30);
+        image_free(&a);
+        image_free(&b);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_skips),
         cmocka_unit_test(test_settings),
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_coordinates),

@@ -46,6 +46,8 @@ typedef struct {
     int world;         /* 1: keep the scene's coordinates, no camera-relative move
                         * (for callers that trace rays of their own in them) */
     int move;          /* 1: move the scene by p -> p*scale + translate first */
+    int full;          /* 1: skip nothing the plan could skip (--no-plan): the same
+                        * picture, bit for bit, by all the work */
     double scale;      /* > 0 */
     double translate[3];
 } PlanOptions;
@@ -59,10 +61,15 @@ typedef struct {
 
 /* How the shadows of one light are found. */
 typedef enum {
-    PLAN_SHADOW_NONE,    /* a shadowless light: no shadow rays */
-    PLAN_SHADOW_OPAQUE,  /* any hit blocks it: any-hit queries, in packets for a point light */
-    PLAN_SHADOW_FILTERED /* transparent surfaces filter it: each surface on the way is found */
+    PLAN_SHADOW_NONE,     /* a shadowless light: no shadow rays */
+    PLAN_SHADOW_CLEAR,    /* nothing can stand between it and any surface: no shadow rays */
+    PLAN_SHADOW_OPAQUE,   /* any hit blocks it: any-hit queries, in packets for a point light */
+    PLAN_SHADOW_FILTERED  /* transparent surfaces filter it: each surface on the way is found */
 } PlanShadow;
+
+/* Scenes of at most this many primitives are searched for lights that
+ * nothing can shadow (each pair of primitives is tested). */
+#define PLAN_CLEAR_PRIMS 256
 
 typedef struct {
     const Scene *scene; /* the world, in the plan's coordinates */
@@ -73,6 +80,7 @@ typedef struct {
     Interiors camera_in;   /* the solids the camera is inside, in scene order: where camera rays start */
     int transparent;       /* some material lets light through (filter or transmit) */
     int reflective;        /* some material reflects */
+    int full;              /* --no-plan: every skip below is off */
     PlanShadow *shadow;    /* per light, scene->lights[i] */
 } RenderPlan;
 
@@ -87,6 +95,19 @@ PlanOptions plan_options(void);
 int plan_build(RenderPlan *p, Scene *s, const PlanOptions *o, char *err, size_t errlen);
 
 void plan_free(RenderPlan *p);
+
+/* One decision of the plan, for a person (render --explain) and for
+ * --stats: a part of the work, whether it is skipped, and why. */
+typedef struct {
+    char what[64];
+    int skipped;
+    char why[192];
+} PlanNote;
+
+/* The plan's decisions, at most max of them, into notes: each light's
+ * shadow rays, reflection and refraction rays, the shading normals, the PN
+ * patches. Returns how many there are (which may exceed max). */
+int plan_notes(const RenderPlan *p, PlanNote *notes, int max);
 
 /* The solids of s that contain point q, in scene order. */
 void plan_interiors_at(const Scene *s, Vec3 q, Interiors *in);

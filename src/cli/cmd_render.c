@@ -41,12 +41,16 @@ static const char usage[] =
     "      --scale S         scale the whole scene, camera and lights included\n"
     "      --translate X,Y,Z then move it: the picture should not change\n"
     "      --stats FILE.json write the render plan, timings and ray counts as JSON\n"
+    "      --explain         print the plan (what the render skips, and why), the\n"
+    "                        rays traced by kind and the time of each phase\n"
+    "      --no-plan         skip nothing the plan would skip: the same picture,\n"
+    "                        by all the work (to measure what the plan saves)\n"
     "  -q, --quiet           no progress bar or summary on stderr\n"
     "  -h, --help            show this help\n";
 
 typedef struct {
     const char *exr, *png, *stats;
-    int width, height, spp, threads, quiet, use_float, classic;
+    int width, height, spp, threads, quiet, use_float, classic, explain, no_plan;
     double scale;
     const char *translate, *pn_mode;
 } Args;
@@ -116,10 +120,13 @@ static void json_string(FILE *f, const char *s)
 
 static const char *json_bool(int b) { return b ? "true" : "false"; }
 
+/* The plan's notes shown: every light's, for scenes of up to 60 lights. */
+#define PLAN_NOTES_SHOWN 64
+
 /* The plan as a JSON object, what the renderer decided to do. */
 static void write_plan(FILE *f, const RenderPlan *p)
 {
-    static const char *const shadows[] = {"none", "opaque", "filtered"};
+    static const char *const shadows[] = {"none", "clear", "opaque", "filtered"};
     const Scene *s = p->scene;
     fprintf(f,
             "{\"width\": %d, \"height\": %d, \"spp\": %d, \"max_depth\": %d, \"threads\": %d, "
@@ -136,7 +143,38 @@ static void write_plan(FILE *f, const RenderPlan *p)
     for (int i = 0; i < s->nlights; i++)
         fprintf(f, "%s{\"shadows\": \"%s\", \"samples\": %d}", i ? ", " : "", shadows[p->shadow[i]],
                 s->lights[i].area_n1 * s->lights[i].area_n2);
+    fprintf(f, "],\n           \"notes\": [");
+    PlanNote notes[PLAN_NOTES_SHOWN];
+    int n = plan_notes(p, notes, PLAN_NOTES_SHOWN);
+    for (int i = 0; i < n && i < PLAN_NOTES_SHOWN; i++) {
+        fprintf(f, "%s{\"what\": ", i ? ",\n             " : "");
+        json_string(f, notes[i].what);
+        fprintf(f, ", \"skipped\": %s, \"why\": ", json_bool(notes[i].skipped));
+        json_string(f, notes[i].why);
+        fputc('}', f);
+    }
     fprintf(f, "]}");
+}
+
+static const char *const PHASES[4] = {"parse", "build", "render", "write"};
+
+/* The plan, the rays and the phases, for a person (--explain). */
+static void explain(FILE *f, const char *scene, const RenderPlan *p, const double phase[4], const RayStats *st)
+{
+    PlanNote notes[PLAN_NOTES_SHOWN];
+    int n = plan_notes(p, notes, PLAN_NOTES_SHOWN);
+    fprintf(f, "plan for %s%s:\n", scene, p->full ? " (--no-plan: nothing skipped that could be traced)" : "");
+    for (int i = 0; i < n && i < PLAN_NOTES_SHOWN; i++)
+        fprintf(f, "  %-8s %s: %s\n", notes[i].skipped ? "skipped" : "done", notes[i].what, notes[i].why);
+    if (n > PLAN_NOTES_SHOWN)
+        fprintf(f, "  ... and %d more\n", n - PLAN_NOTES_SHOWN);
+    fprintf(f, "rays: %llu camera, %llu shadow, %llu reflection, %llu refraction (%llu in all)\n", st->camera,
+            st->shadow, st->reflection, st->refraction, st->camera + st->shadow + st->reflection + st->refraction);
+    double total = phase[0] + phase[1] + phase[2] + phase[3];
+    fprintf(f, "time:");
+    for (int i = 0; i < 4; i++)
+        fprintf(f, "%s %s %.3f s (%.0f%%)", i ? "," : "", PHASES[i], phase[i], total > 0 ? 100 * phase[i] / total : 0);
+    fprintf(f, "\n");
 }
 
 /* Writes the statistics as JSON into the file `file` (a temporary file of
@@ -157,6 +195,11 @@ static int write_stats(const char *file, const char *path, const char *scene, co
             p->scene->degenerate);
     fprintf(f, "  \"phases_s\": {\"parse\": %.6f, \"build\": %.6f, \"render\": %.6f, \"write\": %.6f},\n",
             phase[0], phase[1], phase[2], phase[3]);
+    double total = phase[0] + phase[1] + phase[2] + phase[3];
+    fprintf(f, "  \"phases_share\": {");
+    for (int i = 0; i < 4; i++)
+        fprintf(f, "%s\"%s\": %.4f", i ? ", " : "", PHASES[i], total > 0 ? phase[i] / total : 0.0);
+    fprintf(f, "},\n");
     fprintf(f,
             "  \"rays\": {\"camera\": %llu, \"shadow\": %llu, \"reflection\": %llu, \"refraction\": %llu, "
             "\"total\": %llu},\n",
@@ -181,6 +224,7 @@ static int plan_options_of(const Args *a, PlanOptions *o)
     o->spp = a->spp;
     o->classic = a->classic;
     o->threads = a->threads;
+    o->full = a->no_plan;
     if (a->pn_mode) {
         o->pn_mode = 1 + pn_mode_named(a->pn_mode);
         if (!o->pn_mode)
@@ -316,6 +360,8 @@ static int run(void *args, const char **pos, int npos)
             fprintf(stderr, "lancer: wrote %s%s%s (%dx%d, %d thread%s, render %.3f s)\n", a->exr,
                     a->png ? " and " : "", a->png ? a->png : "", plan.width, plan.height, plan.threads,
                     plan.threads > 1 ? "s" : "", phase[2]);
+        if (a->explain)
+            explain(stdout, scene, &plan, phase, &st);
     } else
         rc = 1;
     accel_free(acc);
@@ -340,6 +386,8 @@ static const Opt opts[] = {
     {"--scale", NULL, OPT_DOUBLE, offsetof(Args, scale), 0, 0},
     {"--translate", NULL, OPT_STRING, offsetof(Args, translate), 0, 0},
     {"--quiet", "-q", OPT_FLAG, offsetof(Args, quiet), 0, 0},
+    {"--explain", NULL, OPT_FLAG, offsetof(Args, explain), 0, 0},
+    {"--no-plan", NULL, OPT_FLAG, offsetof(Args, no_plan), 0, 0},
 };
 
 const Command cmd_render = {"render", usage, opts, (int)(sizeof opts / sizeof opts[0]), 1, sizeof(Args), defaults, run};
