@@ -18,6 +18,7 @@ PlanOptions plan_options(void)
     memset(&o, 0, sizeof o);
     o.threads = 1;
     o.scale = 1.0;
+    o.adc_bailout = -1.0;
     return o;
 }
 
@@ -125,7 +126,7 @@ int plan_build(RenderPlan *p, Scene *s, const PlanOptions *o, char *err, size_t 
     p->width = o->width ? o->width : s->image.width;
     p->height = o->height ? o->height : s->image.height;
     p->spp = o->spp ? o->spp : s->image.spp;
-    p->max_depth = s->image.max_depth;
+    p->max_depth = o->max_depth ? o->max_depth : s->image.max_depth;
     p->threads = o->threads > 0 ? o->threads : 1;
     p->variant = o->classic || s->image.classic ? PRIM_CLASSIC : PRIM_ROBUST;
     if (p->width < 1 || p->width > LIMIT_IMAGE_SIDE || p->height < 1 || p->height > LIMIT_IMAGE_SIDE ||
@@ -134,10 +135,17 @@ int plan_build(RenderPlan *p, Scene *s, const PlanOptions *o, char *err, size_t 
                  LIMIT_IMAGE_PIXELS);
         return -1;
     }
+    if (o->max_depth && (o->max_depth < 1 || o->max_depth > LIMIT_DEPTH)) {
+        snprintf(err, errlen, "max_depth must be a whole number from 1 to %d", LIMIT_DEPTH);
+        return -1;
+    }
     if (p->spp < 1 || p->spp > LIMIT_SPP) {
         snprintf(err, errlen, "spp must be a whole number from 1 to %d", LIMIT_SPP);
         return -1;
     }
+    p->adc_bailout = o->adc_bailout >= 0.0 ? (float)o->adc_bailout : s->image.adc_bailout;
+    if (!(p->adc_bailout >= 0.0f && p->adc_bailout <= 1.0f))
+        return fail(err, errlen, "adc_bailout must be a number from 0 to 1");
     if (o->pn_mode < 0 || o->pn_mode > PN_FAST + 1)
         return fail(err, errlen, "pn_mode out of range");
     for (int i = 0; i < s->nprims; i++) {

@@ -310,9 +310,9 @@ int pov_export(const Scene *s, int width, int height, int pn_segments, FILE *f)
         fprintf(f, "// then average out.exr in %d x %d blocks: lancer diff lancer.exr out.exr --downsample %d\n", k, k,
                 k);
     fprintf(f, "\n");
-    fprintf(f, "#version 3.7;\n\nglobal_settings {\n  assumed_gamma 1.0\n  max_trace_level %d\n  adc_bailout 0\n"
-               "  ambient_light rgb <1, 1, 1>\n}\n\n",
-            s->image.max_depth);
+    fprintf(f, "#version 3.7;\n\nglobal_settings {\n  assumed_gamma 1.0\n  max_trace_level %d\n", s->image.max_depth);
+    key(f, "  adc_bailout", s->image.adc_bailout);
+    fprintf(f, "\n  ambient_light rgb <1, 1, 1>\n}\n\n");
     fprintf(f, "background { color rgb ");
     vec(f, s->background);
     fprintf(f, " }\n\n");

@@ -105,7 +105,7 @@ static int render_row(const Job *job, int y, float *row, RayStats *st)
 static void *worker(void *arg)
 {
     Job *job = arg;
-    RayStats st = {0, 0, 0, 0, 0};
+    RayStats st = {0, 0, 0, 0, 0, 0};
     int w = job->img->width, h = job->img->height;
     for (;;) {
         pthread_mutex_lock(&job->lock);
@@ -141,7 +141,7 @@ int render_image(const RenderPlan *p, const Accel *a, const RenderOptions *opt, 
         memset(job.rows_done_flags, 0, (size_t)img->height);
     job.next_row = 0;
     job.rows_done = 0;
-    job.stats = (RayStats){0, 0, 0, 0, 0};
+    job.stats = (RayStats){0, 0, 0, 0, 0, 0};
     camera_init(&job.cam, &p->scene->camera, img->width, img->height);
     if (pthread_mutex_init(&job.lock, NULL) != 0)
         return -1;

@@ -465,10 +465,10 @@ static int pn_mode_of(Parser *P, const char *what, const Value *v, int *mode)
 
 static int parse_image(Parser *P, Loc at)
 {
-    enum { WIDTH, HEIGHT, BACKGROUND, MAX_DEPTH, SPP, INTERSECT, PN_MODE, N };
+    enum { WIDTH, HEIGHT, BACKGROUND, MAX_DEPTH, SPP, INTERSECT, PN_MODE, ADC_BAILOUT, N };
     static const Field f[N] = {{"width", F_NUM},     {"height", F_NUM}, {"background", F_VEC},
                                {"max_depth", F_NUM}, {"spp", F_NUM},    {"intersect", F_NAME},
-                               {"pn_mode", F_NAME}};
+                               {"pn_mode", F_NAME},  {"adc_bailout", F_NUM}};
     Value v[N];
     if (P->have_image)
         return fail(P, at, "duplicate 'image' block");
@@ -484,6 +484,9 @@ static int parse_image(Parser *P, Loc at)
     if (v[SPP].set && !whole(&v[SPP], 0, 1, LIMIT_SPP))
         return fail(P, v[SPP].value, "image: 'spp' must be a whole number from 1 to %d", LIMIT_SPP);
     P->s->image.spp = (int)num_or(&v[SPP], (float)P->s->image.spp);
+    if (v[ADC_BAILOUT].set && !(v[ADC_BAILOUT].v[0] >= 0.0 && v[ADC_BAILOUT].v[0] <= 1.0))
+        return fail(P, v[ADC_BAILOUT].value, "image: 'adc_bailout' must be a number from 0 to 1");
+    P->s->image.adc_bailout = num_or(&v[ADC_BAILOUT], P->s->image.adc_bailout);
     if (v[INTERSECT].set) {
         if (strcmp(v[INTERSECT].name, "classic") != 0 && strcmp(v[INTERSECT].name, "robust") != 0)
             return fail(P, v[INTERSECT].value, "image: 'intersect' must be 'robust' or 'classic', not '%s'",
@@ -1693,6 +1696,7 @@ int scene_parse(const char *name, const char *text, size_t len, Scene *s, char *
     s->image.height = 480;
     s->image.max_depth = 5; /* POV-Ray's default max_trace_level */
     s->image.spp = 1;
+    s->image.adc_bailout = SCENE_ADC_BAILOUT;
     int rc = next(&P);
     while (rc == 0 && P.tok.kind != TOK_EOF)
         rc = parse_statement(&P);

@@ -165,9 +165,27 @@ static inline int light_term(const Material *m, const Surface *sf, const Ray *r,
     return 1;
 }
 
-static Vec3 trace(const Ctx *c, const Ray *r, int level, int continued, const Interiors *in);
+static Vec3 trace(const Ctx *c, const Ray *r, int level, int continued, const Interiors *in, float wt);
 static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, const PrimHit *h, int level,
-                         const Interiors *in, Vec3 *out);
+                         const Interiors *in, const float *wt, Vec3 *out);
+
+/* POV-Ray's adc_bailout (trace.cpp, Trace::TraceRay): a ray carries the
+ * product of the coefficients on its path, its weight, and one whose
+ * weight is below the bailout is not traced: it adds nothing. A weight of
+ * 0 (a coefficient of 0) is the plan's to skip: --no-plan traces it. */
+static int worth(const Ctx *c, float wt)
+{
+    if (wt == 0.0f)
+        return c->p->full;
+    if (wt < c->p->adc_bailout) {
+        c->st->cut++;
+        return 0;
+    }
+    return 1;
+}
+
+/* The largest of a colour's channels: POV-Ray's weight of a filter. */
+static float max3(Vec3 v) { return fmaxf(v.x, fmaxf(v.y, v.z)); }
 
 /* The ray refracted into or out of primitive `prim` (POV-Ray's trace.cpp
  * ComputeRefraction: the ratio of indices comes from the ray's list of
@@ -176,7 +194,7 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
  * total internal reflection, adding nothing: the caller's mirror ray then
  * carries it all. */
 static int refract(const Ctx *c, int prim, const Material *m, Vec3 f, const Surface *sf, const Ray *r, int level,
-                   const Interiors *in, Vec3 *col)
+                   const Interiors *in, float wt, Vec3 *col)
 {
     Interiors out = *in;
     float eta; /* incident index over transmitted index */
@@ -200,26 +218,30 @@ static int refract(const Ctx *c, int prim, const Material *m, Vec3 f, const Surf
             out.prim[out.n++] = prim;
     }
     if (fabsf(eta - 1.0f) < 1e-10f) { /* straight through, at the same level */
+        if (!worth(c, wt))
+            return 0;
         Ray t = ray_make(prim_spawn_origin(sf, r->d), r->d, INFINITY);
         c->st->refraction++;
-        *col = vec_add(*col, vec_mul(f, trace(c, &t, level, 1, &out)));
+        *col = vec_add(*col, vec_mul(f, trace(c, &t, level, 1, &out, wt)));
         return 0;
     }
     float cosi = -vec_dot(r->d, sf->ns);
     float disc = 1.0f + eta * eta * (cosi * cosi - 1.0f);
     if (disc < 0.0f)
         return 1;
+    if (!worth(c, wt))
+        return 0;
     /* Heckbert's refraction formula, with N facing the incoming ray. */
     Vec3 d = vec_normalize(vec_madd(vec_scale(r->d, eta), sf->ns, eta * cosi - sqrtf(disc)));
     Ray t = ray_make(prim_spawn_origin(sf, d), d, INFINITY);
     c->st->refraction++;
-    *col = vec_add(*col, vec_mul(f, trace(c, &t, level, 0, &out)));
+    *col = vec_add(*col, vec_mul(f, trace(c, &t, level, 0, &out, wt)));
     return 0;
 }
 
 /* `level` is the parent's level (0 for a camera ray); a continued ray stays
  * at it, any other ray is one deeper. */
-static Vec3 trace(const Ctx *c, const Ray *r, int level, int continued, const Interiors *in)
+static Vec3 trace(const Ctx *c, const Ray *r, int level, int continued, const Interiors *in, float wt)
 {
     if (level >= c->p->max_depth)
         return vec3(0, 0, 0);
@@ -228,12 +250,16 @@ static Vec3 trace(const Ctx *c, const Ray *r, int level, int continued, const In
     PrimHit h;
     int i = accel_closest(c->a, r, &h, c->st);
     Vec3 col;
-    shade_packet(c, r, 1, &i, &h, level, in, &col);
+    shade_packet(c, r, 1, &i, &h, level, in, &wt, &col);
     return col;
 }
 
-/* POV-Ray's test for a refracted ray, by the luminance of pass_factor. */
-static int refracts(Vec3 f) { return 0.297f * f.x + 0.589f * f.y + 0.114f * f.z > 0.0f; }
+/* POV-Ray's test for a transmitted ray (trace.cpp, ComputeLightedTexture):
+ * the luminance of pass_factor, at most 1, above the bailout. */
+static int refracts(const Ctx *c, Vec3 f)
+{
+    return fminf(1.0f, 0.297f * f.x + 0.589f * f.y + 0.114f * f.z) > c->p->adc_bailout;
+}
 
 /* The mirror ray of r at sf. */
 static Ray mirror_ray(const Ctx *c, const Ray *r, const Surface *sf)
@@ -246,21 +272,24 @@ static Ray mirror_ray(const Ctx *c, const Ray *r, const Surface *sf)
 /* The secondary rays of a hit whose direct light col is known, one ray on
  * its own (shade_packet's, for a ray that refracts). */
 static Vec3 shade_rest(const Ctx *c, const Ray *r, int i, const Material *m, const Surface *sf, Vec3 col, int level,
-                       const Interiors *in)
+                       const Interiors *in, float wt)
 {
     /* Any child ray of a hit at the last level returns black: skip them. */
     if (level >= c->p->max_depth)
         return col;
     int tir = 0;
     Vec3 f = pass_factor(m);
-    if (refracts(f))
-        tir = refract(c, i, m, f, sf, r, level, in, &col);
-    else if (c->p->full) /* --no-plan: traced, and weighed by f, 0 */
-        refract(c, i, m, f, sf, r, level, in, &col);
-    float w = tir ? 1.0f : m->reflection; /* total internal reflection: the mirror ray, unfiltered */
-    if (w > 0.0f || c->p->full) {
+    float wf = wt * max3(f); /* a transmitted ray's weight */
+    if (refracts(c, f))
+        tir = refract(c, i, m, f, sf, r, level, in, wf, &col);
+    else if (c->p->full) /* --no-plan: traced all the same, and weighed 0 */
+        refract(c, i, m, vec3(0, 0, 0), sf, r, level, in, 0.0f, &col);
+    /* total internal reflection: the mirror ray, its colour unfiltered
+     * but its weight the transmitted ray's, as in POV-Ray */
+    float w = tir ? 1.0f : m->reflection;
+    if (worth(c, tir ? wf : wt * m->reflection)) {
         Ray rr = mirror_ray(c, r, sf);
-        col = vec_madd(col, trace(c, &rr, level, 0, in), w);
+        col = vec_madd(col, trace(c, &rr, level, 0, in, tir ? wf : wt * m->reflection), w);
     }
     return col;
 }
@@ -268,7 +297,7 @@ static Vec3 shade_rest(const Ctx *c, const Ray *r, int i, const Material *m, con
 Vec3 shade_trace(const RenderPlan *p, const Accel *a, const Ray *r, RayStats *st)
 {
     Ctx c = {p, p->scene, a, st};
-    return trace(&c, r, 0, 0, &p->camera_in);
+    return trace(&c, r, 0, 0, &p->camera_in, 1.0f);
 }
 
 Vec3 shade_traced(const RenderPlan *p, const Accel *a, const Ray *r, int i, const PrimHit *h, RayStats *st)
@@ -286,7 +315,7 @@ Vec3 shade_traced(const RenderPlan *p, const Accel *a, const Ray *r, int i, cons
  * together, their hits shaded the same way one level deeper. Each colour is
  * the same whatever the rays it is shaded with. */
 static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, const PrimHit *h, int level,
-                         const Interiors *in, Vec3 *out)
+                         const Interiors *in, const float *wt, Vec3 *out)
 {
     const Scene *s = c->s;
     const Material *m[ACCEL_PACKET];
@@ -333,13 +362,15 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
     /* shade_rest() for a ray that refracts; the others' mirror rays,
      * traced as trace() would, are shaded together one level deeper */
     Ray rr[ACCEL_PACKET];
+    float w2[ACCEL_PACKET];
     int who[ACCEL_PACKET], nr = 0;
     for (int k = 0; k < n; k++) {
         if (best[k] < 0)
             continue;
-        if (refracts(pass_factor(m[k])) || c->p->full)
-            out[k] = shade_rest(c, &r[k], best[k], m[k], &sf[k], out[k], level, in);
-        else if (m[k]->reflection > 0.0f) {
+        if (refracts(c, pass_factor(m[k])) || c->p->full)
+            out[k] = shade_rest(c, &r[k], best[k], m[k], &sf[k], out[k], level, in, wt[k]);
+        else if (worth(c, wt[k] * m[k]->reflection)) {
+            w2[nr] = wt[k] * m[k]->reflection;
             rr[nr] = mirror_ray(c, &r[k], &sf[k]);
             who[nr++] = k;
         }
@@ -350,7 +381,7 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
     PrimHit h2[ACCEL_PACKET];
     Vec3 got[ACCEL_PACKET];
     accel_closest_packet(c->a, rr, nr, h2, best2, c->st);
-    shade_packet(c, rr, nr, best2, h2, level + 1, in, got);
+    shade_packet(c, rr, nr, best2, h2, level + 1, in, w2, got);
     for (int j = 0; j < nr; j++)
         out[who[j]] = vec_madd(out[who[j]], got[j], m[who[j]]->reflection);
 }
@@ -358,6 +389,7 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
 void shade_traced_packet(const RenderPlan *p, const Accel *a, const Ray *r, int n, const int *best, const PrimHit *h,
                          RayStats *st, Vec3 *out)
 {
+    static const float ONES[ACCEL_PACKET] = {1, 1, 1, 1, 1, 1, 1, 1}; /* camera rays weigh 1 */
     Ctx c = {p, p->scene, a, st};
     for (int k = 0; k < n; k += ACCEL_PACKET) {
         int m = n - k < ACCEL_PACKET ? n - k : ACCEL_PACKET;
@@ -365,6 +397,6 @@ void shade_traced_packet(const RenderPlan *p, const Accel *a, const Ray *r, int 
             for (int j = 0; j < m; j++)
                 out[k + j] = vec3(0, 0, 0);
         else
-            shade_packet(&c, r + k, m, best + k, h + k, 1, &p->camera_in, out + k);
+            shade_packet(&c, r + k, m, best + k, h + k, 1, &p->camera_in, ONES, out + k);
     }
 }

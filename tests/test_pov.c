@@ -60,7 +60,7 @@ static void test_globals_and_camera(void **state)
     expect(t, "#version 3.7;");
     expect(t, "assumed_gamma 1.0");
     expect(t, "max_trace_level 3");
-    expect(t, "adc_bailout 0");
+    expect(t, "adc_bailout 0.00024414062\n"); /* lancer's default, 2^-12, as the shortest float */
     expect(t, "background { color rgb <0.25, 0.5, 1> }");
     expect(t, "location <1, 2, 3>");
     /* a = 2, fovy 90: the horizontal angle is 2 atan(2) = 126.869897645844 degrees */

@@ -40,6 +40,7 @@
 typedef struct {
     int width, height; /* pixels, 1 to LIMIT_IMAGE_SIDE */
     int spp;           /* 1 to LIMIT_SPP */
+    int max_depth;     /* 1 to LIMIT_DEPTH */
     int classic;       /* 1: the classic routines, whatever the scene says */
     int pn_mode;       /* 1 + PnMode: every PN patch in that mode, whatever the scene says */
     int threads;       /* render and build threads; 0 means 1 */
@@ -48,6 +49,7 @@ typedef struct {
     int move;          /* 1: move the scene by p -> p*scale + translate first */
     int full;          /* 1: skip nothing the plan could skip (--no-plan): the same
                         * picture, bit for bit, by all the work */
+    double adc_bailout; /* 0 to 1; negative: the scene's */
     double scale;      /* > 0 */
     double translate[3];
 } PlanOptions;
@@ -81,6 +83,7 @@ typedef struct {
     int transparent;       /* some material lets light through (filter or transmit) */
     int reflective;        /* some material reflects */
     int full;              /* --no-plan: every skip below is off */
+    float adc_bailout;     /* POV-Ray's cut-off of secondary rays by weight (shade.h) */
     PlanShadow *shadow;    /* per light, scene->lights[i] */
 } RenderPlan;
 

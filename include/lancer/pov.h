@@ -6,8 +6,8 @@
  *     if (pov_export(&scene, 0, 0, 0, f) != 0) ... a write failed ...
  *
  * The mapping follows docs/povray-rules.md, section 0: linear output (assumed_gamma
- * 1), no ambient light beyond each finish's own, adc_bailout 0 so that no
- * reflection is cut early, max_trace_level = max_depth, and the right-handed
+ * 1), no ambient light beyond each finish's own, the scene's adc_bailout
+ * (the same rays cut as lancer's), max_trace_level = max_depth, and the right-handed
  * camera as `right -x*a` with the horizontal angle. Every finish value is
  * written out, so POV-Ray's defaults never matter. Numbers are printed with
  * 9 significant digits, which round-trips every float exactly. The output

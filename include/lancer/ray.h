@@ -33,6 +33,7 @@ static inline Vec3 ray_at(const Ray *r, float t) { return vec_madd(r->o, r->d, t
 typedef struct {
     unsigned long long camera, shadow, reflection, refraction;
     unsigned long long isect_tests; /* primitive intersection routines called */
+    unsigned long long cut;         /* secondary rays not traced: their weight was below adc_bailout */
 } RayStats;
 
 static inline void raystats_add(RayStats *sum, const RayStats *s)
@@ -42,6 +43,7 @@ static inline void raystats_add(RayStats *sum, const RayStats *s)
     sum->reflection += s->reflection;
     sum->refraction += s->refraction;
     sum->isect_tests += s->isect_tests;
+    sum->cut += s->cut;
 }
 
 #endif

@@ -84,7 +84,11 @@ typedef struct {
     int spp;       /* spp x spp regular samples per pixel, box-filtered */
     int classic;   /* use the classic intersection routines, not the robust ones */
     int pn_mode;   /* PnMode of the PN patches that set none */
+    float adc_bailout; /* POV-Ray's: a secondary ray of weight below it is not traced */
 } SceneImage;
+
+/* lancer's default adc_bailout (README.md says why). */
+#define SCENE_ADC_BAILOUT 0x1p-12f
 
 typedef struct {
     SceneImage image;

@@ -25,7 +25,7 @@ typedef struct {
     const char *name, *alias; /* "--output", "-o" */
     OptKind kind;
     size_t offset; /* of an int (flags, ints), a const char * or a double in the args */
-    int lo, hi;    /* the range of an int */
+    int lo, hi;    /* the range of an int; of a double when hi > 0, else any positive one */
 } Opt;
 
 typedef struct {

@@ -32,6 +32,7 @@ static const char usage[] =
     "      --width W         image width in pixels (overrides the scene)\n"
     "      --height H        image height in pixels (overrides the scene)\n"
     "      --spp K           K x K samples per pixel, box-filtered (overrides the scene)\n"
+    "      --max-depth N     trace depth, POV-Ray's max_trace_level (overrides the scene)\n"
     "      --threads N       render threads (default: every core)\n"
     "      --float           write 32-bit float channels (default: half)\n"
     "      --classic         use the classic intersection routines instead of the\n"
@@ -40,6 +41,9 @@ static const char usage[] =
     "                        (overrides the scene)\n"
     "      --scale S         scale the whole scene, camera and lights included\n"
     "      --translate X,Y,Z then move it: the picture should not change\n"
+    "      --adc-bailout W   do not trace a secondary ray whose weight, the product\n"
+    "                        of the coefficients on its path, is below W (POV-Ray's\n"
+    "                        adc_bailout; overrides the scene; 0 traces every one)\n"
     "      --stats FILE.json write the render plan, timings and ray counts as JSON\n"
     "      --explain         print the plan (what the render skips, and why), the\n"
     "                        rays traced by kind and the time of each phase\n"
@@ -50,8 +54,8 @@ static const char usage[] =
 
 typedef struct {
     const char *exr, *png, *stats;
-    int width, height, spp, threads, quiet, use_float, classic, explain, no_plan;
-    double scale;
+    int width, height, spp, max_depth, threads, quiet, use_float, classic, explain, no_plan;
+    double scale, adc;
     const char *translate, *pn_mode;
 } Args;
 
@@ -60,6 +64,7 @@ static void defaults(void *args)
     Args *a = args;
     long cores = sysconf(_SC_NPROCESSORS_ONLN);
     a->threads = cores > 0 ? (int)(cores < LIMIT_THREADS ? cores : LIMIT_THREADS) : 1;
+    a->adc = -1.0;
 }
 
 typedef struct {
@@ -130,8 +135,9 @@ static void write_plan(FILE *f, const RenderPlan *p)
     const Scene *s = p->scene;
     fprintf(f,
             "{\"width\": %d, \"height\": %d, \"spp\": %d, \"max_depth\": %d, \"threads\": %d, "
-            "\"intersect\": \"%s\",\n",
-            p->width, p->height, p->spp, p->max_depth, p->threads, p->variant == PRIM_CLASSIC ? "classic" : "robust");
+            "\"intersect\": \"%s\", \"adc_bailout\": %.9g,\n",
+            p->width, p->height, p->spp, p->max_depth, p->threads, p->variant == PRIM_CLASSIC ? "classic" : "robust",
+            (double)p->adc_bailout);
     fprintf(f, "           \"camera_offset\": [%.9g, %.9g, %.9g], \"camera_inside\": [", p->offset[0], p->offset[1],
             p->offset[2]);
     for (int i = 0; i < p->camera_in.n; i++)
@@ -170,6 +176,7 @@ static void explain(FILE *f, const char *scene, const RenderPlan *p, const doubl
         fprintf(f, "  ... and %d more\n", n - PLAN_NOTES_SHOWN);
     fprintf(f, "rays: %llu camera, %llu shadow, %llu reflection, %llu refraction (%llu in all)\n", st->camera,
             st->shadow, st->reflection, st->refraction, st->camera + st->shadow + st->reflection + st->refraction);
+    fprintf(f, "cut: %llu secondary rays below adc_bailout %g\n", st->cut, (double)p->adc_bailout);
     double total = phase[0] + phase[1] + phase[2] + phase[3];
     fprintf(f, "time:");
     for (int i = 0; i < 4; i++)
@@ -202,9 +209,9 @@ static int write_stats(const char *file, const char *path, const char *scene, co
     fprintf(f, "},\n");
     fprintf(f,
             "  \"rays\": {\"camera\": %llu, \"shadow\": %llu, \"reflection\": %llu, \"refraction\": %llu, "
-            "\"total\": %llu},\n",
+            "\"total\": %llu, \"cut_by_adc_bailout\": %llu},\n",
             st->camera, st->shadow, st->reflection, st->refraction,
-            st->camera + st->shadow + st->reflection + st->refraction);
+            st->camera + st->shadow + st->reflection + st->refraction, st->cut);
     fprintf(f, "  \"intersection_tests\": %llu\n}\n", st->isect_tests);
     int bad = ferror(f), saved = errno;
     if (fclose(f) != 0 || bad) {
@@ -222,9 +229,11 @@ static int plan_options_of(const Args *a, PlanOptions *o)
     o->width = a->width;
     o->height = a->height;
     o->spp = a->spp;
+    o->max_depth = a->max_depth;
     o->classic = a->classic;
     o->threads = a->threads;
     o->full = a->no_plan;
+    o->adc_bailout = a->adc; /* -1 unless given, from 0 to 1 (opts) */
     if (a->pn_mode) {
         o->pn_mode = 1 + pn_mode_named(a->pn_mode);
         if (!o->pn_mode)
@@ -316,7 +325,7 @@ static int run(void *args, const char **pos, int npos)
     }
 
     Image img;
-    RayStats st = {0, 0, 0, 0, 0};
+    RayStats st = {0, 0, 0, 0, 0, 0};
     unsigned char *done = malloc((size_t)plan.height);
     if (!done || image_init(&img, plan.width, plan.height) != 0) {
         fprintf(stderr, "lancer: out of memory for a %dx%d image\n", plan.width, plan.height);
@@ -379,6 +388,7 @@ static const Opt opts[] = {
     {"--width", NULL, OPT_INT, offsetof(Args, width), 1, LIMIT_IMAGE_SIDE},
     {"--height", NULL, OPT_INT, offsetof(Args, height), 1, LIMIT_IMAGE_SIDE},
     {"--spp", NULL, OPT_INT, offsetof(Args, spp), 1, LIMIT_SPP},
+    {"--max-depth", NULL, OPT_INT, offsetof(Args, max_depth), 1, LIMIT_DEPTH},
     {"--threads", NULL, OPT_INT, offsetof(Args, threads), 1, LIMIT_THREADS},
     {"--float", NULL, OPT_FLAG, offsetof(Args, use_float), 0, 0},
     {"--classic", NULL, OPT_FLAG, offsetof(Args, classic), 0, 0},
@@ -388,6 +398,7 @@ static const Opt opts[] = {
     {"--quiet", "-q", OPT_FLAG, offsetof(Args, quiet), 0, 0},
     {"--explain", NULL, OPT_FLAG, offsetof(Args, explain), 0, 0},
     {"--no-plan", NULL, OPT_FLAG, offsetof(Args, no_plan), 0, 0},
+    {"--adc-bailout", NULL, OPT_DOUBLE, offsetof(Args, adc), 0, 1},
 };
 
 const Command cmd_render = {"render", usage, opts, (int)(sizeof opts / sizeof opts[0]), 1, sizeof(Args), defaults, run};

@@ -52,7 +52,10 @@ static int set_value(const Command *c, const Opt *o, const char *val, char *args
     char *end;
     errno = 0;
     double v = strtod(val, &end);
-    if (errno || end == val || *end || !(v > 0) || !isfinite(v))
+    if (o->hi > 0) { /* a range */
+        if (errno || end == val || *end || !(v >= o->lo && v <= o->hi))
+            return cli_usage_error(c->name, "%s needs a number from %d to %d, not '%s'", o->name, o->lo, o->hi, val);
+    } else if (errno || end == val || *end || !(v > 0) || !isfinite(v))
         return cli_usage_error(c->name, "%s needs a positive number, not '%s'", o->name, val);
     *(double *)dst = v;
     return 0;
