@@ -120,7 +120,7 @@ static void test_pixels_are_single_rays(void **state)
             RenderPlan p;
             Accel *a;
             Image img;
-            RayStats st, st1 = {0, 0, 0, 0, 0};
+            RayStats st, st1 = {0, 0, 0, 0, 0, 0};
             render_scene(scenes[sc], 1, 29, 23, k, &s, &p, &a, &img, &st, NULL);
             Camera cam;
             camera_init(&cam, &s.camera, p.width, p.height);
