@@ -256,12 +256,12 @@ static double certify_root(GFn g, const void *ctx, double t)
     return -1.0;
 }
 
-/* The nearer root of |f + t d|^2 = r2 with t > 0 (the far one when the
- * origin is inside), d here in double, by Ray Tracing Gems ch. 7: the
- * discriminant from the vector l between the centre and the ray's closest
- * point, which does not cancel the way b^2 - ac does for distant spheres.
- * Returns 0 for none. */
-static inline int stable_root(const double f[3], const double d[3], double r2, double *t)
+/* Both roots t0 <= t1 of |f + t d|^2 = r2, d here in double, by Ray
+ * Tracing Gems ch. 7: the discriminant from the vector l between the
+ * centre and the ray's closest point, which does not cancel the way
+ * b^2 - ac does for distant spheres. Returns 0 when there are none, or
+ * when q is 0 (no usable root). */
+static inline int stable_roots(const double f[3], const double d[3], double r2, double *t0, double *t1)
 {
     double a = 0.0, b = 0.0, ff = 0.0;
     for (int i = 0; i < 3; i++) {
@@ -278,14 +278,25 @@ static inline int stable_root(const double f[3], const double d[3], double r2, d
     if (!(disc >= 0.0))
         return 0;
     double q = -(b + copysign(sqrt(disc), b));
-    double t0 = (ff - r2) / q, t1 = q / a;
-    if (t0 > t1) {
-        double tmp = t0;
-        t0 = t1;
-        t1 = tmp;
+    *t0 = (ff - r2) / q;
+    *t1 = q / a;
+    if (*t0 > *t1) {
+        double tmp = *t0;
+        *t0 = *t1;
+        *t1 = tmp;
     }
+    return q != 0.0;
+}
+
+/* The nearer root with t > 0 (the far one when the origin is inside), or
+ * 0 for none. */
+static inline int stable_root(const double f[3], const double d[3], double r2, double *t)
+{
+    double t0, t1;
+    if (!stable_roots(f, d, r2, &t0, &t1))
+        return 0;
     *t = t0 > 0.0 ? t0 : t1;
-    return *t > 0.0 && q != 0.0;
+    return *t > 0.0;
 }
 
 int prim_sphere_hit_robust(const Sphere *s, const Ray *r, PrimHit *h)
@@ -713,16 +724,86 @@ static void obox_pin(const OBox *b, int f, Surface *s)
     s->pin_side = l[f] > 0.0 ? -1 : 1;
 }
 
+/* The robust ellipsoid's hit point, error bound and normal. The hit is
+ * taken again in double (the float t has lost the bits that place it on a
+ * distant or grazing surface, and may not tell two close roots apart:
+ * the root is the one prim_ellipsoid_hit_robust took, by the same rule),
+ * its point y in the unit sphere's space put
+ * on the sphere, and mapped back by M: p lies on the ellipsoid to within
+ * its roundings and M's error as A's inverse, which the residual
+ * | |A p + b| - 1 | measures. The normal A^T y is taken there, and faces
+ * the ray by the root that was hit, the nearer (entering) or the farther
+ * (leaving), not by the sign of d.n, which a grazing ray's rounding can
+ * turn. */
+static void ell_surface(const Ellipsoid *e, const Ray *r, const PrimHit *h, Surface *s, Vec3 *ng)
+{
+    const double *a = e->a, *m = e->m;
+    double f[3], d[3], t0, t1, t = h->t;
+    int leaving = 0;
+    ell_ray(a, r, f, d);
+    if (stable_roots(f, d, 1.0, &t0, &t1)) { /* the root the hit routine took, as it took it */
+        leaving = !(t0 > 0.0);
+        t = leaving ? t1 : t0;
+    }
+    double y[3], len = 0.0;
+    for (int i = 0; i < 3; i++) {
+        y[i] = f[i] + t * d[i];
+        len += y[i] * y[i];
+    }
+    len = sqrt(len);
+    float pp[3], e_out[3];
+    double x[3], mags[3], mnorm = 0.0;
+    for (int i = 0; i < 3; i++) {
+        x[i] = m[9 + i];
+        mags[i] = fabs(m[9 + i]);
+        for (int j = 0; j < 3; j++) {
+            x[i] += m[3 * i + j] * (y[j] / len);
+            mags[i] += fabs(m[3 * i + j]);
+            mnorm += m[3 * i + j] * m[3 * i + j];
+        }
+    }
+    /* how far x is from the surface A defines: | |A x + b| - 1 | in the
+     * unit sphere's space, at most |M| (its largest singular value, under
+     * the Frobenius norm) in the world's */
+    double z2 = 0.0, zmag = 0.0;
+    for (int i = 0; i < 3; i++) {
+        double zi = a[9 + i], zm = fabs(a[9 + i]);
+        for (int j = 0; j < 3; j++) {
+            zi += a[3 * i + j] * x[j];
+            zm += fabs(a[3 * i + j] * x[j]);
+        }
+        z2 += zi * zi;
+        zmag += zm;
+    }
+    double off = (fabs(sqrt(z2) - 1.0) + gamma_d(8) * (zmag + 1.0)) * sqrt(mnorm) * (1.0 + 0x1p-20);
+    double n[3], nlen = 0.0;
+    for (int j = 0; j < 3; j++) {
+        n[j] = (a[j] * y[0] + a[3 + j] * y[1] + a[6 + j] * y[2]) * (leaving ? -1.0 : 1.0);
+        nlen += n[j] * n[j];
+    }
+    nlen = sqrt(nlen);
+    for (int i = 0; i < 3; i++) {
+        pp[i] = (float)x[i];
+        e_out[i] = float_up(off + gamma_d(8) * mags[i] + UNIT_F * fabs(x[i]));
+    }
+    s->p = vec3(pp[0], pp[1], pp[2]);
+    s->perr = vec3(e_out[0], e_out[1], e_out[2]);
+    /* outward on entering, inward on leaving: against the ray either way */
+    *ng = vec3((float)(n[0] / nlen), (float)(n[1] / nlen), (float)(n[2] / nlen));
+}
+
 void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, Surface *s)
 {
     int robust = v == PRIM_ROBUST;
+    int oriented = 0; /* ng already faces the ray (the robust ellipsoid's) */
     Vec3 ng = vec3(0.0f, 0.0f, 0.0f), ns, noff = ng;
     s->pin_side = 0;
     int edge = 0; /* on a box's edge or corner: noff is the sum of its faces' normals */
     if (!robust)
         s->p = ray_at(r, h->t); /* perr: a heuristic, below */
-    else if (p->kind != PRIM_SPHERE && p->kind != PRIM_TRIANGLE && p->kind != PRIM_SMOOTH_TRIANGLE)
-        s->p = ray_point(r, h->t, h->terr, &s->perr); /* spheres and triangles have better, below */
+    else if (p->kind != PRIM_SPHERE && p->kind != PRIM_TRIANGLE && p->kind != PRIM_SMOOTH_TRIANGLE &&
+             p->kind != PRIM_ELLIPSOID)
+        s->p = ray_point(r, h->t, h->terr, &s->perr); /* spheres, triangles and ellipsoids have better, below */
     switch (p->kind) {
     case PRIM_SPHERE: {
         /* The point is projected back onto the sphere (as pbrt does): the
@@ -809,17 +890,22 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
         if (robust)
             obox_pin(&p->g.obox, h->face, s);
         break;
-    case PRIM_ELLIPSOID: { /* the gradient of |A x + b|^2: A^T (A p + b) */
-        const double *a = p->g.ell.e->a;
-        double x[3], n[3];
-        for (int i = 0; i < 3; i++)
-            x[i] = a[3 * i] * s->p.x + a[3 * i + 1] * s->p.y + a[3 * i + 2] * s->p.z + a[9 + i];
-        for (int j = 0; j < 3; j++)
-            n[j] = a[j] * x[0] + a[3 + j] * x[1] + a[6 + j] * x[2];
-        double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-        ng = vec3((float)(n[0] / len), (float)(n[1] / len), (float)(n[2] / len));
+    case PRIM_ELLIPSOID:
+        if (robust) {
+            ell_surface(p->g.ell.e, r, h, s, &ng);
+            oriented = 1;
+            break;
+        }
+        { /* the gradient of |A x + b|^2 at p: A^T (A p + b) */
+            const double *a = p->g.ell.e->a;
+            double x[3], n[3];
+            for (int i = 0; i < 3; i++)
+                x[i] = a[3 * i] * s->p.x + a[3 * i + 1] * s->p.y + a[3 * i + 2] * s->p.z + a[9 + i];
+            for (int j = 0; j < 3; j++)
+                n[j] = a[j] * x[0] + a[3 + j] * x[1] + a[6 + j] * x[2];
+            ng = vec3((float)n[0], (float)n[1], (float)n[2]);
+        }
         break;
-    }
     case PRIM_PN:
         ng = pn_geometric_normal(p->g.pn.patch, h->u, h->v);
         if (robust) {
@@ -848,12 +934,12 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
     /* Two-sided surfaces: each normal faces the incoming ray. A box's edge
      * normal turns with its face's normal, not by its own sign against the
      * ray: it must keep pointing out of (or into) every face it touches. */
-    int back = vec_dot(ng, r->d) > 0.0f;
+    int back = oriented ? 0 : vec_dot(ng, r->d) > 0.0f;
     if (s->pin_side) /* obox_pin's side is the outward normal's: turn it with ng */
         s->pin_side = back ? -s->pin_side : s->pin_side;
     s->ng = back ? vec_neg(ng) : ng;
     s->noff = back ? vec_neg(noff) : noff;
-    s->ns = vec_dot(ns, r->d) > 0.0f ? vec_neg(ns) : ns;
+    s->ns = oriented ? s->ng : vec_dot(ns, r->d) > 0.0f ? vec_neg(ns) : ns;
 }
 
 Vec3 prim_spawn_origin(const Surface *s, Vec3 dir)

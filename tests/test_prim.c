@@ -231,6 +231,40 @@ static void test_ellipsoid_spawn(void **state)
     assert_true(hits > 500);
 }
 
+/* Two rays of the exact judge's case 11 whose spawned origins, back along
+ * the ray, were inside the ellipsoid: at a distance of 10^6 the float t is
+ * 0.04 off, and o + t d with it; at 1.2 10^7 and a grazing 1.5 degrees the
+ * normal at that point was also turned into the solid. */
+static void test_ellipsoid_spawn_far_and_grazing(void **state)
+{
+    (void)state;
+    static const double m[2][12] = {
+        {0, -0x1.e311edfc98e0bp+0, 0, -0x1.964a019b4aff9p+0, 0, 0, 0, 0, -0x1.82504f49f8fd2p+0, 0, 0, 0},
+        {-0x1.6488c2d0ed5b2p+2, -0x1.80f5268531e61p+2, 0x1.2ca70f381d8e8p+1, -0x1.d47f8f753fddbp+2,
+         0x1.35b6bd086bbcap+2, -0x1.121eaad5b2fdbp+0, -0x1.92afd09be6a92p-1, -0x1.37e5ebbf5823ep+1,
+         -0x1.aaf0371024219p+2, 0, 0, 0}};
+    const Ray rays[2] = {
+        {{0x1.7b75cep+19f, -0x1.ae1986p+17f, -0x1.492afp+19f}, {-0x1.7a319cp-1f, 0x1.aca9bcp-3f, 0x1.48118cp-1f},
+         INFINITY},
+        {{0x1.6a2feap+21f, -0x1.15d48p+23f, 0x1.bba3d2p+22f}, {-0x1.f977ap-3f, 0x1.83bd04p-1f, -0x1.359242p-1f},
+         INFINITY}};
+    for (int k = 0; k < 2; k++) {
+        Ellipsoid e;
+        memcpy(e.m, m[k], sizeof e.m);
+        assert_int_equal(prim_ellipsoid_init(&e), 0);
+        Prim p = {PRIM_ELLIPSOID, 0, {.ell = {&e, 0}}};
+        PrimHit h;
+        Surface sf;
+        assert_true(prim_intersect(&p, &rays[k], PRIM_ROBUST, &h));
+        prim_surface(&p, &rays[k], &h, PRIM_ROBUST, &sf);
+        assert_true(vec_dot(sf.ng, rays[k].d) < 0.0f); /* outward: the ray enters */
+        Vec3 q = prim_spawn_origin(&sf, vec_neg(rays[k].d));
+        assert_false(prim_inside(&p, q));
+        Ray back = ray_make(q, vec_neg(rays[k].d), INFINITY);
+        assert_false(prim_intersect(&p, &back, PRIM_ROBUST, &h));
+    }
+}
+
 /* ---- plane ---- */
 
 static void test_plane(void **state)
@@ -908,6 +942,7 @@ int main(void)
         cmocka_unit_test(test_obox_grazing_slab),
         cmocka_unit_test(test_obox_spawn_inside_near_edge),
         cmocka_unit_test(test_ellipsoid_spawn),
+        cmocka_unit_test(test_ellipsoid_spawn_far_and_grazing),
     };
     int failed = cmocka_run_group_tests_name("classic", tests, setup_classic, NULL);
     failed += cmocka_run_group_tests_name("robust", tests, setup_robust, NULL);

@@ -1,6 +1,6 @@
-// cases.cpp - the exact judge's driver and its ray generators (cases 1 and
-// 3-8; case 2 is in mesh.cpp). No CGAL here: every exact decision is made
-// in exact.cpp.
+// cases.cpp - the exact judge's driver and its ray generators (cases 1,
+// 3-8 and 11; case 2 is in mesh.cpp, 9 and 10 in pn.cpp). No CGAL here:
+// every exact decision is made in exact.cpp.
 //
 //     build/exact/judge [RAYS_PER_CASE] [--jobs N] [--case LIST] [--routine NAME]
 //                       [--ray I] [--seed S] [--data DIR] [--details] [-v]
@@ -115,6 +115,7 @@ bool gen_prim(Kind k, Rng &g, const Scene &S, Prim &p)
     auto pt = [&]() { return fv(S.T + D3{g.uni(-1, 1), g.uni(-1, 1), g.uni(-1, 1)} * s); };
     switch (k) {
     case K_PN: /* PN patches are cases 9 and 10's alone (pn.cpp) */
+    case K_ELL: /* ellipsoids are case 11's alone (case_ellipsoid) */
         break;
     case K_SPHERE:
         p = make_prim(PRIM_SPHERE);
@@ -169,6 +170,7 @@ Vec3 interior_point(const Prim &p, Rng &g)
 {
     switch (p.kind) {
     case PRIM_PN: /* PN patches are cases 9 and 10's alone (pn.cpp) */
+    case PRIM_ELLIPSOID: /* case 11's alone */
         break;
     case PRIM_SPHERE: return fv(d3(p.g.sphere.c) + in_ball(g) * (0.999 * p.g.sphere.r));
     case PRIM_PLANE: {
@@ -230,6 +232,7 @@ double prim_size(const Prim &p)
 {
     switch (p.kind) {
     case PRIM_PN: /* PN patches are cases 9 and 10's alone (pn.cpp) */
+    case PRIM_ELLIPSOID: /* case 11's alone */
         break;
     case PRIM_SPHERE: return p.g.sphere.r;
     case PRIM_PLANE: return std::max(1e-30, (double)std::fabs(p.g.plane.d));
@@ -793,6 +796,7 @@ void case_degenerate(int rid, Rng &g, Stats &st, uint64_t i, bool v)
         unsigned forced = 0;
         switch (k) {
         case K_PN: /* PN patches are cases 9 and 10's alone (pn.cpp) */
+        case K_ELL:
             break;
         case K_PLANE: {
             p = make_prim(PRIM_PLANE);
@@ -1105,11 +1109,431 @@ void case_hits(int cs, int rid, Rng &g, Stats &st, uint64_t i, bool v)
 }
 
 // ---------------------------------------------------------------------
+// Case 11: ellipsoids, |A x + b| = 1 with A and b the stored a[] taken as
+// exact (the routine's own primitive); built from m, as a scene would be,
+// through prim_ellipsoid_init
+// ---------------------------------------------------------------------
+
+struct Mat3 {
+    double v[3][3];
+};
+Mat3 mat_diag(double a, double b, double c)
+{
+    Mat3 m{};
+    m.v[0][0] = a;
+    m.v[1][1] = b;
+    m.v[2][2] = c;
+    return m;
+}
+Mat3 mat_mul(const Mat3 &a, const Mat3 &b)
+{
+    Mat3 m{};
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            for (int k = 0; k < 3; k++)
+                m.v[i][j] += a.v[i][k] * b.v[k][j];
+    return m;
+}
+// A rotation: uniform (a unit quaternion), about one coordinate axis, or a
+// signed permutation (which leaves exact zeros in A).
+Mat3 mat_rot(Rng &g)
+{
+    double u = g.uni();
+    if (u < 0.2) {
+        Mat3 m{};
+        int perm[3] = {0, 1, 2};
+        for (int k = 2; k > 0; k--)
+            std::swap(perm[k], perm[g.below(k + 1)]);
+        for (int i = 0; i < 3; i++)
+            m.v[i][perm[i]] = g.sgn();
+        return m;
+    }
+    if (u < 0.4) {
+        int a = g.below(3), b = (a + 1) % 3, c = (a + 2) % 3;
+        double th = g.uni(0, 6.283185307179586);
+        Mat3 m{};
+        m.v[a][a] = 1;
+        m.v[b][b] = m.v[c][c] = std::cos(th);
+        m.v[b][c] = -std::sin(th);
+        m.v[c][b] = std::sin(th);
+        return m;
+    }
+    double q[4], n;
+    do {
+        n = 0;
+        for (double &x : q) {
+            x = g.uni(-1, 1);
+            n += x * x;
+        }
+    } while (n > 1.0 || n < 1e-4);
+    n = std::sqrt(n);
+    double w = q[0] / n, x = q[1] / n, y = q[2] / n, z = q[3] / n;
+    Mat3 m;
+    m.v[0][0] = 1 - 2 * (y * y + z * z);
+    m.v[0][1] = 2 * (x * y - w * z);
+    m.v[0][2] = 2 * (x * z + w * y);
+    m.v[1][0] = 2 * (x * y + w * z);
+    m.v[1][1] = 1 - 2 * (x * x + z * z);
+    m.v[1][2] = 2 * (y * z - w * x);
+    m.v[2][0] = 2 * (x * z - w * y);
+    m.v[2][1] = 2 * (y * z + w * x);
+    m.v[2][2] = 1 - 2 * (x * x + y * y);
+    return m;
+}
+
+void ell_fill(Ellipsoid &E, const Mat3 &M, D3 T)
+{
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            E.m[3 * i + j] = M.v[i][j];
+    E.m[9] = T.x;
+    E.m[10] = T.y;
+    E.m[11] = T.z;
+}
+// |M|_F: at least the largest semi-axis.
+double ell_size(const Ellipsoid &E)
+{
+    double s = 0;
+    for (int k = 0; k < 9; k++)
+        s += E.m[k] * E.m[k];
+    return std::sqrt(s);
+}
+// M u + t: a point of the ellipsoid's surface for a unit u (to double
+// precision; its float rounding is what the rays see).
+D3 ell_point(const Ellipsoid &E, D3 u)
+{
+    const double *m = E.m;
+    return D3{m[0] * u.x + m[1] * u.y + m[2] * u.z + m[9], m[3] * u.x + m[4] * u.y + m[5] * u.z + m[10],
+              m[6] * u.x + m[7] * u.y + m[8] * u.z + m[11]};
+}
+// The outward normal at x: A^T (A x + b), from the exact primitive's a[].
+D3 ell_normal(const Ellipsoid &E, D3 x)
+{
+    const double *a = E.a;
+    double q[3];
+    for (int i = 0; i < 3; i++)
+        q[i] = a[3 * i] * x.x + a[3 * i + 1] * x.y + a[3 * i + 2] * x.z + a[9 + i];
+    return D3{a[0] * q[0] + a[3] * q[1] + a[6] * q[2], a[1] * q[0] + a[4] * q[1] + a[7] * q[2],
+              a[2] * q[0] + a[5] * q[1] + a[8] * q[2]};
+}
+
+// Float ellipsoids: M = R1 diag(s) R2 (times a shear, a third of the time),
+// s up to 10^-6 .. 10^6 and axis ratios up to 10^6; centres up to 10^5 from
+// the origin (none; a multiple of the size; or each coordinate log-uniform).
+bool ell_float(Rng &g, Ellipsoid &E)
+{
+    for (int tries = 0; tries < 20; tries++) {
+        double s = g.logu(1e-6, 1e6), u = g.uni();
+        double lo = u < 0.25 ? 0.3 : u < 0.6 ? 1e-3 : u < 0.9 ? 1e-4 : 1e-6;
+        double s1 = s * (lo >= 0.3 ? g.uni(lo, 1.0) : g.logu(lo, 1.0));
+        double s2 = s * (lo >= 0.3 ? g.uni(lo, 1.0) : g.logu(lo, 1.0));
+        Mat3 M = mat_mul(mat_mul(mat_rot(g), mat_diag(s, s1, s2)), mat_rot(g));
+        if (g.coin(1.0 / 3.0)) {
+            Mat3 S = mat_diag(1, 1, 1);
+            int i = g.below(3), j = (i + 1 + g.below(2)) % 3;
+            S.v[i][j] = g.sgn() * g.logu(0.01, 10.0);
+            M = g.coin(0.5) ? mat_mul(M, S) : mat_mul(S, M);
+        }
+        D3 T{0, 0, 0};
+        double v = g.uni();
+        if (v < 0.4)
+            T = unit(g) * std::min(1e5, s * g.logu(1e-2, 1e4));
+        else if (v < 0.8)
+            T = D3{g.sgn() * g.logu(1e-6, 1e5), g.sgn() * g.logu(1e-6, 1e5), g.sgn() * g.logu(1e-6, 1e5)};
+        ell_fill(E, M, T);
+        if (prim_ellipsoid_init(&E) == 0)
+            return true;
+    }
+    return false;
+}
+
+// A ray from the double o along the double dir, both rounded to float;
+// the direction normalised (in float, as the renderer does) with
+// probability 0.7; a finite tmax around tt (the distance of interest, in
+// units of dir) with probability p_tmax.
+bool ell_ray(D3 o, D3 dir, double tt, Rng &g, double p_tmax, Ray &r)
+{
+    Vec3 of = fv(o), d = fv(dir);
+    if (!vec_is_finite(of) || !vec_is_finite(d) || !(vec_max_abs(d) > 0.0f))
+        return false;
+    if (g.coin(0.7)) {
+        Vec3 n = vec_normalize(d);
+        if (vec_max_abs(n) > 0.0f && vec_is_finite(n)) {
+            tt *= lend(dir) / lend(d3(n));
+            d = n;
+        }
+    }
+    float tmax = INFINITY;
+    if (g.coin(p_tmax)) {
+        tmax = (float)(tt * g.uni(0.5, 1.5));
+        if (!(tmax > 0.0f) || !std::isfinite(tmax))
+            tmax = INFINITY;
+    }
+    r = ray_make(of, d, tmax);
+    return true;
+}
+
+// Rays at a float ellipsoid: through a surface point from outside, near or
+// far; along a tangent at a surface point, turned by up to 0.3 rad either
+// way (or not at all); beside a tangent, moved off it along the normal by
+// 10^-12 .. 10^-1 of the size either way (near misses and near hits); from
+// inside; at an interior point; from a surface point rounded to float.
+bool ell_float_ray(Rng &g, const Ellipsoid &E, double size, Ray &r)
+{
+    D3 x = ell_point(E, unit(g)), n = ell_normal(E, x);
+    if (!(lend(n) > 0) || !std::isfinite(lend(n)))
+        return false;
+    D3 nh = normd(n);
+    double dist = size * g.logu(1e-3, 1e6), u = g.uni();
+    if (u < 0.2) {
+        D3 w = unit(g);
+        if (dotd(w, nh) < 0)
+            w = w * -1.0;
+        return aim(fv(x + w * dist), fv(x), g, 0.7, 0.1, r);
+    }
+    D3 v = unit(g), tdir = v - nh * dotd(v, nh);
+    if (!(lend(tdir) > 1e-3))
+        return false;
+    tdir = normd(tdir);
+    if (u < 0.45) { // tangent at x, turned towards the inside (+) or out (-)
+        double delta = g.coin(0.1) ? 0.0 : g.sgn() * g.logu(1e-13, 0.3);
+        D3 dir = tdir - nh * delta;
+        return ell_ray(x - dir * dist, dir, dist, g, 0.1, r);
+    }
+    if (u < 0.6) { // beside the tangent line, off it along the normal
+        double eps = g.sgn() * g.logu(1e-12, 1e-1);
+        D3 o = x + nh * (eps * size) - tdir * dist;
+        return ell_ray(o, tdir, dist, g, 0.1, r);
+    }
+    if (u < 0.75) { // from inside, at a surface point or anywhere
+        D3 o = ell_point(E, in_ball(g) * 0.999);
+        if (g.coin(0.5))
+            return aim(fv(o), fv(x), g, 0.7, 0.1, r);
+        return ell_ray(o, unit(g), size, g, 0.0, r);
+    }
+    if (u < 0.9) { // at an interior point, from outside
+        D3 tgt = ell_point(E, in_ball(g) * 0.999);
+        return aim(fv(tgt + unit(g) * (size * g.logu(1e-2, 1e4))), fv(tgt), g, 0.7, 0.1, r);
+    }
+    // from the surface point rounded to float (the exact origin may lie
+    // on either side), in any direction
+    return ell_ray(x, unit(g), size, g, 0.0, r);
+}
+
+// Lattice ellipsoids, exact by construction: A = diag(2^p) U with U a
+// unimodular integer matrix (1 to 4 shears by up to 64, then a signed
+// permutation), so that M = A^-1 = U^-1 diag(2^-p) is a dyadic matrix and
+// prim_ellipsoid_init computes A and b = -A c exactly (checked). The
+// poles c +- M e_i (A x + b = +-e_i) are lattice points exactly on the
+// surface, and d is exactly tangent there when (U d)_i = 0.
+struct EllLattice {
+    int mode = 0;       // 0 tangent, 1 through a pole transversally, 2 origin on a pole or at the centre
+    bool exact = false; // a[] is the intended A, b bit for bit
+    bool tangent = false, through = false; // as built, before any nudge
+};
+
+bool ell_lattice(Rng &g, Ellipsoid &E, Ray &r, EllLattice &L)
+{
+    typedef int64_t I3[3][3];
+    I3 U = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}, V = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}; // V = U^-1
+    int nsh = (int)g.ibetween(1, 4);
+    int64_t K = (int64_t)1 << g.ibetween(0, 6);
+    for (int s = 0; s < nsh; s++) {
+        int i = g.below(3), j = (i + 1 + g.below(2)) % 3;
+        int64_t k = g.ibetween(-K, K);
+        for (int c = 0; c < 3; c++) // row_i(U) += k row_j(U)
+            U[i][c] += k * U[j][c];
+        for (int rr = 0; rr < 3; rr++) // col_j(V) -= k col_i(V)
+            V[rr][j] -= k * V[rr][i];
+    }
+    {   // a signed permutation P: U <- P U, V <- V P^T
+        int perm[3] = {0, 1, 2};
+        int64_t sg[3];
+        for (int k = 2; k > 0; k--)
+            std::swap(perm[k], perm[g.below(k + 1)]);
+        for (auto &x : sg)
+            x = g.coin(0.5) ? 1 : -1;
+        I3 U2, V2;
+        for (int i = 0; i < 3; i++)
+            for (int c = 0; c < 3; c++) {
+                U2[i][c] = sg[i] * U[perm[i]][c];
+                V2[c][i] = sg[i] * V[c][perm[i]];
+            }
+        std::memcpy(U, U2, sizeof U);
+        std::memcpy(V, V2, sizeof V);
+    }
+    for (int i = 0; i < 3; i++)
+        for (int c = 0; c < 3; c++)
+            if (std::llabs(U[i][c]) > (1 << 16) || std::llabs(V[i][c]) > (1 << 16))
+                return false;
+    // A = diag(2^p) U; lattice unit 2^beta; M in lattice units: Mi = V diag(2^sh).
+    int p[3], pmax = -100;
+    for (int &x : p) {
+        x = (int)g.ibetween(-3, 3);
+        pmax = std::max(pmax, x);
+    }
+    int64_t Mi[3][3];
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            Mi[i][j] = V[i][j] << (pmax - p[j]); // M = Mi 2^-pmax
+    int64_t mmax = 0;
+    for (auto &row : Mi)
+        for (int64_t x : row)
+            mmax = std::max<int64_t>(mmax, std::llabs(x));
+    // Centre, pole, direction, origin in lattice units.
+    L3 C{{0, 0, 0}};
+    if (g.coin(0.5))
+        C = lrand(g, (int64_t)1 << g.ibetween(0, 22));
+    int ax = g.below(3);
+    int64_t sgn = g.coin(0.5) ? 1 : -1;
+    L3 X = C + L3{{Mi[0][ax] * sgn, Mi[1][ax] * sgn, Mi[2][ax] * sgn}};
+    L3 urow{{U[ax][0], U[ax][1], U[ax][2]}};
+    L3 dI{{0, 0, 0}}, O;
+    int zero = -1; // a component of dI that is 0 by construction
+    double u = g.uni();
+    L.mode = u < 0.55 ? 0 : u < 0.85 ? 1 : 2;
+    if (L.mode == 0) {
+        L3 w;
+        if (g.coin(0.5)) {
+            zero = g.below(3);
+            w = L3{{0, 0, 0}};
+            w.v[zero] = 1;
+        } else {
+            w = lrand(g, (int64_t)1 << g.ibetween(0, 6));
+        }
+        W3 c = crossl(urow, w);
+        for (int k = 0; k < 3; k++) {
+            if (c.v[k] > ((i128)1 << 23) || c.v[k] < -((i128)1 << 23))
+                return false;
+            dI.v[k] = (int64_t)c.v[k];
+        }
+        if (zerol(dI))
+            return false;
+        O = X - dI * g.ibetween(1, (int64_t)1 << g.ibetween(0, 10));
+    } else if (L.mode == 1) {
+        dI = lrand(g, (int64_t)1 << g.ibetween(0, 12));
+        if (dotw(W3{{urow.v[0], urow.v[1], urow.v[2]}}, dI) == 0)
+            return false;
+        O = X - dI * g.ibetween(1, (int64_t)1 << g.ibetween(0, 10));
+    } else {
+        dI = lrand(g, (int64_t)1 << g.ibetween(0, 12));
+        if (zerol(dI))
+            return false;
+        O = g.coin(0.6) ? X : C;
+    }
+    const int64_t LIM = ((int64_t)1 << 24) - 1;
+    if (maxabs(C) > LIM || maxabs(X) > LIM || maxabs(O) > LIM || maxabs(dI) > LIM || mmax > LIM)
+        return false;
+    // Scale: lattice unit 2^beta, coordinates from about 2^-20 to 2^40.
+    int b;
+    std::frexp((double)std::max({maxabs(C), maxabs(O), mmax, (int64_t)1}), &b);
+    int beta = (int)g.ibetween(-20, 40) - b;
+    // World: x = X 2^beta, and M = Mi 2^beta (M e_i is column i of Mi in
+    // lattice units), so A = M^-1 has A_ij = U_ij 2^(p_i - pmax - beta).
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            E.m[3 * i + j] = std::ldexp((double)Mi[i][j], beta);
+    for (int k = 0; k < 3; k++)
+        E.m[9 + k] = std::ldexp((double)C.v[k], beta);
+    if (prim_ellipsoid_init(&E) != 0)
+        return false;
+    // Mi = V diag(2^(pmax - p)), so Mi^-1 = diag(2^(p - pmax)) U, and
+    // A = Mi^-1 2^-beta; b = -A c = -(U C)_i 2^(p_i - pmax).
+    L.exact = true;
+    for (int i = 0; i < 3; i++) {
+        int64_t uc = 0;
+        for (int j = 0; j < 3; j++) {
+            if (E.a[3 * i + j] != std::ldexp((double)U[i][j], p[i] - pmax - beta))
+                L.exact = false;
+            uc += U[i][j] * C.v[j];
+        }
+        if (E.a[9 + i] != -std::ldexp((double)uc, p[i] - pmax))
+            L.exact = false;
+    }
+    // The direction's scale: mostly its largest component in [1/2, 1).
+    int db;
+    std::frexp((double)maxabs(dI), &db);
+    int de = g.coin(0.3) ? (int)g.ibetween(-8, 8) - db : -db;
+    Vec3 o = vec3((float)std::ldexp((double)O.v[0], beta), (float)std::ldexp((double)O.v[1], beta),
+                  (float)std::ldexp((double)O.v[2], beta));
+    Vec3 d = vec3((float)std::ldexp((double)dI.v[0], de), (float)std::ldexp((double)dI.v[1], de),
+                  (float)std::ldexp((double)dI.v[2], de));
+    L.tangent = L.mode == 0;
+    L.through = L.mode == 1;
+    if (L.mode == 0) {
+        double w = g.uni();
+        if (w < 0.35 && zero >= 0) {
+            // grazing: d's zero component tilted to +-2^-k of its largest,
+            // k in [8, 60] (relative discriminants across the band's edge)
+            float m = vec_max_abs(d);
+            setf(d, zero, (float)(g.sgn() * std::ldexp((double)m, -(int)g.ibetween(8, 60))));
+            L.tangent = false;
+        } else if (w < 0.6) {
+            // a few ulps off: one coordinate of o or d
+            int k = (int)g.ibetween(1, 4) * (g.coin(0.5) ? 1 : -1), c = g.below(3);
+            Vec3 &v = g.coin(0.7) ? o : d;
+            float x = compf(v, c);
+            for (int s = 0; s < std::abs(k); s++)
+                x = nextafterf(x, k > 0 ? INFINITY : -INFINITY);
+            setf(v, c, x);
+            L.tangent = false;
+        }
+    }
+    r = ray_make(o, d, INFINITY);
+    return vec_is_finite(o) && vec_is_finite(d);
+}
+
+void case_ellipsoid(int rid, Rng &g, Stats &st, uint64_t i, bool v)
+{
+    for (int tries = 0; tries < 100; tries++) {
+        Ellipsoid E;
+        std::memset(&E, 0, sizeof E);
+        Ray r;
+        EllLattice L;
+        bool lattice = g.coin(0.3);
+        if (lattice) {
+            if (!ell_lattice(g, E, r, L))
+                continue;
+        } else {
+            if (!ell_float(g, E) || !ell_float_ray(g, E, ell_size(E), r))
+                continue;
+        }
+        Prim p = make_prim(PRIM_ELLIPSOID);
+        p.g.ell.e = &E;
+        p.g.ell.index = 0;
+        if (lattice && L.exact && L.tangent) {
+            st.c[C_EXACTAIM]++;
+            int s = ell_disc_sign(p, r);
+            if (s != 0) {
+                st.c[C_INTERNAL]++;
+                st.fail(i, "internal", "lattice ray built tangent has discriminant sign " + std::to_string(s) + ": " +
+                                           fmt_prim(p) + " " + fmt_ray(r));
+            }
+        }
+        if (lattice && L.exact && L.through) {
+            st.c[C_EXACTTHRU]++;
+            if (!exact_hit(p, r)) {
+                st.c[C_INTERNAL]++;
+                st.fail(i, "internal", "lattice ray built through a surface point does not hit: " + fmt_prim(p) + " " +
+                                           fmt_ray(r));
+            }
+        }
+        Verdict vd = judge_single(rid, p, r, st, i, v);
+        if (vd.code == 1)
+            spawn_check(rid, p, r, vd.h, g.coin(0.3), fv(unit(g)), 4.0 * ell_size(E), st, i, v);
+        return;
+    }
+    st.c[C_SKIP]++;
+}
+
+// ---------------------------------------------------------------------
 // The driver
 // ---------------------------------------------------------------------
 
-const char *CASE_NAMES[11] = {"",           "1-interior", "2-mesh",       "3-shared-edge", "4-box-edge", "5-degenerate",
-                              "6-sphere",   "7-t-accuracy", "8-self-hit", "9-pn-boxes",   "10-pn-rays"};
+const char *CASE_NAMES[12] = {"",           "1-interior", "2-mesh",       "3-shared-edge", "4-box-edge", "5-degenerate",
+                              "6-sphere",   "7-t-accuracy", "8-self-hit", "9-pn-boxes",   "10-pn-rays",
+                              "11-ellipsoid"};
+const int N_CASES = 11;
 
 std::vector<int> case_routines(int cs)
 {
@@ -1120,10 +1544,11 @@ std::vector<int> case_routines(int cs)
     case 6: return {R_SPHERE, R_SPHERE_ROB};
     case 9: return {R_PN_BOX};
     case 10: return {R_PN_EXACT, R_PN_FAST};
+    case 11: return {R_ELL, R_ELL_ROB};
     default: {
         std::vector<int> all;
         for (int r = 0; r < N_ROUTINES; r++)
-            if (ROUTINES[r].kind != K_PN)
+            if (ROUTINES[r].kind != K_PN && ROUTINES[r].kind != K_ELL)
                 all.push_back(r);
         return all;
     }
@@ -1132,6 +1557,9 @@ std::vector<int> case_routines(int cs)
 
 uint64_t g_seed = 0x1a2b3c4d5e6f7788ULL;
 const uint64_t PN_RAY_DIVISOR = 2000;
+// Case 11 runs 1/ELL_RAY_DIVISOR as many rays as cases 1 and 5-8: all of
+// them (about 10 s at 10^6 on 2 idle cores; raise it if that grows past 15).
+const uint64_t ELL_RAY_DIVISOR = 1;
 
 void run_ray(int cs, int rid, uint64_t i, Stats &st, bool v)
 {
@@ -1148,6 +1576,7 @@ void run_ray(int cs, int rid, uint64_t i, Stats &st, bool v)
         case 8: case_hits(cs, rid, g, st, i, v); break;
         case 9: pn_box_ray(rid, g, st, i, v); break;
         case 10: pn_ray(rid, g, st, i, v); break;
+        case 11: case_ellipsoid(rid, g, st, i, v); break;
         }
     } catch (const std::exception &e) {
         st.c[C_INTERNAL]++;
@@ -1211,10 +1640,10 @@ std::vector<std::string> report(const Job &j, Stats &st, bool details)
                 CASE_NAMES[j.cs], R.name, (ull)st.c[C_RAYS], (ull)st.c[C_AGREE], (ull)st.c[C_FMISS],
                 (ull)st.c[C_FHIT], fmt_ulp(st.ulp, 0.5).c_str(), fmt_ulp(st.ulp, 0.99).c_str(),
                 fmt_ulp(st.ulp, 1.0).c_str(), (ull)st.c[C_BAND], (ull)st.c[C_OUTBAND], (ull)st.c[C_TBFAIL]);
-    if (j.cs == 8)
+    if (j.cs == 8 || j.cs == 11)
         std::printf(" self_hit=%llu spawned=%llu", (ull)st.c[C_SELFHIT], (ull)st.c[C_SPAWN]);
     if (j.cs != 2 && j.cs != 3) {
-        if (R.kind == K_SPHERE)
+        if (R.kind == K_SPHERE || R.kind == K_ELL)
             std::printf(" near_tangent=%llu", (ull)st.c[C_NEARBAND]);
         else if (R.kind == K_PLANE)
             std::printf(" near_parallel=%llu", (ull)st.c[C_NEARBAND]);
@@ -1223,8 +1652,11 @@ std::vector<std::string> report(const Job &j, Stats &st, bool details)
     }
     if (j.cs >= 2 && j.cs <= 4)
         std::printf(" exact_aim=%llu", (ull)st.c[C_EXACTAIM]);
-    if (j.cs == 6)
+    if (j.cs == 6 || j.cs == 11)
         std::printf(" exact_tangent=%llu", (ull)st.c[C_EXACTAIM]);
+    if (j.cs == 11)
+        std::printf(" exact_through=%llu false_miss_band=%llu false_hit_band=%llu spawn_skipped=%llu",
+                    (ull)st.c[C_EXACTTHRU], (ull)st.c[C_FMISS_BAND], (ull)st.c[C_FHIT_BAND], (ull)st.c[C_SPAWNSKIP]);
     if (j.cs == 2 || j.cs == 3)
         std::printf(" tri_miss=%llu", (ull)st.c[C_TRIMISS]);
     if (j.cs == 9)
@@ -1271,8 +1703,10 @@ std::vector<std::string> report(const Job &j, Stats &st, bool details)
 }
 
 // Parses what fmt_prim and fmt_ray print: "KIND key=(x,y,z) key=x ...",
-// numbers in any strtof syntax (hex floats are exact).
-bool parse_kv(const std::string &s, std::string &kind, std::map<std::string, std::vector<float>> &kv)
+// numbers in any strtof syntax (hex floats are exact); kvd, when given, gets
+// the same numbers by strtod (an ellipsoid's doubles).
+bool parse_kv(const std::string &s, std::string &kind, std::map<std::string, std::vector<float>> &kv,
+              std::map<std::string, std::vector<double>> *kvd = nullptr)
 {
     size_t at = s.find_first_not_of(' ');
     if (at == std::string::npos)
@@ -1291,6 +1725,7 @@ bool parse_kv(const std::string &s, std::string &kind, std::map<std::string, std
         val = s.substr(eq + 1, end == std::string::npos ? std::string::npos : end - eq - 1);
         sp = end;
         std::vector<float> xs;
+        std::vector<double> xd;
         std::string inner = val;
         if (!inner.empty() && inner[0] == '(')
             inner = inner.substr(1, inner.size() - 2);
@@ -1301,11 +1736,14 @@ bool parse_kv(const std::string &s, std::string &kind, std::map<std::string, std
             xs.push_back(std::strtof(num.c_str(), &e));
             if (e == num.c_str())
                 return false;
+            xd.push_back(std::strtod(num.c_str(), nullptr));
             if (q == std::string::npos)
                 break;
             p = q + 1;
         }
         kv[key] = xs;
+        if (kvd)
+            (*kvd)[key] = xd;
     }
     return true;
 }
@@ -1318,7 +1756,10 @@ int check_one(const std::string &ps, const std::string &rs)
 {
     std::string kind, rk;
     std::map<std::string, std::vector<float>> a, b;
-    if (!parse_kv(ps, kind, a) || !parse_kv(rs, rk, b) || rk != "ray" || !b.count("o") || !b.count("d")) {
+    std::map<std::string, std::vector<double>> ad;
+    Ellipsoid E;
+    std::memset(&E, 0, sizeof E);
+    if (!parse_kv(ps, kind, a, &ad) || !parse_kv(rs, rk, b) || rk != "ray" || !b.count("o") || !b.count("d")) {
         std::fprintf(stderr, "judge: --check: cannot parse; give e.g. \"sphere c=(0,0,0) r=1\" \"ray o=(0,0,-5) d=(0,0,1) tmax=inf\"\n");
         return 2;
     }
@@ -1357,6 +1798,25 @@ int check_one(const std::string &ps, const std::string &rs)
             return 2;
         }
         rid = R_OBOX;
+    } else if (kind == "ellipsoid") {
+        // m (12 doubles: rows of M, then t) through prim_ellipsoid_init; or
+        // a as printed (the exact primitive), kept as given
+        if (!ad.count("m") || ad["m"].size() != 12 || (ad.count("a") && ad["a"].size() != 12)) {
+            std::fprintf(stderr, "judge: --check: an ellipsoid needs m=(12 numbers) and optionally a=(12 numbers)\n");
+            return 2;
+        }
+        for (int k = 0; k < 12; k++)
+            E.m[k] = ad["m"][k];
+        if (ad.count("a")) {
+            for (int k = 0; k < 12; k++)
+                E.a[k] = ad["a"][k];
+        } else if (prim_ellipsoid_init(&E) != 0) {
+            std::fprintf(stderr, "judge: --check: prim_ellipsoid_init failed\n");
+            return 2;
+        }
+        p = make_prim(PRIM_ELLIPSOID);
+        p.g.ell.e = &E;
+        rid = R_ELL;
     } else {
         std::fprintf(stderr, "judge: --check: unknown primitive %s\n", kind.c_str());
         return 2;
@@ -1367,7 +1827,8 @@ int check_one(const std::string &ps, const std::string &rs)
         std::printf("%s:\n", ROUTINES[k].name);
         Verdict v = judge_single(k, p, r, st, 0, true);
         if (v.code == 1) // case 8's check, with the spawned ray going back along -d
-            spawn_check(k, p, r, v.h, true, vec3(0, 0, 0), 4.0 * prim_size(p), st, 0, true);
+            spawn_check(k, p, r, v.h, true, vec3(0, 0, 0),
+                        4.0 * (p.kind == PRIM_ELLIPSOID ? ell_size(*p.g.ell.e) : prim_size(p)), st, 0, true);
     }
     return 0;
 }
@@ -1376,7 +1837,8 @@ int usage()
 {
     std::fprintf(stderr, "usage: judge [RAYS_PER_CASE] [--jobs N] [--case 1,2,...] [--routine NAME] [--ray I]\n"
                          "             [--seed S] [--data DIR] [--details] [-v]\n"
-                         "       judge --check PRIM RAY     (as printed, e.g. \"box lo=(0,0,0) hi=(1,1,1)\" \"ray o=(..) d=(..) tmax=inf\")\n");
+                         "       judge --check PRIM RAY     (as printed, e.g. \"box lo=(0,0,0) hi=(1,1,1)\" \"ray o=(..) d=(..) tmax=inf\";\n"
+                         "                                   an ellipsoid: \"ellipsoid m=(12 numbers) [a=(12 numbers)]\", a kept as given)\n");
     return 2;
 }
 
@@ -1429,13 +1891,13 @@ int main(int argc, char **argv)
             return usage();
     }
     if (cases.empty())
-        for (int c = 1; c <= 10; c++)
+        for (int c = 1; c <= N_CASES; c++)
             cases.insert(c);
     jobs = std::max(1, std::min(jobs, 64));
 
     std::vector<Job> js;
     for (int cs : cases) {
-        if (cs < 1 || cs > 10)
+        if (cs < 1 || cs > N_CASES)
             return usage();
         std::vector<int> rs = case_routines(cs);
         std::vector<int> sel;
@@ -1445,7 +1907,7 @@ int main(int argc, char **argv)
         // case 9's "rays" are patches split along a path of up to 14
         // levels, each a box, and case 10's are each an exact subdivision
         // to below float precision: fewer of them keep their time in line
-        uint64_t per = cs == 9 ? 16 : cs == 10 ? PN_RAY_DIVISOR : 1;
+        uint64_t per = cs == 9 ? 16 : cs == 10 ? PN_RAY_DIVISOR : cs == 11 ? ELL_RAY_DIVISOR : 1;
         for (int r : sel)
             js.push_back(Job{cs, r, std::max<uint64_t>(1, rays / rs.size() / per)});
     }

@@ -61,7 +61,7 @@ uint64_t ray_seed(uint64_t base, int case_id, int routine, uint64_t ray);
 
 // ---- the routines under test ----
 
-enum Kind { K_PLANE, K_SPHERE, K_TRI, K_BOX, K_OBOX, K_PN };
+enum Kind { K_PLANE, K_SPHERE, K_TRI, K_BOX, K_OBOX, K_PN, K_ELL };
 
 struct Routine {
     const char *name;
@@ -70,7 +70,8 @@ struct Routine {
 };
 
 // The PN routines are judged by cases 9 (R_PN_BOX, not an intersection
-// routine) and 10 (pn_hit in each mode) alone (pn.cpp).
+// routine) and 10 (pn_hit in each mode) alone (pn.cpp), the ellipsoid's by
+// case 11 alone (last, so that the other routines' seeds stay as they were).
 enum {
     R_PLANE,
     R_PLANE_ROB,
@@ -85,6 +86,8 @@ enum {
     R_PN_BOX,
     R_PN_EXACT,
     R_PN_FAST,
+    R_ELL,
+    R_ELL_ROB,
     N_ROUTINES
 };
 extern const Routine ROUTINES[N_ROUTINES];
@@ -112,6 +115,10 @@ enum Cnt {
     C_BOXFAIL,    // case 9: PN boxes that miss a control point of their exact sub-patch
     C_UVFAIL,     // case 10: hits whose (u, v) is not where the ray's point at t is
     C_UNDECIDED,  // case 10: rays the exact side gave up on (its work cap), not judged
+    C_FMISS_BAND, // false misses inside the band (C_FMISS - C_FMISS_BAND are outside it)
+    C_FHIT_BAND,  // false hits inside the band
+    C_EXACTTHRU,  // case 11: lattice rays exactly through a surface point, transversally
+    C_SPAWNSKIP,  // case 11: spawns not judged, the direction on no certain side of the exact surface
     N_CNT
 };
 
@@ -155,14 +162,25 @@ bool exact_hit(const Prim &p, const Ray &r);
 // that the spawned origin lies strictly on that side of the surface (solids:
 // outside when the ray came from outside, inside when from inside) and that
 // the segment of length ~L from it does not hit the primitive. Counts C_SPAWN
-// and C_SELFHIT.
+// and C_SELFHIT. Case 11 calls it too; for an ellipsoid a direction is
+// judged only when it lies on the incoming side of the exact surface by
+// 2^-16 |dir| against the exact normal at the exact hit, else it counts
+// C_SPAWNSKIP: nearer the tangent plane a float normal cannot tell the
+// sides apart.
 void spawn_check(int rid, const Prim &p, const Ray &r, const PrimHit &h, bool back, Vec3 w, double L, Stats &st,
                  uint64_t ray, bool verbose);
 
 // A solid whose interior holds floats well away from its surface: its
 // thinnest extent is at least 2^12 ulps of its coordinates. (A box one ulp
-// thick has no float strictly inside; case 8 does not spawn into such.)
+// thick has no float strictly inside; case 8 does not spawn into such.) An
+// ellipsoid's measure is a lower bound on its smallest radius of curvature
+// (b^2 / a at the tip of its longest axis), which is its sphere's radius.
 bool solid_resolved(const Prim &p);
+
+// Case 11: the sign of the exact discriminant of g(t) = |A (o + t d) + b|^2
+// - 1 for an ellipsoid (A, b its stored a[] as exact rationals), for the
+// generator's self-checks; 2 for a degenerate ray (d = 0).
+int ell_disc_sign(const Prim &p, const Ray &r);
 
 // Cases 2 and 3: a ray whose exact answer is "hits the union of tris" (the
 // caller guarantees it: origin inside a closed mesh, or a transversal pass
@@ -173,6 +191,7 @@ void union_ray(int rid, const Triangle *tris, size_t n, const std::vector<int> &
                const Ray &r, Stats &st, uint64_t ray, bool verbose);
 
 std::string fmt_prim(const Prim &p);
+std::string hexd(double x);
 std::string fmt_ray(const Ray &r);
 std::string hexf(float x);
 
