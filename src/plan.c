@@ -146,6 +146,18 @@ int plan_build(RenderPlan *p, Scene *s, const PlanOptions *o, char *err, size_t 
     p->adc_bailout = o->adc_bailout >= 0.0 ? (float)o->adc_bailout : s->image.adc_bailout;
     if (!(p->adc_bailout >= 0.0f && p->adc_bailout <= 1.0f))
         return fail(err, errlen, "adc_bailout must be a number from 0 to 1");
+    if (o->area_samples < 0 || o->area_samples > LIMIT_AREA_SAMPLES || o->area_adaptive < 0 ||
+        o->area_adaptive > LIMIT_AREA_ADAPTIVE + 1)
+        return fail(err, errlen, "area light setting out of range");
+    for (int i = 0; i < s->nlights; i++) {
+        Light *l = &s->lights[i];
+        if (l->area_n1 * l->area_n2 == 1 && vec_max_abs(l->area_u) + vec_max_abs(l->area_v) == 0.0f)
+            continue; /* a point light */
+        if (o->area_samples)
+            l->area_n1 = l->area_n2 = o->area_samples;
+        if (o->area_adaptive)
+            l->adaptive = o->area_adaptive;
+    }
     if (o->pn_mode < 0 || o->pn_mode > PN_FAST + 1)
         return fail(err, errlen, "pn_mode out of range");
     for (int i = 0; i < s->nprims; i++) {

@@ -142,6 +142,8 @@ static void light(FILE *f, const Scene *s, const Light *l)
         fprintf(f, ", ");
         vec(f, l->area_v);
         fprintf(f, ", %d, %d", l->area_n1, l->area_n2);
+        if (l->adaptive > 0)
+            fprintf(f, "\n  adaptive %d", l->adaptive - 1);
     }
     if (l->shadowless)
         fprintf(f, "\n  shadowless");

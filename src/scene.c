@@ -549,10 +549,10 @@ static int parse_camera(Parser *P, Loc at)
 
 static int parse_light(Parser *P, Loc at)
 {
-    enum { POSITION, COLOR, FADE_DISTANCE, FADE_POWER, SHADOWLESS, AREA_U, AREA_V, AREA_SAMPLES, N };
+    enum { POSITION, COLOR, FADE_DISTANCE, FADE_POWER, SHADOWLESS, AREA_U, AREA_V, AREA_SAMPLES, AREA_ADAPTIVE, N };
     static const Field f[N] = {{"position", F_VEC},   {"color", F_VEC},   {"fade_distance", F_NUM},
                                {"fade_power", F_NUM}, {"shadowless", F_FLAG}, {"area_u", F_VEC},
-                               {"area_v", F_VEC},     {"area_samples", F_PAIR}};
+                               {"area_v", F_VEC},     {"area_samples", F_PAIR}, {"area_adaptive", F_NUM}};
     Value v[N];
     if (parse_block(P, "light", f, N, v) || require(P, "light", f, v, POSITION, at))
         return -1;
@@ -576,6 +576,14 @@ static int parse_light(Parser *P, Loc at)
     l.area_u = vec_or(&v[AREA_U], vec3(0, 0, 0));
     l.area_v = vec_or(&v[AREA_V], vec3(0, 0, 0));
     l.area_n1 = l.area_n2 = 1;
+    l.adaptive = 0;
+    if (v[AREA_ADAPTIVE].set && !area)
+        return fail(P, v[AREA_ADAPTIVE].key, "light: 'area_adaptive' is for an area light");
+    if (v[AREA_ADAPTIVE].set && !whole(&v[AREA_ADAPTIVE], 0, 0, LIMIT_AREA_ADAPTIVE))
+        return fail(P, v[AREA_ADAPTIVE].value, "light: 'area_adaptive' must be a whole number from 0 to %d",
+                    LIMIT_AREA_ADAPTIVE);
+    if (v[AREA_ADAPTIVE].set)
+        l.adaptive = 1 + (int)v[AREA_ADAPTIVE].v[0];
     if (area) {
         if (!whole(&v[AREA_SAMPLES], 0, 1, LIMIT_AREA_SAMPLES) ||
             !whole(&v[AREA_SAMPLES], 1, 1, LIMIT_AREA_SAMPLES))
@@ -1513,7 +1521,7 @@ int scene_validate(const Scene *s, char *err, size_t errlen)
             !isfinite(l->fade_power) || (l->fade_power > 0.0f && !(l->fade_distance > 0.0f)))
             BAD("light %d is not finite or its fade is out of range", i);
         if (l->area_n1 < 1 || l->area_n1 > LIMIT_AREA_SAMPLES || l->area_n2 < 1 ||
-            l->area_n2 > LIMIT_AREA_SAMPLES)
+            l->area_n2 > LIMIT_AREA_SAMPLES || l->adaptive < 0 || l->adaptive > LIMIT_AREA_ADAPTIVE + 1)
             BAD("light %d: area samples out of range", i);
     }
     for (int i = 0; i < s->nprims; i++) {

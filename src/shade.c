@@ -101,24 +101,90 @@ static Vec3 transmittance(const Ctx *c, PlanShadow mode, const Surface *from, Ve
     return vec3(0, 0, 0);
 }
 
+/* An area light's sample grid, each sample traced at most once, for
+ * POV-Ray's adaptive subdivision (area_cell). */
+typedef struct {
+    const Ctx *c;
+    PlanShadow mode;
+    const Surface *sf;
+    const Light *l;
+    Vec3 lc; /* the light's colour at the point, faded by the centre's distance */
+    Vec3 t[LIMIT_AREA_SAMPLES * LIMIT_AREA_SAMPLES];
+    unsigned char traced[LIMIT_AREA_SAMPLES * LIMIT_AREA_SAMPLES];
+} AreaGrid;
+
+/* The point of sample (i, j) of light l: POV-Ray's grid, corners included. */
+static Vec3 area_point(const Light *l, int i, int j)
+{
+    float su = l->area_n1 > 1 ? (float)i / (float)(l->area_n1 - 1) - 0.5f : 0.0f;
+    float sv = l->area_n2 > 1 ? (float)j / (float)(l->area_n2 - 1) - 0.5f : 0.0f;
+    return vec_madd(vec_madd(l->pos, l->area_u, su), l->area_v, sv);
+}
+
+static Vec3 area_sample(AreaGrid *g, int i, int j)
+{
+    int k = j * g->l->area_n1 + i;
+    if (!g->traced[k]) {
+        Vec3 d, q = area_point(g->l, i, j);
+        float qd = toward(g->sf->p, q, &d);
+        g->t[k] = transmittance(g->c, g->mode, g->sf, q, d, qd);
+        g->traced[k] = 1;
+    }
+    return g->t[k];
+}
+
+/* POV-Ray's colour distance, |dr| + |dg| + |db| in double, of the light
+ * that two samples let through. */
+static double area_distance(const AreaGrid *g, Vec3 a, Vec3 b)
+{
+    Vec3 x = vec_mul(g->lc, a), y = vec_mul(g->lc, b);
+    return fabs((double)x.x - y.x) + fabs((double)x.y - y.y) + fabs((double)x.z - y.z);
+}
+
+/* POV-Ray's adaptive area light (trace.cpp, TraceAreaLightSubsetShadowRay;
+ * docs/povray-rules.md, section 10): the cell u1..u2 x v1..v2 at level lv
+ * is the mean of its four corner samples, unless it is more than one
+ * sample wide and either lv is below the light's adaptive level or two
+ * corners along an edge differ by more than 0.1 in the light they let
+ * through; then it is the mean of its four halves, split at the floor and
+ * the ceiling of the middle. */
+static Vec3 area_cell(AreaGrid *g, int u1, int v1, int u2, int v2, int lv)
+{
+    Vec3 s[4] = {area_sample(g, u1, v1), area_sample(g, u2, v1), area_sample(g, u1, v2), area_sample(g, u2, v2)};
+    if ((u2 - u1 > 1 || v2 - v1 > 1) &&
+        (lv < g->l->adaptive - 1 || area_distance(g, s[0], s[1]) > 0.1 || area_distance(g, s[1], s[3]) > 0.1 ||
+         area_distance(g, s[3], s[2]) > 0.1 || area_distance(g, s[2], s[0]) > 0.1)) {
+        int ul = (u1 + u2) / 2, uh = (u1 + u2 + 1) / 2, vl = (v1 + v2) / 2, vh = (v1 + v2 + 1) / 2;
+        s[0] = area_cell(g, u1, v1, ul, vl, lv + 1);
+        s[1] = area_cell(g, uh, v1, u2, vl, lv + 1);
+        s[2] = area_cell(g, u1, vh, ul, v2, lv + 1);
+        s[3] = area_cell(g, uh, vh, u2, v2, lv + 1);
+    }
+    return vec_scale(vec_add(vec_add(s[0], s[1]), vec_add(s[2], s[3])), 0.25f);
+}
+
 /* The visible fraction of light li from p, per channel; L and dist: the
- * unit direction and distance from p to the light's position, which
- * light_term() has. */
-static Vec3 light_visibility(const Ctx *c, int li, const Surface *sf, Vec3 L, float dist)
+ * unit direction and distance from p to the light's position, and lc its
+ * colour there, which light_term() has. */
+static Vec3 light_visibility(const Ctx *c, int li, const Surface *sf, Vec3 L, float dist, Vec3 lc)
 {
     const Light *l = &c->s->lights[li];
     PlanShadow mode = c->p->shadow[li];
     if (l->area_n1 * l->area_n2 == 1)
         return transmittance(c, mode, sf, l->pos, L, dist);
+    if (l->adaptive > 0) {
+        AreaGrid g;
+        g.c = c, g.mode = mode, g.sf = sf, g.l = l, g.lc = lc;
+        memset(g.traced, 0, (size_t)(l->area_n1 * l->area_n2));
+        return area_cell(&g, 0, 0, l->area_n1 - 1, l->area_n2 - 1, 0);
+    }
     float w1[LIMIT_AREA_SAMPLES], w2[LIMIT_AREA_SAMPLES];
     shade_area_weights(l->area_n1, w1);
     shade_area_weights(l->area_n2, w2);
     Vec3 vis = vec3(0, 0, 0);
     for (int j = 0; j < l->area_n2; j++) {
-        float sv = l->area_n2 > 1 ? (float)j / (float)(l->area_n2 - 1) - 0.5f : 0.0f;
         for (int i = 0; i < l->area_n1; i++) {
-            float su = l->area_n1 > 1 ? (float)i / (float)(l->area_n1 - 1) - 0.5f : 0.0f;
-            Vec3 q = vec_madd(vec_madd(l->pos, l->area_u, su), l->area_v, sv);
+            Vec3 q = area_point(l, i, j);
             Vec3 d;
             float qd = toward(sf->p, q, &d);
             vis = vec_madd(vis, transmittance(c, mode, sf, q, d, qd), w1[i] * w2[j]);
@@ -347,7 +413,7 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
                 c->st->shadow++;
                 who[ns++] = k;
             } else
-                lc[k] = vec_mul(lc[k], light_visibility(c, i, &sf[k], L, dist));
+                lc[k] = vec_mul(lc[k], light_visibility(c, i, &sf[k], L, dist, lc[k]));
         }
         unsigned dark = ns ? accel_occluded_packet(c->a, sr, ns, c->st) : 0;
         for (int j = 0; j < ns; j++)

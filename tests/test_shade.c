@@ -436,6 +436,43 @@ static void test_traced_is_trace(void **state)
     scene_free(&s);
 }
 
+/* POV-Ray's adaptive area light, against povray 3.7.0.10's own renders
+ * (docs/povray-rules.md, section 10): a 5 x 5 light straight above a white
+ * floor point, its two columns of samples at x = 1 and 2 behind a slab.
+ * The full grid lets 0.625 through; a light dim enough that no edge of a
+ * cell differs by more than 0.1 stops splitting: adaptive 0 keeps the four
+ * corners (0.5), adaptive 1 splits once and stops (0.75); a bright one
+ * splits down to the full grid whatever the level. */
+static void test_adaptive_area_light(void **state)
+{
+    (void)state;
+    static const struct {
+        float color;
+        int adaptive; /* -1: none */
+        float want;
+    } cases[] = {{0.03f, 0, 0.5f},  {0.03f, 1, 0.75f}, {0.03f, -1, 0.625f}, {1.0f, 0, 0.625f},
+                 {1.0f, 1, 0.625f}, {0.04f, 0, 0.625f}};
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        char text[1024], err[512], ad[32] = "";
+        if (cases[i].adaptive >= 0)
+            snprintf(ad, sizeof ad, "area_adaptive %d", cases[i].adaptive);
+        snprintf(text, sizeof text,
+                 "camera { eye 0 1 -1 target 0 0 0 fov 40 }\n"
+                 "light { position 0 10 0 color %g %g %g area_u 4 0 0 area_v 0 0 4 area_samples 5 5 %s }\n"
+                 "material w { color 1 1 1 ambient 0 diffuse 1 }\n"
+                 "plane { normal 0 1 0 material w }\n"
+                 "box { min 0.5 9 -3 max 3 9.5 3 material w }\n",
+                 (double)cases[i].color, (double)cases[i].color, (double)cases[i].color, ad);
+        Scene s;
+        assert_int_equal(scene_parse("t.scn", text, strlen(text), &s, err, sizeof err), 0);
+        Vec3 c = trace(&s, vec3(0, 1, -1), vec3(0, -1, 1));
+        scene_free(&s);
+        /* the ray meets the floor a hair from (0, 0, 0): N.L is 1 to within 1e-6 */
+        if (fabsf(c.x / cases[i].color - cases[i].want) > 1e-5f)
+            fail_msg("case %zu: visibility %g, POV-Ray's %g", i, (double)(c.x / cases[i].color), (double)cases[i].want);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -447,7 +484,7 @@ int main(void)
         cmocka_unit_test(test_area_light_penumbra), cmocka_unit_test(test_transparent_surface),
         cmocka_unit_test(test_shadow_through_glass), cmocka_unit_test(test_refraction_through_slab),
         cmocka_unit_test(test_total_internal_reflection), cmocka_unit_test(test_no_self_shadowing_on_spheres),
-        cmocka_unit_test(test_traced_is_trace),
+        cmocka_unit_test(test_traced_is_trace), cmocka_unit_test(test_adaptive_area_light),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

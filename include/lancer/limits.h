@@ -18,8 +18,9 @@
 #define LIMIT_DEPTH 256
 /* Render and build threads. */
 #define LIMIT_THREADS 1024
-/* An area light's grid, per side. */
+/* An area light's grid, per side, and its adaptive level. */
 #define LIMIT_AREA_SAMPLES 64
+#define LIMIT_AREA_ADAPTIVE 16
 
 /* Files, refused by size before they are read. A scene is text written
  * by hand or by a script. A mesh in the most verbose format lancer reads,

@@ -50,6 +50,8 @@ typedef struct {
     int full;          /* 1: skip nothing the plan could skip (--no-plan): the same
                         * picture, bit for bit, by all the work */
     double adc_bailout; /* 0 to 1; negative: the scene's */
+    int area_samples;  /* every area light's grid, N x N (1 to LIMIT_AREA_SAMPLES) */
+    int area_adaptive; /* 1 + every area light's adaptive level (Light.adaptive) */
     double scale;      /* > 0 */
     double translate[3];
 } PlanOptions;

@@ -56,6 +56,8 @@ typedef struct {
     int shadowless;
     Vec3 area_u, area_v;
     int area_n1, area_n2; /* 1 x 1: a point light */
+    int adaptive;         /* 1 + POV-Ray's adaptive level; 0 (a zeroed light's, POV-Ray's
+                           * default): the full grid */
 } Light;
 
 typedef struct {

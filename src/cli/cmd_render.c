@@ -41,6 +41,8 @@ static const char usage[] =
     "                        (overrides the scene)\n"
     "      --scale S         scale the whole scene, camera and lights included\n"
     "      --translate X,Y,Z then move it: the picture should not change\n"
+    "      --area-samples N  every area light's grid of shadow samples, N x N\n"
+    "      --area-adaptive N every area light's adaptive level (POV-Ray's adaptive N)\n"
     "      --adc-bailout W   do not trace a secondary ray whose weight, the product\n"
     "                        of the coefficients on its path, is below W (POV-Ray's\n"
     "                        adc_bailout; overrides the scene; 0 traces every one)\n"
@@ -55,6 +57,7 @@ static const char usage[] =
 typedef struct {
     const char *exr, *png, *stats;
     int width, height, spp, max_depth, threads, quiet, use_float, classic, explain, no_plan;
+    int area_samples, area_adaptive;
     double scale, adc;
     const char *translate, *pn_mode;
 } Args;
@@ -65,6 +68,7 @@ static void defaults(void *args)
     long cores = sysconf(_SC_NPROCESSORS_ONLN);
     a->threads = cores > 0 ? (int)(cores < LIMIT_THREADS ? cores : LIMIT_THREADS) : 1;
     a->adc = -1.0;
+    a->area_adaptive = -1;
 }
 
 typedef struct {
@@ -230,6 +234,8 @@ static int plan_options_of(const Args *a, PlanOptions *o)
     o->height = a->height;
     o->spp = a->spp;
     o->max_depth = a->max_depth;
+    o->area_samples = a->area_samples;
+    o->area_adaptive = a->area_adaptive + 1; /* -1 unless given */
     o->classic = a->classic;
     o->threads = a->threads;
     o->full = a->no_plan;
@@ -399,6 +405,8 @@ static const Opt opts[] = {
     {"--explain", NULL, OPT_FLAG, offsetof(Args, explain), 0, 0},
     {"--no-plan", NULL, OPT_FLAG, offsetof(Args, no_plan), 0, 0},
     {"--adc-bailout", NULL, OPT_DOUBLE, offsetof(Args, adc), 0, 1},
+    {"--area-samples", NULL, OPT_INT, offsetof(Args, area_samples), 1, LIMIT_AREA_SAMPLES},
+    {"--area-adaptive", NULL, OPT_INT, offsetof(Args, area_adaptive), 0, LIMIT_AREA_ADAPTIVE},
 };
 
 const Command cmd_render = {"render", usage, opts, (int)(sizeof opts / sizeof opts[0]), 1, sizeof(Args), defaults, run};
