@@ -26,7 +26,7 @@ EOF
 
 render_s() { # threads: lancer's render phase, in seconds
     "$LANCER" render "$SCN" --threads "$1" -q -o "$WORK/lancer.exr" --stats "$WORK/stats.json"
-    sed -n 's/.*"render": \([0-9.]*\).*/\1/p' "$WORK/stats.json"
+    sed -n 's/.*"phases_s": {[^}]*"render": \([0-9.]*\).*/\1/p' "$WORK/stats.json"
 }
 
 : >"$WORK/runs"

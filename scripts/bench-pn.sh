@@ -48,7 +48,7 @@ render() {
     /usr/bin/time -f "%M" -o "$WORK/$1.rss" "$LANCER" render "$2" -o "$WORK/$1.exr" --float --threads 1 \
         --stats "$WORK/$1.json" -q
     b=$(sed -n 's/.*"build": \([0-9.]*\).*/\1/p' "$WORK/$1.json")
-    r=$(sed -n 's/.*"render": \([0-9.]*\).*/\1/p' "$WORK/$1.json")
+    r=$(sed -n 's/.*"phases_s": {[^}]*"render": \([0-9.]*\).*/\1/p' "$WORK/$1.json")
     kb=$(tail -n 1 "$WORK/$1.rss")
     echo "$b $r $((kb / 1024))"
 }

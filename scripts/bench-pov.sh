@@ -40,7 +40,7 @@ SIZE
             sed -n 's/.*Trace Time:.*(\([0-9.]*\) seconds).*/\1/p' "$WORK/pov.log" >>"$WORK/pov.times"
             "$LANCER" render "$scn" --width "$w" --height "$h" --threads "$t" -q -o "$WORK/lancer.exr" \
                 --stats "$WORK/stats.json"
-            sed -n 's/.*"render": \([0-9.]*\).*/\1/p' "$WORK/stats.json" >>"$WORK/lancer.times"
+            sed -n 's/.*"phases_s": {[^}]*"render": \([0-9.]*\).*/\1/p' "$WORK/stats.json" >>"$WORK/lancer.times"
         done
         p=$(median <"$WORK/pov.times")
         l=$(median <"$WORK/lancer.times" | awk '{printf "%.3f", $1}')

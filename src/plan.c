@@ -19,6 +19,7 @@ PlanOptions plan_options(void)
     o.threads = 1;
     o.scale = 1.0;
     o.adc_bailout = -1.0;
+    o.aa_threshold = -1.0;
     return o;
 }
 
@@ -144,6 +145,9 @@ int plan_build(RenderPlan *p, Scene *s, const PlanOptions *o, char *err, size_t 
         return -1;
     }
     p->adc_bailout = o->adc_bailout >= 0.0 ? (float)o->adc_bailout : s->image.adc_bailout;
+    p->aa_threshold = o->aa_threshold >= 0.0 ? (float)o->aa_threshold : s->image.aa_threshold;
+    if (!(p->aa_threshold >= 0.0f) || !isfinite(p->aa_threshold))
+        return fail(err, errlen, "aa_threshold must be a number from 0 up");
     if (!(p->adc_bailout >= 0.0f && p->adc_bailout <= 1.0f))
         return fail(err, errlen, "adc_bailout must be a number from 0 to 1");
     if (o->area_samples < 0 || o->area_samples > LIMIT_AREA_SAMPLES || o->area_adaptive < 0 ||

@@ -465,10 +465,10 @@ static int pn_mode_of(Parser *P, const char *what, const Value *v, int *mode)
 
 static int parse_image(Parser *P, Loc at)
 {
-    enum { WIDTH, HEIGHT, BACKGROUND, MAX_DEPTH, SPP, INTERSECT, PN_MODE, ADC_BAILOUT, N };
-    static const Field f[N] = {{"width", F_NUM},     {"height", F_NUM}, {"background", F_VEC},
-                               {"max_depth", F_NUM}, {"spp", F_NUM},    {"intersect", F_NAME},
-                               {"pn_mode", F_NAME},  {"adc_bailout", F_NUM}};
+    enum { WIDTH, HEIGHT, BACKGROUND, MAX_DEPTH, SPP, INTERSECT, PN_MODE, ADC_BAILOUT, AA_THRESHOLD, N };
+    static const Field f[N] = {{"width", F_NUM},       {"height", F_NUM},      {"background", F_VEC},
+                               {"max_depth", F_NUM},   {"spp", F_NUM},         {"intersect", F_NAME},
+                               {"pn_mode", F_NAME},    {"adc_bailout", F_NUM}, {"aa_threshold", F_NUM}};
     Value v[N];
     if (P->have_image)
         return fail(P, at, "duplicate 'image' block");
@@ -487,6 +487,9 @@ static int parse_image(Parser *P, Loc at)
     if (v[ADC_BAILOUT].set && !(v[ADC_BAILOUT].v[0] >= 0.0 && v[ADC_BAILOUT].v[0] <= 1.0))
         return fail(P, v[ADC_BAILOUT].value, "image: 'adc_bailout' must be a number from 0 to 1");
     P->s->image.adc_bailout = num_or(&v[ADC_BAILOUT], P->s->image.adc_bailout);
+    if (v[AA_THRESHOLD].set && !(v[AA_THRESHOLD].v[0] > 0.0 && v[AA_THRESHOLD].v[0] <= 3.0))
+        return fail(P, v[AA_THRESHOLD].value, "image: 'aa_threshold' must be a number above 0, at most 3");
+    P->s->image.aa_threshold = num_or(&v[AA_THRESHOLD], 0.0f);
     if (v[INTERSECT].set) {
         if (strcmp(v[INTERSECT].name, "classic") != 0 && strcmp(v[INTERSECT].name, "robust") != 0)
             return fail(P, v[INTERSECT].value, "image: 'intersect' must be 'robust' or 'classic', not '%s'",

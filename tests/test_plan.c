@@ -280,7 +280,7 @@ static RayStats rays_of(const char *text, int full, Image *img, PlanShadow *shad
     Image own;
     Image *im = img ? img : &own;
     assert_int_equal(image_init(im, p.width, p.height), 0);
-    RayStats st = {0, 0, 0, 0, 0, 0};
+    RayStats st = {0, 0, 0, 0, 0, 0, 0};
     assert_int_equal(render_image(&p, a, NULL, im, &st), 0);
     if (!img)
         image_free(im);

@@ -5,6 +5,7 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <setjmp.h>
+#include <math.h>
 #include <string.h>
 #include <cmocka.h>
 
@@ -120,7 +121,7 @@ static void test_pixels_are_single_rays(void **state)
             RenderPlan p;
             Accel *a;
             Image img;
-            RayStats st, st1 = {0, 0, 0, 0, 0, 0};
+            RayStats st, st1 = {0, 0, 0, 0, 0, 0, 0};
             render_scene(scenes[sc], 1, 29, 23, k, &s, &p, &a, &img, &st, NULL);
             Camera cam;
             camera_init(&cam, &s.camera, p.width, p.height);
@@ -213,6 +214,74 @@ static void test_stop_keeps_finished_rows(void **state)
     image_free(&full);
 }
 
+/* Renders scenes/parity/antialias.scn at 64 x 48 with spp 3 and the given
+ * adaptive threshold (0: the regular grid) on `threads` threads. */
+static void render_aa(float threshold, int spp, int threads, Image *img, RayStats *st, ProgressLog *log)
+{
+    char err[512];
+    Scene s;
+    RenderPlan p;
+    assert_int_equal(scene_load("scenes/parity/antialias.scn", &s, err, sizeof err), 0);
+    PlanOptions o = plan_options();
+    o.width = 64;
+    o.height = 48;
+    o.spp = spp;
+    o.threads = threads;
+    o.aa_threshold = threshold;
+    assert_int_equal(plan_build(&p, &s, &o, err, sizeof err), 0);
+    Accel *a = accel_build(&s, p.variant, 1);
+    assert_non_null(a);
+    assert_int_equal(image_init(img, 64, 48), 0);
+    memset(st, 0, sizeof *st);
+    RenderOptions opt = {log ? log_progress : NULL, log, NULL, NULL};
+    assert_int_equal(render_image(&p, a, &opt, img, st), 0);
+    accel_free(a);
+    plan_free(&p);
+    scene_free(&s);
+}
+
+/* Adaptive anti-aliasing: every pixel is either its centre sample or the
+ * regular 3 x 3 grid's value, bit for bit; the same for any thread count;
+ * only some pixels are supersampled, and the picture stays within a bound
+ * of the regular grid's. */
+static void test_adaptive_antialiasing(void **state)
+{
+    (void)state;
+    Image full, one, ad, ad3;
+    RayStats st;
+    ProgressLog log = {0, 0, 0, 1};
+    render_aa(0.0f, 3, 1, &full, &st, NULL);
+    render_aa(0.0f, 1, 1, &one, &st, NULL);
+    render_aa(0.05f, 3, 3, &ad3, &st, NULL);
+    render_aa(0.05f, 3, 1, &ad, &st, &log);
+    assert_memory_equal(ad.rgb, ad3.rgb, sizeof(float) * 3 * 64 * 48);
+    assert_true(st.supersampled > 0 && st.supersampled < 64 * 48 / 2);
+    assert_int_equal(st.camera, 64 * 48 + 9 * st.supersampled);
+    assert_int_equal(log.total, 2 * 48); /* progress runs over both passes */
+    assert_true(log.monotonic && log.last == 2 * 48);
+    int grid = 0, over = 0;
+    for (int i = 0; i < 64 * 48; i++) {
+        const float *a = ad.rgb + 3 * i, *f = full.rgb + 3 * i, *c = one.rgb + 3 * i;
+        int is_full = !memcmp(a, f, sizeof(float) * 3), is_centre = !memcmp(a, c, sizeof(float) * 3);
+        assert_true(is_full || is_centre);
+        grid += is_full && !is_centre;
+        for (int k = 0; k < 3; k++)
+            if (fabsf(a[k] - f[k]) > 2e-3f) {
+                over++;
+                break;
+            }
+    }
+    assert_true(grid > 0);
+    /* a small image of this scene is mostly edges: 34 pixels of 3072 are off
+     * the regular grid's by more than 2e-3 at threshold 0.05 (where a
+     * pixel's own samples differ, but not its centre from its neighbours') */
+    assert_true(over * 50 < 64 * 48);
+    image_free(&full);
+    image_free(&one);
+    image_free(&ad);
+    image_free(&ad3);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -220,6 +289,7 @@ int main(void)
         cmocka_unit_test(test_counts_and_progress),
         cmocka_unit_test(test_pixels_are_single_rays),
         cmocka_unit_test(test_stop_keeps_finished_rows),
+        cmocka_unit_test(test_adaptive_antialiasing),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

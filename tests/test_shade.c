@@ -413,7 +413,7 @@ static void test_traced_is_trace(void **state)
             Ray r[2 * ACCEL_PACKET];
             PrimHit h[2 * ACCEL_PACKET];
             int best[2 * ACCEL_PACKET];
-            RayStats st = {0, 0, 0, 0, 0, 0}, st1 = st;
+            RayStats st = {0, 0, 0, 0, 0, 0, 0}, st1 = st;
             for (int k = 0; k < n; k++)
                 r[k] = ray_make(EYE, vec_normalize(vec_add(dirs[k % 5], vec3(0, 0, 0.01f * (float)(k / 5)))), INFINITY);
             accel_closest_packet(a, r, n, h, best, &st);

@@ -51,6 +51,7 @@ typedef struct {
                         * picture, bit for bit, by all the work */
     double adc_bailout; /* 0 to 1; negative: the scene's */
     int area_samples;  /* every area light's grid, N x N (1 to LIMIT_AREA_SAMPLES) */
+    double aa_threshold; /* adaptive anti-aliasing's threshold; negative: the scene's */
     int area_adaptive; /* 1 + every area light's adaptive level (Light.adaptive) */
     double scale;      /* > 0 */
     double translate[3];
@@ -86,6 +87,8 @@ typedef struct {
     int reflective;        /* some material reflects */
     int full;              /* --no-plan: every skip below is off */
     float adc_bailout;     /* POV-Ray's cut-off of secondary rays by weight (shade.h) */
+    float aa_threshold;    /* > 0: only pixels whose centre differs from a neighbour's by
+                            * more get the spp x spp grid (render.h); 0: every pixel */
     PlanShadow *shadow;    /* per light, scene->lights[i] */
 } RenderPlan;
 

@@ -34,6 +34,7 @@ typedef struct {
     unsigned long long camera, shadow, reflection, refraction;
     unsigned long long isect_tests; /* primitive intersection routines called */
     unsigned long long cut;         /* secondary rays not traced: their weight was below adc_bailout */
+    unsigned long long supersampled; /* pixels adaptive anti-aliasing supersampled */
 } RayStats;
 
 static inline void raystats_add(RayStats *sum, const RayStats *s)
@@ -44,6 +45,7 @@ static inline void raystats_add(RayStats *sum, const RayStats *s)
     sum->refraction += s->refraction;
     sum->isect_tests += s->isect_tests;
     sum->cut += s->cut;
+    sum->supersampled += s->supersampled;
 }
 
 #endif

@@ -87,6 +87,7 @@ typedef struct {
     int classic;   /* use the classic intersection routines, not the robust ones */
     int pn_mode;   /* PnMode of the PN patches that set none */
     float adc_bailout; /* POV-Ray's: a secondary ray of weight below it is not traced */
+    float aa_threshold; /* adaptive anti-aliasing (render.h); 0: the regular grid everywhere */
 } SceneImage;
 
 /* lancer's default adc_bailout (README.md says why). */

@@ -49,7 +49,7 @@ int bench_gen_rays(const Scene *s, const Accel *a, int w, int h, unsigned long l
     Vec3 light = vec_madd(c, vec3(1.5f, 3.0f, 2.0f), radius);
     Camera cam;
     camera_init(&cam, &spec, w, h);
-    RayStats st = {0, 0, 0, 0, 0, 0};
+    RayStats st = {0, 0, 0, 0, 0, 0, 0};
     for (int y = 0; y < h; y++)
         for (int x = 0; x < w; x++) {
             Ray r = camera_ray(&cam, (float)x + 0.5f, (float)y + 0.5f);
@@ -89,7 +89,7 @@ int bench_gen_rays(const Scene *s, const Accel *a, int w, int h, unsigned long l
 
 double bench_pass(const Accel *a, const Ray *rays, size_t n, int any, size_t *hits, double *sumt)
 {
-    RayStats st = {0, 0, 0, 0, 0, 0};
+    RayStats st = {0, 0, 0, 0, 0, 0, 0};
     size_t k = 0;
     double sum = 0.0, t0 = clock_now();
     for (size_t i = 0; i < n; i++) {

@@ -33,6 +33,9 @@ static const char usage[] =
     "      --height H        image height in pixels (overrides the scene)\n"
     "      --spp K           K x K samples per pixel, box-filtered (overrides the scene)\n"
     "      --max-depth N     trace depth, POV-Ray's max_trace_level (overrides the scene)\n"
+    "      --aa-threshold T  adaptive anti-aliasing: only pixels that differ from a\n"
+    "                        neighbour by more than T get the K x K grid of --spp\n"
+    "                        (overrides the scene; 0: every pixel)\n"
     "      --threads N       render threads (default: every core)\n"
     "      --float           write 32-bit float channels (default: half)\n"
     "      --classic         use the classic intersection routines instead of the\n"
@@ -58,7 +61,7 @@ typedef struct {
     const char *exr, *png, *stats;
     int width, height, spp, max_depth, threads, quiet, use_float, classic, explain, no_plan;
     int area_samples, area_adaptive;
-    double scale, adc;
+    double scale, adc, aa;
     const char *translate, *pn_mode;
 } Args;
 
@@ -68,6 +71,7 @@ static void defaults(void *args)
     long cores = sysconf(_SC_NPROCESSORS_ONLN);
     a->threads = cores > 0 ? (int)(cores < LIMIT_THREADS ? cores : LIMIT_THREADS) : 1;
     a->adc = -1.0;
+    a->aa = -1.0;
     a->area_adaptive = -1;
 }
 
@@ -139,9 +143,9 @@ static void write_plan(FILE *f, const RenderPlan *p)
     const Scene *s = p->scene;
     fprintf(f,
             "{\"width\": %d, \"height\": %d, \"spp\": %d, \"max_depth\": %d, \"threads\": %d, "
-            "\"intersect\": \"%s\", \"adc_bailout\": %.9g,\n",
+            "\"intersect\": \"%s\", \"adc_bailout\": %.9g, \"aa_threshold\": %.9g,\n",
             p->width, p->height, p->spp, p->max_depth, p->threads, p->variant == PRIM_CLASSIC ? "classic" : "robust",
-            (double)p->adc_bailout);
+            (double)p->adc_bailout, (double)p->aa_threshold);
     fprintf(f, "           \"camera_offset\": [%.9g, %.9g, %.9g], \"camera_inside\": [", p->offset[0], p->offset[1],
             p->offset[2]);
     for (int i = 0; i < p->camera_in.n; i++)
@@ -181,6 +185,9 @@ static void explain(FILE *f, const char *scene, const RenderPlan *p, const doubl
     fprintf(f, "rays: %llu camera, %llu shadow, %llu reflection, %llu refraction (%llu in all)\n", st->camera,
             st->shadow, st->reflection, st->refraction, st->camera + st->shadow + st->reflection + st->refraction);
     fprintf(f, "cut: %llu secondary rays below adc_bailout %g\n", st->cut, (double)p->adc_bailout);
+    if (p->aa_threshold > 0.0f && p->spp > 1)
+        fprintf(f, "anti-aliasing: %llu of %d pixels supersampled %dx%d (aa_threshold %g)\n", st->supersampled,
+                p->width * p->height, p->spp, p->spp, (double)p->aa_threshold);
     double total = phase[0] + phase[1] + phase[2] + phase[3];
     fprintf(f, "time:");
     for (int i = 0; i < 4; i++)
@@ -216,6 +223,7 @@ static int write_stats(const char *file, const char *path, const char *scene, co
             "\"total\": %llu, \"cut_by_adc_bailout\": %llu},\n",
             st->camera, st->shadow, st->reflection, st->refraction,
             st->camera + st->shadow + st->reflection + st->refraction, st->cut);
+    fprintf(f, "  \"supersampled_pixels\": %llu,\n", st->supersampled);
     fprintf(f, "  \"intersection_tests\": %llu\n}\n", st->isect_tests);
     int bad = ferror(f), saved = errno;
     if (fclose(f) != 0 || bad) {
@@ -240,6 +248,7 @@ static int plan_options_of(const Args *a, PlanOptions *o)
     o->threads = a->threads;
     o->full = a->no_plan;
     o->adc_bailout = a->adc; /* -1 unless given, from 0 to 1 (opts) */
+    o->aa_threshold = a->aa;  /* likewise, from 0 to 3 */
     if (a->pn_mode) {
         o->pn_mode = 1 + pn_mode_named(a->pn_mode);
         if (!o->pn_mode)
@@ -331,7 +340,7 @@ static int run(void *args, const char **pos, int npos)
     }
 
     Image img;
-    RayStats st = {0, 0, 0, 0, 0, 0};
+    RayStats st = {0, 0, 0, 0, 0, 0, 0};
     unsigned char *done = malloc((size_t)plan.height);
     if (!done || image_init(&img, plan.width, plan.height) != 0) {
         fprintf(stderr, "lancer: out of memory for a %dx%d image\n", plan.width, plan.height);
@@ -405,6 +414,7 @@ static const Opt opts[] = {
     {"--explain", NULL, OPT_FLAG, offsetof(Args, explain), 0, 0},
     {"--no-plan", NULL, OPT_FLAG, offsetof(Args, no_plan), 0, 0},
     {"--adc-bailout", NULL, OPT_DOUBLE, offsetof(Args, adc), 0, 1},
+    {"--aa-threshold", NULL, OPT_DOUBLE, offsetof(Args, aa), 0, 3},
     {"--area-samples", NULL, OPT_INT, offsetof(Args, area_samples), 1, LIMIT_AREA_SAMPLES},
     {"--area-adaptive", NULL, OPT_INT, offsetof(Args, area_adaptive), 0, LIMIT_AREA_ADAPTIVE},
 };
