@@ -1,6 +1,6 @@
 /*
  * accel.c - visibility queries: a BVH over the bounded primitives, and a
- * plain loop over the unbounded ones (planes).
+ * plain loop over the unbounded ones (planes), or over every one.
  */
 #include "lancer/accel.h"
 
@@ -16,11 +16,13 @@ struct Accel {
     const Prim *prims;   /* the scene's, indexed by the answers */
     PrimVariant variant; /* which intersection routines answer */
     Bvh bvh;
-    int *unbounded; /* scene indices of the planes */
+    int *unbounded; /* scene indices of the planes (of every primitive, for a loop) */
     int nunbounded;
 };
 
-Accel *accel_build(const Scene *s, PrimVariant v, int threads)
+Accel *accel_build(const Scene *s, PrimVariant v, int threads) { return accel_build_as(s, v, threads, 0); }
+
+Accel *accel_build_as(const Scene *s, PrimVariant v, int threads, int loop)
 {
     Accel *a = calloc(1, sizeof *a);
     if (!a)
@@ -30,9 +32,10 @@ Accel *accel_build(const Scene *s, PrimVariant v, int threads)
     a->unbounded = malloc(sizeof(int) * (size_t)(s->nprims > 0 ? s->nprims : 1));
     float lo[3], hi[3];
     for (int i = 0; a->unbounded && i < s->nprims; i++)
-        if (!bvh_prim_bounds(&s->prims[i], lo, hi))
+        if (loop || !bvh_prim_bounds(&s->prims[i], lo, hi))
             a->unbounded[a->nunbounded++] = i;
-    if (!a->unbounded || bvh_build(&a->bvh, s->prims, s->nprims, v, threads) != 0) {
+    /* the loop answers as the tree does: the nearest hit, ties to the lowest index */
+    if (!a->unbounded || bvh_build(&a->bvh, s->prims, loop ? 0 : s->nprims, v, threads) != 0) {
         free(a->unbounded);
         free(a);
         return NULL;

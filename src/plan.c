@@ -210,6 +210,7 @@ int plan_build(RenderPlan *p, Scene *s, const PlanOptions *o, char *err, size_t 
             return fail(err, errlen, "out of memory");
     }
     p->full = o->full;
+    p->loop = o->accel == 2 || (o->accel == 0 && !o->full && s->nprims <= PLAN_LOOP_PRIMS);
     for (int i = 0; i < s->nlights; i++)
         p->shadow[i] = s->lights[i].shadowless                  ? PLAN_SHADOW_NONE
                        : !o->full && light_is_clear(s, &s->lights[i]) ? PLAN_SHADOW_CLEAR
@@ -248,6 +249,9 @@ int plan_notes(const RenderPlan *p, PlanNote *notes, int max)
                  p->full && clear_possible ? " (--no-plan: not looked for)" : "");
         note(notes, max, &n, m <= PLAN_SHADOW_CLEAR, what, why);
     }
+    snprintf(why, sizeof why,
+             p->loop ? "%d primitives: a plain loop over them is faster than a tree" : "%d primitives", s->nprims);
+    note(notes, max, &n, p->loop, "the BVH", why);
     note(notes, max, &n, !p->reflective && !p->full, "reflection rays",
          p->reflective ? "some material reflects"
          : p->full     ? "no material reflects; traced all the same, weighed 0 (--no-plan)"

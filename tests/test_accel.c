@@ -285,6 +285,47 @@ static void test_accessors(void **state)
     scene_free(&s);
 }
 
+/* A plain loop over the primitives (the plan's choice for a handful of
+ * them) answers every query as the BVH does: the same primitive and hit,
+ * bit for bit, the same any-hit verdict, single and in packets. */
+static void test_loop_answers_as_the_bvh(void **state)
+{
+    (void)state;
+    unsigned long long g = 11;
+    for (int n = 1; n <= 120; n += 17) {
+        Scene s;
+        random_scene(&s, n, &g);
+        Accel *tree = accel_build_as(&s, PRIM_ROBUST, 1, 0), *loop = accel_build_as(&s, PRIM_ROBUST, 1, 1);
+        assert_non_null(tree);
+        assert_non_null(loop);
+        RayStats st = {0, 0, 0, 0, 0, 0, 0};
+        Ray r[ACCEL_PACKET];
+        for (int k = 0; k < 4000; k++) {
+            Vec3 o = test_rvec(&g, -6, 6);
+            r[k % ACCEL_PACKET] = ray_make(o, vec_normalize(vec_sub(test_rvec(&g, -4, 4), o)), k % 4 ? INFINITY : 3.0f);
+            const Ray *q = &r[k % ACCEL_PACKET];
+            PrimHit a, b;
+            int ia = accel_closest(tree, q, &a, &st), ib = accel_closest(loop, q, &b, &st);
+            assert_int_equal(ia, ib);
+            if (ia >= 0)
+                assert_same_hit(&s.prims[ia], &a, &b);
+            assert_int_equal(accel_occluded(tree, q, &st), accel_occluded(loop, q, &st));
+            if (k % ACCEL_PACKET == ACCEL_PACKET - 1) {
+                PrimHit ha[ACCEL_PACKET], hb[ACCEL_PACKET];
+                int ba[ACCEL_PACKET], bb[ACCEL_PACKET];
+                accel_closest_packet(tree, r, ACCEL_PACKET, ha, ba, &st);
+                accel_closest_packet(loop, r, ACCEL_PACKET, hb, bb, &st);
+                assert_memory_equal(ba, bb, sizeof ba);
+                assert_int_equal(accel_occluded_packet(tree, r, ACCEL_PACKET, &st),
+                                 accel_occluded_packet(loop, r, ACCEL_PACKET, &st));
+            }
+        }
+        accel_free(tree);
+        accel_free(loop);
+        free(s.prims);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -293,6 +334,7 @@ int main(void)
         cmocka_unit_test(test_closest_packet_is_closest),
         cmocka_unit_test(test_occluded_packet_is_occluded),
         cmocka_unit_test(test_accessors),
+        cmocka_unit_test(test_loop_answers_as_the_bvh),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

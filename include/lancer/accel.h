@@ -26,6 +26,12 @@ typedef struct Accel Accel;
  * variant v, on up to `threads` threads. Returns NULL when memory runs
  * out. */
 Accel *accel_build(const Scene *s, PrimVariant v, int threads);
+
+/* The same, or with loop set no BVH at all: every primitive is tested in
+ * a plain loop, which answers every query as the BVH does (the same
+ * nearest hit, ties to the lowest index) and is faster for a handful of
+ * them (the render plan decides: plan.h). */
+Accel *accel_build_as(const Scene *s, PrimVariant v, int threads, int loop);
 void accel_free(Accel *a);
 
 /* The variant whose routines answer. */

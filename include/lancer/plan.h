@@ -47,6 +47,7 @@ typedef struct {
     int world;         /* 1: keep the scene's coordinates, no camera-relative move
                         * (for callers that trace rays of their own in them) */
     int move;          /* 1: move the scene by p -> p*scale + translate first */
+    int accel;         /* 0: the plan's choice; 1: the BVH; 2: a plain loop */
     int full;          /* 1: skip nothing the plan could skip (--no-plan): the same
                         * picture, bit for bit, by all the work */
     double adc_bailout; /* 0 to 1; negative: the scene's */
@@ -76,6 +77,11 @@ typedef enum {
  * nothing can shadow (each pair of primitives is tested). */
 #define PLAN_CLEAR_PRIMS 256
 
+/* Scenes of at most this many primitives are traced by a plain loop over
+ * them, without a BVH: faster below it (docs/performance.md measures the
+ * crossover). */
+#define PLAN_LOOP_PRIMS 3
+
 typedef struct {
     const Scene *scene; /* the world, in the plan's coordinates */
     int width, height, spp, max_depth, threads;
@@ -86,6 +92,7 @@ typedef struct {
     int transparent;       /* some material lets light through (filter or transmit) */
     int reflective;        /* some material reflects */
     int full;              /* --no-plan: every skip below is off */
+    int loop;              /* trace by a plain loop over the primitives, no BVH (accel_build_as) */
     float adc_bailout;     /* POV-Ray's cut-off of secondary rays by weight (shade.h) */
     float aa_threshold;    /* > 0: only pixels whose centre differs from a neighbour's by
                             * more get the spp x spp grid (render.h); 0: every pixel */

@@ -52,6 +52,8 @@ static const char usage[] =
     "      --stats FILE.json write the render plan, timings and ray counts as JSON\n"
     "      --explain         print the plan (what the render skips, and why), the\n"
     "                        rays traced by kind and the time of each phase\n"
+    "      --accel KIND      bvh or loop: trace through a BVH, or a plain loop over\n"
+    "                        the primitives (default: the plan's choice)\n"
     "      --no-plan         skip nothing the plan would skip: the same picture,\n"
     "                        by all the work (to measure what the plan saves)\n"
     "  -q, --quiet           no progress bar or summary on stderr\n"
@@ -62,7 +64,7 @@ typedef struct {
     int width, height, spp, max_depth, threads, quiet, use_float, classic, explain, no_plan;
     int area_samples, area_adaptive;
     double scale, adc, aa;
-    const char *translate, *pn_mode;
+    const char *translate, *pn_mode, *accel;
 } Args;
 
 static void defaults(void *args)
@@ -247,6 +249,11 @@ static int plan_options_of(const Args *a, PlanOptions *o)
     o->classic = a->classic;
     o->threads = a->threads;
     o->full = a->no_plan;
+    if (a->accel) {
+        o->accel = strcmp(a->accel, "bvh") == 0 ? 1 : strcmp(a->accel, "loop") == 0 ? 2 : -1;
+        if (o->accel < 0)
+            return cli_usage_error("render", "--accel must be bvh or loop, not '%s'", a->accel);
+    }
     o->adc_bailout = a->adc; /* -1 unless given, from 0 to 1 (opts) */
     o->aa_threshold = a->aa;  /* likewise, from 0 to 3 */
     if (a->pn_mode) {
@@ -351,7 +358,7 @@ static int run(void *args, const char **pos, int npos)
     }
     outputs_catch_signals();
     t0 = clock_now();
-    Accel *acc = accel_build(&s, plan.variant, plan.threads);
+    Accel *acc = accel_build_as(&s, plan.variant, plan.threads, plan.loop);
     if (!acc) {
         fprintf(stderr, "lancer: out of memory building the acceleration structure\n");
         image_free(&img);
@@ -413,6 +420,7 @@ static const Opt opts[] = {
     {"--quiet", "-q", OPT_FLAG, offsetof(Args, quiet), 0, 0},
     {"--explain", NULL, OPT_FLAG, offsetof(Args, explain), 0, 0},
     {"--no-plan", NULL, OPT_FLAG, offsetof(Args, no_plan), 0, 0},
+    {"--accel", NULL, OPT_STRING, offsetof(Args, accel), 0, 0},
     {"--adc-bailout", NULL, OPT_DOUBLE, offsetof(Args, adc), 0, 1},
     {"--aa-threshold", NULL, OPT_DOUBLE, offsetof(Args, aa), 0, 3},
     {"--area-samples", NULL, OPT_INT, offsetof(Args, area_samples), 1, LIMIT_AREA_SAMPLES},
