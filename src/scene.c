@@ -1503,7 +1503,10 @@ int scene_validate(const Scene *s, char *err, size_t errlen)
         BAD("background is not finite");
     const CameraSpec *c = &s->camera;
     Vec3 fwd = vec_sub(c->target, c->eye);
-    if (!vec_is_finite(c->eye) || !has_length(fwd) || !has_length(c->up) ||
+    if (s->placed) /* the view direction in double: eye and target far out may round to one float */
+        fwd = vec3((float)(c->target_at[0] - c->eye_at[0]), (float)(c->target_at[1] - c->eye_at[1]),
+                   (float)(c->target_at[2] - c->eye_at[2]));
+    if (!vec_is_finite(c->eye) || !vec_is_finite(c->target) || !has_length(fwd) || !has_length(c->up) ||
         !(vec_length(vec_cross(vec_normalize(fwd), vec_normalize(c->up))) > 1e-6f) ||
         !(c->fovy > 0.0f && c->fovy < 180.0f))
         BAD("camera degenerates");
@@ -1541,16 +1544,22 @@ int scene_validate(const Scene *s, char *err, size_t errlen)
             break;
         case PRIM_TRIANGLE:
         case PRIM_SMOOTH_TRIANGLE: {
+            /* the shape as placed, in double: far from the camera, a small
+             * triangle may round to a line, which no ray then hits */
             const Triangle *t = &p->g.tri;
-            ok = vec_is_finite(t->a) && vec_is_finite(t->b) && vec_is_finite(t->c) && tri_has_area(t->a, t->b, t->c);
+            const Place *q = s->place ? &s->place[i] : NULL;
+            ok = vec_is_finite(t->a) && vec_is_finite(t->b) && vec_is_finite(t->c) &&
+                 (q ? tri_has_area_d(q->p[0], q->p[1], q->p[2]) : tri_has_area(t->a, t->b, t->c));
             if (p->kind == PRIM_SMOOTH_TRIANGLE)
                 ok = ok && has_length(t->na) && has_length(t->nb) && has_length(t->nc);
             break;
         }
         case PRIM_BOX: {
             const Box *b = &p->g.box;
-            ok = vec_is_finite(b->lo) && vec_is_finite(b->hi) && b->lo.x < b->hi.x && b->lo.y < b->hi.y &&
-                 b->lo.z < b->hi.z;
+            const Place *q = s->place ? &s->place[i] : NULL;
+            ok = vec_is_finite(b->lo) && vec_is_finite(b->hi) &&
+                 (q ? q->p[0][0] < q->p[1][0] && q->p[0][1] < q->p[1][1] && q->p[0][2] < q->p[1][2]
+                    : b->lo.x < b->hi.x && b->lo.y < b->hi.y && b->lo.z < b->hi.z);
             break;
         }
         case PRIM_OBOX: {

@@ -931,6 +931,17 @@ static void test_double_coordinates(void **state)
     assert_vec(s.prims[1].g.tri.a, 0.03f, 0, 5, 1e-9);
     assert_float_equal(s.prims[2].g.plane.d, 0.05f, 1e-9);
     scene_free(&s);
+    /* a triangle and a box smaller than a float's spacing where they
+     * stand, far from the camera: valid as written, and still valid once
+     * moved, though their floats collapse (no ray will hit them) */
+    parse_ok("camera { eye 0 0 -5 target 0 0 0 fov 40 }\nmaterial m { }\n"
+             "triangle { a 1e7 0 0 b 10000000.25 0 0 c 1e7 0.25 0 material m }\n"
+             "box { min 1e7 1e7 1e7 max 10000000.25 10000000.25 10000000.25 material m }\n",
+             &s);
+    char err[256];
+    assert_int_equal(scene_validate(&s, err, sizeof err), 0);
+    assert_int_equal(scene_transform(&s, 1.0, (double[3]){0, 0, 5}), 0);
+    scene_free(&s);
 }
 
 /* Makes the folder dir (a mkdtemp template) and in it quad.off holding
