@@ -271,6 +271,29 @@ has "$T/floor.json" '"phases_share": {"parse": '
 expect 0 "$LANCER" render "$T/floor.scn" -o "$T/floor-full.exr" --no-plan --explain -q
 has "$T/out" "done     shadow rays toward light 0: any hit blocks it"
 has "$T/out" "rays: 768 camera, 736 shadow, 736 reflection, 736 refraction (2976 in all)"
+# The settings that trade time for error, their presets, and their errors
+expect 0 "$LANCER" render "$T/floor.scn" -o "$T/q.exr" --quality draft --stats "$T/q.json" -q
+has "$T/q.json" '"spp": 1,'
+has "$T/q.json" '"adc_bailout": 0.016'
+expect 0 "$LANCER" render "$T/floor.scn" -o "$T/q.exr" --quality final --spp 2 --stats "$T/q.json" -q
+has "$T/q.json" '"spp": 2,'
+has "$T/q.json" '"aa_threshold": 0.0299999993'
+expect 2 "$LANCER" render "$T/floor.scn" --quality best
+has "$T/err" "--quality must be draft, preview or final, not 'best'"
+expect 2 "$LANCER" render "$T/floor.scn" --adc-bailout 2
+has "$T/err" "--adc-bailout needs a number from 0 to 1, not '2'"
+expect 2 "$LANCER" render "$T/floor.scn" --aa-threshold -1
+expect 2 "$LANCER" render "$T/floor.scn" --area-adaptive 17
+expect 2 "$LANCER" render "$T/floor.scn" --accel kd
+has "$T/err" "--accel must be bvh or loop, not 'kd'"
+expect 0 "$LANCER" render "$T/floor.scn" -o "$T/loop.exr" --accel loop --explain -q
+has "$T/out" "skipped  the BVH: 1 primitives: a plain loop over them is faster than a tree"
+printf 'image { width 32 height 24 adc_bailout 1.5 }\ncamera { eye 0 2 -6 target 0 0 0 fov 40 }\n' >"$T/adc.scn"
+expect 1 "$LANCER" render "$T/adc.scn" -o "$T/adc.exr"
+has "$T/err" "adc.scn:1:40: image: 'adc_bailout' must be a number from 0 to 1"
+printf 'camera { eye 0 2 -6 target 0 0 0 fov 40 }\nlight { position 0 5 0 area_adaptive 1 }\n' >"$T/ad.scn"
+expect 1 "$LANCER" render "$T/ad.scn" -o "$T/ad.exr"
+has "$T/err" "ad.scn:2:24: light: 'area_adaptive' is for an area light"
 for scn in scenes/*.scn scenes/parity/*.scn scenes/stability/*.scn; do
     case $scn in *bunny*) [ -e build/cgal-data/meshes/bunny00.off ] || continue ;; esac
     expect 0 "$LANCER" render "$scn" -o "$T/planned.exr" --float --width 96 --height 72 -q

@@ -31,6 +31,10 @@ static const char usage[] =
     "      --png OUT.png     also write an 8-bit sRGB PNG preview\n"
     "      --width W         image width in pixels (overrides the scene)\n"
     "      --height H        image height in pixels (overrides the scene)\n"
+    "      --quality Q       draft, preview or final: a preset of the settings that\n"
+    "                        trade time for error (spp, aa-threshold, adc-bailout,\n"
+    "                        area-samples, area-adaptive, pn-mode); each option below\n"
+    "                        overrides it\n"
     "      --spp K           K x K samples per pixel, box-filtered (overrides the scene)\n"
     "      --max-depth N     trace depth, POV-Ray's max_trace_level (overrides the scene)\n"
     "      --aa-threshold T  adaptive anti-aliasing: only pixels that differ from a\n"
@@ -64,8 +68,23 @@ typedef struct {
     int width, height, spp, max_depth, threads, quiet, use_float, classic, explain, no_plan;
     int area_samples, area_adaptive;
     double scale, adc, aa;
-    const char *translate, *pn_mode, *accel;
+    const char *translate, *pn_mode, *accel, *quality;
 } Args;
+
+/* The quality presets, points on or near every benchmark scene's frontier
+ * of time against error (docs/performance.md, make frontier). */
+typedef struct {
+    const char *name;
+    int spp, area_samples, area_adaptive; /* area_adaptive: the level */
+    double aa_threshold, adc_bailout;     /* adc_bailout -1: the scene's */
+    int pn_fast;
+} Quality;
+
+static const Quality QUALITIES[] = {
+    {"draft", 1, 4, 0, 0.0, 0.016, 1},
+    {"preview", 3, 8, 0, 0.1, 0.004, 1},
+    {"final", 4, 8, 1, 0.03, -1.0, 0},
+};
 
 static void defaults(void *args)
 {
@@ -240,12 +259,30 @@ static int write_stats(const char *file, const char *path, const char *scene, co
 static int plan_options_of(const Args *a, PlanOptions *o)
 {
     *o = plan_options();
+    if (a->quality) {
+        const Quality *q = NULL;
+        for (size_t i = 0; i < sizeof QUALITIES / sizeof QUALITIES[0]; i++)
+            if (strcmp(a->quality, QUALITIES[i].name) == 0)
+                q = &QUALITIES[i];
+        if (!q)
+            return cli_usage_error("render", "--quality must be draft, preview or final, not '%s'", a->quality);
+        o->spp = q->spp;
+        o->area_samples = q->area_samples;
+        o->area_adaptive = q->area_adaptive + 1;
+        o->aa_threshold = q->aa_threshold;
+        o->adc_bailout = q->adc_bailout;
+        o->pn_mode = q->pn_fast ? 1 + PN_FAST : 0;
+    }
     o->width = a->width;
     o->height = a->height;
-    o->spp = a->spp;
-    o->max_depth = a->max_depth;
-    o->area_samples = a->area_samples;
-    o->area_adaptive = a->area_adaptive + 1; /* -1 unless given */
+    if (a->spp)
+        o->spp = a->spp;
+    if (a->max_depth)
+        o->max_depth = a->max_depth;
+    if (a->area_samples)
+        o->area_samples = a->area_samples;
+    if (a->area_adaptive >= 0) /* -1 unless given */
+        o->area_adaptive = a->area_adaptive + 1;
     o->classic = a->classic;
     o->threads = a->threads;
     o->full = a->no_plan;
@@ -254,8 +291,10 @@ static int plan_options_of(const Args *a, PlanOptions *o)
         if (o->accel < 0)
             return cli_usage_error("render", "--accel must be bvh or loop, not '%s'", a->accel);
     }
-    o->adc_bailout = a->adc; /* -1 unless given, from 0 to 1 (opts) */
-    o->aa_threshold = a->aa;  /* likewise, from 0 to 3 */
+    if (a->adc >= 0.0) /* -1 unless given, from 0 to 1 (opts) */
+        o->adc_bailout = a->adc;
+    if (a->aa >= 0.0) /* likewise, from 0 to 3 */
+        o->aa_threshold = a->aa;
     if (a->pn_mode) {
         o->pn_mode = 1 + pn_mode_named(a->pn_mode);
         if (!o->pn_mode)
@@ -410,6 +449,7 @@ static const Opt opts[] = {
     {"--width", NULL, OPT_INT, offsetof(Args, width), 1, LIMIT_IMAGE_SIDE},
     {"--height", NULL, OPT_INT, offsetof(Args, height), 1, LIMIT_IMAGE_SIDE},
     {"--spp", NULL, OPT_INT, offsetof(Args, spp), 1, LIMIT_SPP},
+    {"--quality", NULL, OPT_STRING, offsetof(Args, quality), 0, 0},
     {"--max-depth", NULL, OPT_INT, offsetof(Args, max_depth), 1, LIMIT_DEPTH},
     {"--threads", NULL, OPT_INT, offsetof(Args, threads), 1, LIMIT_THREADS},
     {"--float", NULL, OPT_FLAG, offsetof(Args, use_float), 0, 0},
