@@ -53,7 +53,7 @@ TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/%)
 
 .PHONY: all run test tests deps-run deps-test clean exact exact-judge stress cgal-data bench install uninstall \
-        fuzz fuzz-build fuzzers
+        fuzz fuzz-build fuzzers frontier
 .DEFAULT_GOAL := all
 
 all: $(BUILD)/lancer
@@ -220,6 +220,14 @@ bench:
 	sh scripts/bench.sh
 	sh scripts/bench-frame.sh $(BUILD)/lancer
 	sh scripts/bench-pn.sh $(BUILD)/lancer $(BUILD)/pn_tess
+
+# Time against error: the render knobs swept on six scenes (the bunny's mesh
+# from cgal-data), against POV-Ray references; writes build/frontier/frontier.csv
+# and the plots docs/frontier/*.png (deps.sh bench brings POV-Ray and gnuplot).
+frontier:
+	sh scripts/deps.sh bench
+	$(MAKE) cgal-data all
+	sh scripts/frontier.sh $(BUILD)/lancer
 
 exact-judge: cgal-data
 	$(MAKE) -j2 BUILD=build SAN=0 $(EXACT_DIR)/judge
