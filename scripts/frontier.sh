@@ -28,8 +28,8 @@
 # at those accurate settings is from it), build/frontier/front.txt (each
 # scene's Pareto front) and one plot per scene, docs/frontier/SCENE.png.
 # FRONTIER_OUT and FRONTIER_PLOTS move those; FRONTIER_PLOT_ONLY=1 only
-# draws the plots again. The whole run takes about 5 minutes on 2 cores
-# (7 with no cached reference).
+# draws the plots again. A whole run takes 6 to 7 minutes on 2 cores
+# (POV-Ray references included; about 2 of them when none is cached).
 set -eu
 
 LANCER=${1:-build/lancer}
