@@ -299,16 +299,17 @@ static inline int stable_root(const double f[3], const double d[3], double r2, d
     return *t > 0.0;
 }
 
-int prim_sphere_hit_robust(const Sphere *s, const Ray *r, PrimHit *h)
+/* The robust hit of a quadric along ray r, |f + t d|^2 = r2 in the space
+ * where it is a sphere (d there in double), whose exact g the certificate
+ * evaluates: the nearer root with t > 0, certified, rounded, within
+ * (0, tmax). Returns 0 for a miss. */
+static int quadric_hit(const double f[3], const double d[3], double r2, GFn g, const void *ctx, const Ray *r,
+                       PrimHit *h)
 {
-    const float d[3] = {r->d.x, r->d.y, r->d.z};
-    const double dd[3] = {d[0], d[1], d[2]};
-    const double f[3] = {(double)r->o.x - s->c.x, (double)r->o.y - s->c.y, (double)r->o.z - s->c.z};
-    const SphereG g = {f, d, (double)s->r * s->r}; /* r^2 is exact */
     double t;
-    if (!stable_root(f, dd, g.r2, &t))
+    if (!stable_root(f, d, r2, &t))
         return 0;
-    double w = certify_root(sphere_gfn, &g, t);
+    double w = certify_root(g, ctx, t);
     if (w < 0.0)
         return 0; /* tangent to working precision: a miss, by definition */
     float tf = round_t(t, w, &h->terr);
@@ -316,6 +317,15 @@ int prim_sphere_hit_robust(const Sphere *s, const Ray *r, PrimHit *h)
         return 0;
     h->t = tf;
     return 1;
+}
+
+int prim_sphere_hit_robust(const Sphere *s, const Ray *r, PrimHit *h)
+{
+    const float d[3] = {r->d.x, r->d.y, r->d.z};
+    const double dd[3] = {d[0], d[1], d[2]};
+    const double f[3] = {(double)r->o.x - s->c.x, (double)r->o.y - s->c.y, (double)r->o.z - s->c.z};
+    const SphereG g = {f, d, (double)s->r * s->r}; /* r^2 is exact */
+    return quadric_hit(f, dd, g.r2, sphere_gfn, &g, r, h);
 }
 
 /* ---- ellipsoid ---- */
@@ -402,19 +412,10 @@ int prim_ellipsoid_hit(const Ellipsoid *e, const Ray *r, PrimHit *h)
 int prim_ellipsoid_hit_robust(const Ellipsoid *e, const Ray *r, PrimHit *h)
 {
     const float o[3] = {r->o.x, r->o.y, r->o.z}, d[3] = {r->d.x, r->d.y, r->d.z};
-    double f[3], dd[3], t;
+    double f[3], dd[3];
     ell_ray(e->a, r, f, dd);
-    if (!stable_root(f, dd, 1.0, &t))
-        return 0;
     const EllG g = {e->a, o, d};
-    double w = certify_root(ell_g, &g, t);
-    if (w < 0.0)
-        return 0; /* tangent to working precision: a miss, by definition */
-    float tf = round_t(t, w, &h->terr);
-    if (!(tf > 0.0f && tf < r->tmax))
-        return 0;
-    h->t = tf;
-    return 1;
+    return quadric_hit(f, dd, 1.0, ell_g, &g, r, h);
 }
 
 int prim_box_hit_robust(const Box *b, const Ray *r, PrimHit *h)
