@@ -859,6 +859,29 @@ static double ulpf_of(double x)
     return std::ldexp(1.0, ex - 24);
 }
 
+
+// The roots x1 <= x2 of A x^2 + 2 B x + C = 0 from its discriminant disc =
+// B^2 - AC (negative taken as 0; clobbered, and may be q itself), the
+// stable way: q = -(B + sign(B) sqrt(disc)), then q / A and C / q.
+static void mp_stable_roots(mpfr_t A, mpfr_t B, mpfr_t C, mpfr_t disc, mpfr_t q, mpfr_t x1, mpfr_t x2)
+{
+    if (mpfr_sgn(disc) < 0)
+        mpfr_set_zero(disc, 1);
+    mpfr_sqrt(disc, disc, MPFR_RNDN);
+    if (mpfr_sgn(B) >= 0)
+        mpfr_add(q, B, disc, MPFR_RNDN);
+    else
+        mpfr_sub(q, B, disc, MPFR_RNDN);
+    mpfr_neg(q, q, MPFR_RNDN);
+    mpfr_div(x1, q, A, MPFR_RNDN);
+    if (mpfr_sgn(q) != 0)
+        mpfr_div(x2, C, q, MPFR_RNDN);
+    else
+        mpfr_set(x2, x1, MPFR_RNDN);
+    if (mpfr_cmp(x1, x2) > 0)
+        mpfr_swap(x1, x2);
+}
+
 // The sphere's root in MPFR from the exact dyadic coefficients: 2400 bits
 // hold every product of the float inputs exactly; only the square root and
 // one division round, at 2^-2400.
@@ -888,21 +911,7 @@ static double sphere_ulp(const Sphere &s, const Ray &r, int k, float t)
     mpfr_mul(D, B, B, MPFR_RNDN);
     mpfr_mul(tmp, A, C, MPFR_RNDN);
     mpfr_sub(D, D, tmp, MPFR_RNDN);
-    if (mpfr_sgn(D) < 0)
-        mpfr_set_zero(D, 1);
-    mpfr_sqrt(D, D, MPFR_RNDN);
-    if (mpfr_sgn(B) >= 0)
-        mpfr_add(q, B, D, MPFR_RNDN);
-    else
-        mpfr_sub(q, B, D, MPFR_RNDN);
-    mpfr_neg(q, q, MPFR_RNDN); // q = -(B + sign(B) sqrt(disc))
-    mpfr_div(x1, q, A, MPFR_RNDN);
-    if (mpfr_sgn(q) != 0)
-        mpfr_div(x2, C, q, MPFR_RNDN);
-    else
-        mpfr_set(x2, x1, MPFR_RNDN);
-    if (mpfr_cmp(x1, x2) > 0)
-        mpfr_swap(x1, x2);
+    mp_stable_roots(A, B, C, D, q, x1, x2);
     mpfr_ptr root = k == 1 ? x1 : x2;
     double base = mpfr_get_d(root, MPFR_RNDN);
     mpfr_set_d(tt, t, MPFR_RNDN);
@@ -953,21 +962,7 @@ template <class Use> static void ell_root_mp(const Ellipsoid &E, const Ray &r, i
         mpfr_sub(q, q, tmp, MPFR_RNDN); // the discriminant
         bool done = !mpfr_inexflag_p() || P >= 40000;
         if (done) {
-            if (mpfr_sgn(q) < 0)
-                mpfr_set_zero(q, 1);
-            mpfr_sqrt(q, q, MPFR_RNDN);
-            if (mpfr_sgn(B) >= 0)
-                mpfr_add(q, B, q, MPFR_RNDN);
-            else
-                mpfr_sub(q, B, q, MPFR_RNDN);
-            mpfr_neg(q, q, MPFR_RNDN); // q = -(B + sign(B) sqrt(disc))
-            mpfr_div(x1, q, A, MPFR_RNDN);
-            if (mpfr_sgn(q) != 0)
-                mpfr_div(x2, C, q, MPFR_RNDN);
-            else
-                mpfr_set(x2, x1, MPFR_RNDN);
-            if (mpfr_cmp(x1, x2) > 0)
-                mpfr_swap(x1, x2);
+            mp_stable_roots(A, B, C, q, q, x1, x2);
             use(k == 1 ? x1 : x2, P);
         }
         for (int i = 0; i < 3; i++)
