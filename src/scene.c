@@ -1212,9 +1212,38 @@ static int parse_mesh(Parser *P, Loc at)
     return 0;
 }
 
+static int prim_valid(const Scene *s, int i);
+static void link_prim(Scene *s, int i);
+
+static int dispatch_statement(Parser *P, Token kw);
+
+/* A statement; the primitives it made must be well formed (prim_valid):
+ * a transform can take a shape out of float's range, or flatten it even
+ * in double (a box scaled by 1e-45 and moved by 1). */
 static int parse_statement(Parser *P)
 {
     Token kw = P->tok;
+    int before = P->s->nprims;
+    if (dispatch_statement(P, kw) != 0)
+        return -1;
+    for (int i = before; i < P->s->nprims; i++) {
+        PnRef *pn = P->s->prims[i].kind == PRIM_PN ? &P->s->prims[i].g.pn : NULL;
+        int mode = pn ? pn->mode : 0, ok;
+        link_prim(P->s, i);
+        if (pn && mode < 0) /* the image block's, which may come later: any mode is well formed */
+            pn->mode = PN_EXACT;
+        ok = prim_valid(P->s, i);
+        if (pn)
+            pn->mode = mode;
+        if (!ok)
+            return fail(P, kw.loc, "%.*s: its transform leaves it flat or out of float's range", (int)kw.len,
+                        kw.start);
+    }
+    return 0;
+}
+
+static int dispatch_statement(Parser *P, Token kw)
+{
     char buf[64];
     if (kw.kind != TOK_IDENT)
         return fail(P, kw.loc, "expected a keyword, found %s", tok_desc(&kw, buf, sizeof buf));
@@ -1312,14 +1341,18 @@ int scene_add_mesh(Scene *s, const Mesh *m, int material, int smooth, const doub
 
 /* Points every PN primitive at its patch and every ellipsoid at its own:
  * after their arrays have moved. */
+static void link_prim(Scene *s, int i)
+{
+    if (s->prims[i].kind == PRIM_PN)
+        s->prims[i].g.pn.patch = &s->patches[s->prims[i].g.pn.index];
+    if (s->prims[i].kind == PRIM_ELLIPSOID)
+        s->prims[i].g.ell.e = &s->ellipsoids[s->prims[i].g.ell.index];
+}
+
 static void link_patches(Scene *s)
 {
-    for (int i = 0; i < s->nprims; i++) {
-        if (s->prims[i].kind == PRIM_PN)
-            s->prims[i].g.pn.patch = &s->patches[s->prims[i].g.pn.index];
-        if (s->prims[i].kind == PRIM_ELLIPSOID)
-            s->prims[i].g.ell.e = &s->ellipsoids[s->prims[i].g.ell.index];
-    }
+    for (int i = 0; i < s->nprims; i++)
+        link_prim(s, i);
 }
 
 int scene_add_pn_mesh(Scene *s, const Mesh *m, int material, int mode, const double *xf, int *dropped)
@@ -1490,6 +1523,70 @@ int scene_transform(Scene *s, double scale, const double offset[3])
 /* 1 when v is finite and not zero. */
 static int has_length(Vec3 v) { return vec_is_finite(v) && vec_length(v) > 0.0f && isfinite(vec_length(v)); }
 
+/* 1 when primitive i of s is well formed: finite floats, and a shape with
+ * extent, judged by its doubles where it has them (a small object far out
+ * may round to a line in float, which no ray then hits). */
+static int prim_valid(const Scene *s, int i)
+{
+    const Prim *p = &s->prims[i];
+    int ok = 1;
+    switch (p->kind) {
+    case PRIM_SPHERE:
+        ok = vec_is_finite(p->g.sphere.c) && p->g.sphere.r > 0.0f && isfinite(p->g.sphere.r);
+        break;
+    case PRIM_PLANE:
+        ok = has_length(p->g.plane.n) && isfinite(p->g.plane.d);
+        break;
+    case PRIM_TRIANGLE:
+    case PRIM_SMOOTH_TRIANGLE: {
+        /* the shape as placed, in double: far from the camera, a small
+         * triangle may round to a line, which no ray then hits */
+        const Triangle *t = &p->g.tri;
+        const Place *q = s->place ? &s->place[i] : NULL;
+        ok = vec_is_finite(t->a) && vec_is_finite(t->b) && vec_is_finite(t->c) &&
+             (q ? tri_has_area_d(q->p[0], q->p[1], q->p[2]) : tri_has_area(t->a, t->b, t->c));
+        if (p->kind == PRIM_SMOOTH_TRIANGLE)
+            ok = ok && has_length(t->na) && has_length(t->nb) && has_length(t->nc);
+        break;
+    }
+    case PRIM_BOX: {
+        const Box *b = &p->g.box;
+        const Place *q = s->place ? &s->place[i] : NULL;
+        ok = vec_is_finite(b->lo) && vec_is_finite(b->hi) &&
+             (q ? q->p[0][0] < q->p[1][0] && q->p[0][1] < q->p[1][1] && q->p[0][2] < q->p[1][2]
+                : b->lo.x < b->hi.x && b->lo.y < b->hi.y && b->lo.z < b->hi.z);
+        break;
+    }
+    case PRIM_OBOX: {
+        OBox b = p->g.obox;
+        ok = vec_is_finite(b.c) && prim_obox_init(&b) == 0;
+        break;
+    }
+    case PRIM_PN: {
+        const PnRef *r = &p->g.pn;
+        ok = r->index >= 0 && r->index < s->npatches && r->patch == &s->patches[r->index] &&
+             (r->mode == PN_EXACT || r->mode == PN_FAST);
+        for (int k = 0; ok && k < 10; k++)
+            ok = vec_is_finite(r->patch->b[k]);
+        for (int k = 0; ok && k < 6; k++)
+            ok = has_length(r->patch->n[k]);
+        break;
+    }
+    case PRIM_ELLIPSOID: {
+        const EllRef *r = &p->g.ell;
+        ok = r->index >= 0 && r->index < s->nellipsoids && r->e == &s->ellipsoids[r->index];
+        if (ok) {
+            Ellipsoid e = *r->e;
+            ok = prim_ellipsoid_init(&e) == 0;
+        }
+        break;
+    }
+    default:
+        ok = 0;
+    }
+    return ok;
+}
+
 int scene_validate(const Scene *s, char *err, size_t errlen)
 {
 #define BAD(...) return snprintf(err, errlen, __VA_ARGS__), -1
@@ -1534,62 +1631,7 @@ int scene_validate(const Scene *s, char *err, size_t errlen)
         const Prim *p = &s->prims[i];
         if (p->material < 0 || p->material >= s->nmaterials)
             BAD("primitive %d: material %d out of range", i, p->material);
-        int ok = 1;
-        switch (p->kind) {
-        case PRIM_SPHERE:
-            ok = vec_is_finite(p->g.sphere.c) && p->g.sphere.r > 0.0f && isfinite(p->g.sphere.r);
-            break;
-        case PRIM_PLANE:
-            ok = has_length(p->g.plane.n) && isfinite(p->g.plane.d);
-            break;
-        case PRIM_TRIANGLE:
-        case PRIM_SMOOTH_TRIANGLE: {
-            /* the shape as placed, in double: far from the camera, a small
-             * triangle may round to a line, which no ray then hits */
-            const Triangle *t = &p->g.tri;
-            const Place *q = s->place ? &s->place[i] : NULL;
-            ok = vec_is_finite(t->a) && vec_is_finite(t->b) && vec_is_finite(t->c) &&
-                 (q ? tri_has_area_d(q->p[0], q->p[1], q->p[2]) : tri_has_area(t->a, t->b, t->c));
-            if (p->kind == PRIM_SMOOTH_TRIANGLE)
-                ok = ok && has_length(t->na) && has_length(t->nb) && has_length(t->nc);
-            break;
-        }
-        case PRIM_BOX: {
-            const Box *b = &p->g.box;
-            const Place *q = s->place ? &s->place[i] : NULL;
-            ok = vec_is_finite(b->lo) && vec_is_finite(b->hi) &&
-                 (q ? q->p[0][0] < q->p[1][0] && q->p[0][1] < q->p[1][1] && q->p[0][2] < q->p[1][2]
-                    : b->lo.x < b->hi.x && b->lo.y < b->hi.y && b->lo.z < b->hi.z);
-            break;
-        }
-        case PRIM_OBOX: {
-            OBox b = p->g.obox;
-            ok = vec_is_finite(b.c) && prim_obox_init(&b) == 0;
-            break;
-        }
-        case PRIM_PN: {
-            const PnRef *r = &p->g.pn;
-            ok = r->index >= 0 && r->index < s->npatches && r->patch == &s->patches[r->index] &&
-                 (r->mode == PN_EXACT || r->mode == PN_FAST);
-            for (int k = 0; ok && k < 10; k++)
-                ok = vec_is_finite(r->patch->b[k]);
-            for (int k = 0; ok && k < 6; k++)
-                ok = has_length(r->patch->n[k]);
-            break;
-        }
-        case PRIM_ELLIPSOID: {
-            const EllRef *r = &p->g.ell;
-            ok = r->index >= 0 && r->index < s->nellipsoids && r->e == &s->ellipsoids[r->index];
-            if (ok) {
-                Ellipsoid e = *r->e;
-                ok = prim_ellipsoid_init(&e) == 0;
-            }
-            break;
-        }
-        default:
-            ok = 0;
-        }
-        if (!ok)
+        if (!prim_valid(s, i))
             BAD("primitive %d degenerates or is not finite", i);
     }
     if (s->degenerate < 0)
