@@ -23,8 +23,7 @@
 
 int image_init(Image *img, int width, int height)
 {
-    img->width = 0;
-    img->height = 0;
+    img->width = img->height = img->x = img->y = img->full_width = img->full_height = 0;
     img->rgb = NULL;
     if (width < 1 || height < 1 || width > LIMIT_IMAGE_SIDE || height > LIMIT_IMAGE_SIDE ||
         (long)width * height > LIMIT_IMAGE_PIXELS)
@@ -32,8 +31,8 @@ int image_init(Image *img, int width, int height)
     img->rgb = calloc((size_t)width * (size_t)height * 3, sizeof(float));
     if (img->rgb == NULL)
         return -1;
-    img->width = width;
-    img->height = height;
+    img->width = img->full_width = width;
+    img->height = img->full_height = height;
     return 0;
 }
 
@@ -43,8 +42,7 @@ void image_free(Image *img)
         return;
     free(img->rgb);
     img->rgb = NULL;
-    img->width = 0;
-    img->height = 0;
+    img->width = img->height = img->x = img->y = img->full_width = img->full_height = 0;
 }
 
 /* Writers accept only what image_init produces, so a stray struct cannot
@@ -52,7 +50,9 @@ void image_free(Image *img)
 static int image_valid(const Image *img)
 {
     return img != NULL && img->rgb != NULL && img->width >= 1 && img->height >= 1 &&
-           img->width <= LIMIT_IMAGE_SIDE && img->height <= LIMIT_IMAGE_SIDE;
+           img->width <= LIMIT_IMAGE_SIDE && img->height <= LIMIT_IMAGE_SIDE && img->x >= 0 && img->y >= 0 &&
+           img->full_width <= LIMIT_IMAGE_SIDE && img->full_height <= LIMIT_IMAGE_SIDE &&
+           img->x + img->width <= img->full_width && img->y + img->height <= img->full_height;
 }
 
 /* zlib's level for the EXR's ZIP chunks and the PNG, instead of its default
@@ -146,7 +146,7 @@ static exr_result_t image_exr_encode(exr_context_t ctx, int part, const Image *i
     int started = 0;
     for (int y = 0; y < img->height; y += lpc) {
         exr_chunk_info_t ci;
-        rv = exr_write_scanline_chunk_info(ctx, part, y, &ci);
+        rv = exr_write_scanline_chunk_info(ctx, part, img->y + y, &ci);
         if (rv != EXR_ERR_SUCCESS)
             break;
         if (started) {
@@ -201,8 +201,16 @@ static exr_result_t image_exr_write_file(const Image *img, const char *file, Ima
     static const char *const names[3] = {"B", "G", "R"}; /* the file sorts them anyway */
     rv = exr_add_part(ctx, NULL, EXR_STORAGE_SCANLINE, &part);
     if (rv == EXR_ERR_SUCCESS)
-        rv = exr_initialize_required_attr_simple(ctx, part, img->width, img->height,
+        rv = exr_initialize_required_attr_simple(ctx, part, img->full_width, img->full_height,
                                                  EXR_COMPRESSION_ZIP);
+    if (rv == EXR_ERR_SUCCESS) {
+        exr_attr_box2i_t dw;
+        dw.min.x = img->x;
+        dw.min.y = img->y;
+        dw.max.x = img->x + img->width - 1;
+        dw.max.y = img->y + img->height - 1;
+        rv = exr_set_data_window(ctx, part, &dw);
+    }
     /* pLinear 0 ("logarithmic"), as OpenEXR's own RGBA writer marks colour. */
     for (int c = 0; c < 3 && rv == EXR_ERR_SUCCESS; c++)
         rv = exr_add_channel(ctx, part, names[c], type, EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
@@ -477,6 +485,17 @@ static exr_result_t image_exr_read_part(exr_const_context_t ctx, Image *img, Ima
         image_exr_note(e, "out of memory");
         return EXR_ERR_OUT_OF_MEMORY;
     }
+    exr_attr_box2i_t disp;
+    if (exr_get_display_window(ctx, 0, &disp) == EXR_ERR_SUCCESS) {
+        int64_t fw = (int64_t)disp.max.x - disp.min.x + 1, fh = (int64_t)disp.max.y - disp.min.y + 1;
+        int64_t x = (int64_t)dw.min.x - disp.min.x, y = (int64_t)dw.min.y - disp.min.y;
+        if (x >= 0 && y >= 0 && x + w <= fw && y + h <= fh && fw <= LIMIT_IMAGE_SIDE && fh <= LIMIT_IMAGE_SIDE) {
+            img->x = (int)x;
+            img->y = (int)y;
+            img->full_width = (int)fw;
+            img->full_height = (int)fh;
+        }
+    }
     if (!wanted)
         return EXR_ERR_SUCCESS; /* no R, G or B: all black */
 
@@ -491,7 +510,75 @@ static exr_result_t image_exr_read_part(exr_const_context_t ctx, Image *img, Ima
     return rv;
 }
 
+/* The header's "lancer:" string attributes, and whether R, G and B are
+ * all half. */
+static exr_result_t image_exr_meta(exr_const_context_t ctx, ImageMeta *meta, ImageExrErr *e)
+{
+    int32_t count = 0;
+    exr_result_t rv = exr_get_attribute_count(ctx, 0, &count);
+    for (int32_t i = 0; i < count && rv == EXR_ERR_SUCCESS; i++) {
+        const exr_attribute_t *a = NULL;
+        rv = exr_get_attribute_by_index(ctx, 0, EXR_ATTR_LIST_FILE_ORDER, i, &a);
+        if (rv != EXR_ERR_SUCCESS || a->type != EXR_ATTR_STRING || strncmp(a->name, "lancer:", 7) != 0)
+            continue;
+        if (meta->n == IMAGE_META_MAX) {
+            image_exr_note(e, "more lancer: attributes than lancer writes");
+            return EXR_ERR_FILE_BAD_HEADER;
+        }
+        size_t nl = strlen(a->name), vl = a->string->length > 0 ? (size_t)a->string->length : 0;
+        char *n = malloc(nl + 1), *v = malloc(vl + 1);
+        if (!n || !v) {
+            free(n);
+            free(v);
+            image_exr_note(e, "out of memory");
+            return EXR_ERR_OUT_OF_MEMORY;
+        }
+        memcpy(n, a->name, nl + 1);
+        if (vl)
+            memcpy(v, a->string->str, vl);
+        v[vl] = '\0';
+        meta->name[meta->n] = n;
+        meta->value[meta->n++] = v;
+    }
+    const exr_attr_chlist_t *chans = NULL;
+    if (rv == EXR_ERR_SUCCESS)
+        rv = exr_get_channels(ctx, 0, &chans);
+    if (rv == EXR_ERR_SUCCESS) {
+        int halves = 0;
+        for (int c = 0; c < chans->num_channels; c++)
+            halves += image_rgb_offset(chans->entries[c].name.str) >= 0 && chans->entries[c].pixel_type == EXR_PIXEL_HALF;
+        meta->half = halves == 3;
+    }
+    return rv;
+}
+
+void image_meta_free(ImageMeta *meta)
+{
+    for (int i = 0; i < meta->n; i++) {
+        free(meta->name[i]);
+        free(meta->value[i]);
+    }
+    memset(meta, 0, sizeof *meta);
+}
+
+const char *image_meta_get(const ImageMeta *meta, const char *name)
+{
+    for (int i = 0; i < meta->n; i++)
+        if (strcmp(meta->name[i], name) == 0)
+            return meta->value[i];
+    return NULL;
+}
+
+static int parse_exr(const char *name, const void *data, size_t len, Image *img, ImageMeta *meta, char *err,
+                     size_t errlen);
+
 int image_parse_exr(const char *name, const void *data, size_t len, Image *img, char *err, size_t errlen)
+{
+    return parse_exr(name, data, len, img, NULL, err, errlen);
+}
+
+static int parse_exr(const char *name, const void *data, size_t len, Image *img, ImageMeta *meta, char *err,
+                     size_t errlen)
 {
     img->width = 0;
     img->height = 0;
@@ -503,6 +590,8 @@ int image_parse_exr(const char *name, const void *data, size_t len, Image *img, 
     init.size_fn = image_exr_mem_size;
     exr_context_t ctx = NULL;
     exr_result_t rv = exr_start_read(&ctx, name, &init);
+    if (rv == EXR_ERR_SUCCESS && meta)
+        rv = image_exr_meta(ctx, meta, &rd.e);
     if (rv == EXR_ERR_SUCCESS)
         rv = image_exr_read_part(ctx, img, &rd);
     if (ctx != NULL)
@@ -516,18 +605,24 @@ int image_parse_exr(const char *name, const void *data, size_t len, Image *img, 
     return 0;
 }
 
-int image_read_exr(const char *path, Image *img, char *err, size_t errlen)
+int image_read_exr_meta(const char *path, Image *img, ImageMeta *meta, char *err, size_t errlen)
 {
-    img->width = 0;
-    img->height = 0;
+    img->width = img->height = img->x = img->y = img->full_width = img->full_height = 0;
     img->rgb = NULL;
+    if (meta)
+        memset(meta, 0, sizeof *meta);
     char *data;
     size_t len;
     if (afile_read(path, (unsigned long long)LIMIT_EXR_BYTES, "images", &data, &len, err, errlen) != 0)
         return -1;
-    int rc = image_parse_exr(path, data, len, img, err, errlen);
+    int rc = parse_exr(path, data, len, img, meta, err, errlen);
     free(data);
     return rc;
+}
+
+int image_read_exr(const char *path, Image *img, char *err, size_t errlen)
+{
+    return image_read_exr_meta(path, img, NULL, err, errlen);
 }
 
 /* ---- PNG ---------------------------------------------------------------- */

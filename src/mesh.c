@@ -98,6 +98,12 @@ int mesh_load(const char *path, Mesh *m, char *err, size_t errlen)
     if (afile_read(path, (unsigned long long)LIMIT_MESH_BYTES, "meshes", &buf, &len, err, errlen) != 0)
         return -1;
     int rc = mesh_parse(path, buf, len, fmt, m, err, errlen);
+    if (rc == 0) {
+        Sha256 h;
+        sha256_init(&h);
+        sha256_update(&h, buf, len);
+        sha256_final(&h, m->sha256);
+    }
     free(buf);
     return rc;
 }

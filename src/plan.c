@@ -136,6 +136,21 @@ int plan_build(RenderPlan *p, Scene *s, const PlanOptions *o, char *err, size_t 
                  LIMIT_IMAGE_PIXELS);
         return -1;
     }
+    p->x0 = p->y0 = 0;
+    p->x1 = p->width;
+    p->y1 = p->height;
+    if (o->region) {
+        if (!(0 <= o->rx0 && o->rx0 < o->rx1 && o->rx1 <= p->width && 0 <= o->ry0 && o->ry0 < o->ry1 &&
+              o->ry1 <= p->height)) {
+            snprintf(err, errlen, "the region %d:%d,%d:%d is empty or not inside the %dx%d image", o->rx0, o->rx1,
+                     o->ry0, o->ry1, p->width, p->height);
+            return -1;
+        }
+        p->x0 = o->rx0;
+        p->x1 = o->rx1;
+        p->y0 = o->ry0;
+        p->y1 = o->ry1;
+    }
     if (o->max_depth && (o->max_depth < 1 || o->max_depth > LIMIT_DEPTH)) {
         snprintf(err, errlen, "max_depth must be a whole number from 1 to %d", LIMIT_DEPTH);
         return -1;

@@ -15,18 +15,23 @@ typedef struct {
     const RenderPlan *p;
     const Accel *a;
     Camera cam;
-    Image *img;
+    Image *img; /* the plan's region */
     RenderProgress progress;
     void *progress_ctx;
     const volatile sig_atomic_t *stop;
-    unsigned char *rows_done_flags;
-    pthread_mutex_t lock; /* guards next_row, rows_done, stats and progress */
-    int next_row, rows_done;
+    unsigned char *rows_done; /* per row of the region */
+    pthread_mutex_t lock;     /* guards next, progress_done, stats and progress */
+    int next, progress_done, progress_total;
     RayStats stats;
-    /* Adaptive supersampling: pass 1 traces each pixel's centre; pass 2
-     * the spp x spp grid of the pixels whose mask is set. */
+    /* The pass: 0 the spp x spp grid of every pixel; with adaptive
+     * supersampling, 1 the centre sample of every pixel the mask needs,
+     * into centre, then 2 the grid of the pixels whose mask is set. */
     int pass;
-    unsigned char *mask;
+    const int *rows; /* the pass's image rows, nrows of them */
+    int nrows;
+    float *centre;       /* pass 1: columns cx0..cx1-1 of image rows cy0.. */
+    int cx0, cx1, cy0;
+    unsigned char *mask; /* per pixel of the region */
 } Job;
 
 /* Starts loading the primitives hit, which shading reads first (their
@@ -71,71 +76,101 @@ static void trace_packet(const Job *job, const float *sx, const float *sy, const
 
 static int stopped(const Job *job) { return job->stop && *job->stop; }
 
-/* Row y into row (3 floats a pixel): each pixel the mean of spp x spp
- * camera rays through a regular grid of sub-pixel centres, the same
- * points as the pixel centres of a render at spp times the size (that
- * render, averaged in blocks, is the box-filtered reference). The camera
+/* Columns xa..xb-1 of image row y into out (3 floats a pixel, from xa):
+ * each pixel the mean of k x k camera rays through a regular grid of
+ * sub-pixel centres, the same points as the pixel centres of a render at k
+ * times the size (that render, averaged in blocks, is the box-filtered
+ * reference). Pixels whose mask (from xa) is 0 are left alone. The camera
  * rays are traced ACCEL_PACKET at a time: neighbours share the eye and most
- * of their path through the BVH. Returns 0, or -1 when stopped before the
- * row was done. */
-static int render_row(const Job *job, int y, float *row, RayStats *st)
+ * of their path through the BVH, and no ray's result depends on its
+ * packet, so neither does a pixel on the region or the rows around it.
+ * Returns 0, or -1 when stopped before the row was done. */
+static int render_row(const Job *job, int y, int xa, int xb, int k, const unsigned char *mask, float *out,
+                      RayStats *st)
 {
-    int k = job->pass == 1 ? 1 : job->p->spp, w = job->img->width, n = 0;
-    const unsigned char *mask = job->pass == 2 ? job->mask + (size_t)y * (size_t)w : NULL;
+    int n = 0;
     float sx[ACCEL_PACKET], sy[ACCEL_PACKET]; /* the samples' image-plane positions */
     int px[ACCEL_PACKET];
-    for (int x = 0; x < w; x++) {
+    for (int x = xa; x < xb; x++) {
         if (stopped(job))
             return -1;
-        if (mask && !mask[x])
-            continue; /* its centre sample stands */
-        row[3 * x] = row[3 * x + 1] = row[3 * x + 2] = 0.0f;
+        if (mask && !mask[x - xa])
+            continue;
+        float *o = out + 3 * (x - xa);
+        o[0] = o[1] = o[2] = 0.0f;
         for (int j = 0; j < k; j++)
             for (int i = 0; i < k; i++) {
                 sx[n] = (float)x + ((float)i + 0.5f) / (float)k;
                 sy[n] = (float)y + ((float)j + 0.5f) / (float)k;
-                px[n++] = x;
+                px[n++] = x - xa;
                 if (n == ACCEL_PACKET) {
-                    trace_packet(job, sx, sy, px, n, row, st);
+                    trace_packet(job, sx, sy, px, n, out, st);
                     n = 0;
                 }
             }
         st->camera += (unsigned long long)(k * k);
     }
     if (n > 0)
-        trace_packet(job, sx, sy, px, n, row, st);
+        trace_packet(job, sx, sy, px, n, out, st);
     if (k > 1)
-        for (int x = 0; x < w; x++)
-            if (!mask || mask[x])
+        for (int x = xa; x < xb; x++)
+            if (!mask || mask[x - xa])
                 for (int c = 0; c < 3; c++)
-                    row[3 * x + c] *= 1.0f / (float)(k * k);
+                    out[3 * (x - xa) + c] *= 1.0f / (float)(k * k);
     return 0;
 }
 
-/* lancer's adaptive rule: a pixel is supersampled when its centre sample
- * differs from one of its four neighbours' by more than the threshold, in
- * the sum of the channels' absolute differences. Decided from the whole
- * first pass, so that no pixel's fate depends on which thread got there
- * first. Returns how many are. */
-static long aa_mask(const Image *img, float threshold, unsigned char *mask)
+/* Row y of the pass: 1 when done, 0 when stopped. */
+static int pass_row(const Job *job, int y, RayStats *st)
 {
-    int w = img->width, h = img->height;
+    const RenderPlan *p = job->p;
+    int w = p->x1 - p->x0;
+    if (job->pass == 1) {
+        size_t cw = (size_t)(job->cx1 - job->cx0);
+        return render_row(job, y, job->cx0, job->cx1, 1, NULL, job->centre + (size_t)(y - job->cy0) * cw * 3, st) == 0;
+    }
+    float *out = job->img->rgb + (size_t)(y - p->y0) * (size_t)w * 3;
+    if (job->pass == 0)
+        return render_row(job, y, p->x0, p->x1, p->spp, NULL, out, st) == 0;
+    const unsigned char *mask = job->mask + (size_t)(y - p->y0) * (size_t)w;
+    if (render_row(job, y, p->x0, p->x1, p->spp, mask, out, st) != 0)
+        return 0;
+    const float *c = job->centre + ((size_t)(y - job->cy0) * (size_t)(job->cx1 - job->cx0) + (size_t)(p->x0 - job->cx0)) * 3;
+    for (int x = 0; x < w; x++)
+        if (!mask[x]) /* its centre sample stands */
+            memcpy(out + 3 * x, c + 3 * x, sizeof(float) * 3);
+    return 1;
+}
+
+/* lancer's adaptive rule: a pixel is supersampled when its centre sample
+ * differs from one of its four neighbours' in the image by more than the
+ * threshold, in the sum of the channels' absolute differences. Decided
+ * from the whole first pass, so that no pixel's fate depends on which
+ * thread got there first, nor on the region or the rows a resumed render
+ * keeps. Sets the mask of the rows to do; returns how many pixels it set. */
+static long aa_mask(const Job *job)
+{
+    const RenderPlan *p = job->p;
+    int w = p->x1 - p->x0;
+    size_t cw = (size_t)(job->cx1 - job->cx0);
     long n = 0;
-    for (int y = 0; y < h; y++)
-        for (int x = 0; x < w; x++) {
-            const float *c = img->rgb + 3 * ((size_t)y * (size_t)w + (size_t)x);
+    for (int r = 0; r < job->nrows; r++) {
+        int y = job->rows[r];
+        for (int x = p->x0; x < p->x1; x++) {
+            const float *c = job->centre + ((size_t)(y - job->cy0) * cw + (size_t)(x - job->cx0)) * 3;
             static const int dx[4] = {-1, 1, 0, 0}, dy[4] = {0, 0, -1, 1};
             int on = 0;
             for (int k = 0; k < 4 && !on; k++) {
                 int nx = x + dx[k], ny = y + dy[k];
-                if (nx < 0 || ny < 0 || nx >= w || ny >= h)
+                if (nx < 0 || ny < 0 || nx >= p->width || ny >= p->height)
                     continue;
-                const float *d = img->rgb + 3 * ((size_t)ny * (size_t)w + (size_t)nx);
-                on = fabsf(c[0] - d[0]) + fabsf(c[1] - d[1]) + fabsf(c[2] - d[2]) > threshold;
+                const float *d = job->centre + ((size_t)(ny - job->cy0) * cw + (size_t)(nx - job->cx0)) * 3;
+                on = fabsf(c[0] - d[0]) + fabsf(c[1] - d[1]) + fabsf(c[2] - d[2]) > p->aa_threshold;
             }
-            mask[(size_t)y * (size_t)w + (size_t)x] = (unsigned char)on;
+            job->mask[(size_t)(y - p->y0) * (size_t)w + (size_t)(x - p->x0)] = (unsigned char)on;
             n += on;
         }
+    }
     return n;
 }
 
@@ -143,20 +178,18 @@ static void *worker(void *arg)
 {
     Job *job = arg;
     RayStats st = {0, 0, 0, 0, 0, 0, 0};
-    int w = job->img->width, h = job->img->height;
-    int passes = job->mask ? 2 : 1; /* progress counts the rows of every pass */
     for (;;) {
         pthread_mutex_lock(&job->lock);
-        int y = job->next_row < h && !stopped(job) ? job->next_row++ : -1;
+        int i = job->next < job->nrows && !stopped(job) ? job->next++ : -1;
         pthread_mutex_unlock(&job->lock);
-        if (y < 0 || render_row(job, y, job->img->rgb + (size_t)y * (size_t)w * 3, &st) != 0)
+        if (i < 0 || !pass_row(job, job->rows[i], &st))
             break;
         pthread_mutex_lock(&job->lock);
-        if (job->rows_done_flags && job->pass != 1) /* a row is done after its last pass */
-            job->rows_done_flags[y] = 1;
-        job->rows_done++;
+        if (job->pass != 1) /* a row is done after its last pass */
+            job->rows_done[job->rows[i] - job->p->y0] = 1;
+        job->progress_done++;
         if (job->progress)
-            job->progress(job->progress_ctx, job->rows_done, passes * h);
+            job->progress(job->progress_ctx, job->progress_done, job->progress_total);
         pthread_mutex_unlock(&job->lock);
     }
     pthread_mutex_lock(&job->lock);
@@ -165,11 +198,16 @@ static void *worker(void *arg)
     return NULL;
 }
 
-/* Runs the job's pass on `threads` threads, the calling one among them.
- * Returns 0 when every row of the pass is done, 1 when stopped. */
-static int run_pass(Job *job, int threads)
+/* Runs the job's pass over rows[0..n-1] on `threads` threads, the calling
+ * one among them. Returns 0 when every row of the pass is done, 1 when
+ * stopped. */
+static int run_pass(Job *job, int pass, const int *rows, int n, int threads)
 {
-    int extra = threads > 1 ? threads - 1 : 0, started = 0, before = job->rows_done;
+    job->pass = pass;
+    job->rows = rows;
+    job->nrows = n;
+    job->next = 0;
+    int extra = threads > 1 ? threads - 1 : 0, started = 0, before = job->progress_done;
     pthread_t *tids = extra ? malloc(sizeof(pthread_t) * (size_t)extra) : NULL;
     if (tids)
         while (started < extra && pthread_create(&tids[started], NULL, worker, job) == 0)
@@ -178,47 +216,70 @@ static int run_pass(Job *job, int threads)
     for (int i = 0; i < started; i++)
         pthread_join(tids[i], NULL);
     free(tids);
-    return job->rows_done - before < job->img->height ? 1 : 0;
+    return job->progress_done - before < n ? 1 : 0;
 }
 
 int render_image(const RenderPlan *p, const Accel *a, const RenderOptions *opt, Image *img, RayStats *stats)
 {
+    int w = p->x1 - p->x0, h = p->y1 - p->y0;
+    if (img->width != w || img->height != h)
+        return -1;
     Job job;
+    memset(&job, 0, sizeof job);
     job.p = p;
     job.a = a;
     job.img = img;
     job.progress = opt ? opt->progress : NULL;
     job.progress_ctx = opt ? opt->progress_ctx : NULL;
     job.stop = opt ? opt->stop : NULL;
-    job.rows_done_flags = opt ? opt->rows_done : NULL;
-    if (job.rows_done_flags)
-        memset(job.rows_done_flags, 0, (size_t)img->height);
-    job.next_row = 0;
-    job.rows_done = 0;
-    job.stats = (RayStats){0, 0, 0, 0, 0, 0, 0};
-    job.pass = 0;
-    job.mask = NULL;
-    camera_init(&job.cam, &p->scene->camera, img->width, img->height);
-    if (p->aa_threshold > 0.0f && p->spp > 1) {
-        job.mask = malloc((size_t)img->width * (size_t)img->height);
-        if (!job.mask)
-            return -1;
-        job.pass = 1;
+    camera_init(&job.cam, &p->scene->camera, p->width, p->height);
+    int adaptive = p->aa_threshold > 0.0f && p->spp > 1;
+    /* the rows to do, and for pass 1 the rows around them too */
+    job.cx0 = p->x0 > 0 ? p->x0 - 1 : 0;
+    job.cx1 = p->x1 < p->width ? p->x1 + 1 : p->width;
+    job.cy0 = p->y0 > 0 ? p->y0 - 1 : 0;
+    int cy1 = p->y1 < p->height ? p->y1 + 1 : p->height;
+    unsigned char *done = opt && opt->rows_done ? opt->rows_done : calloc((size_t)h, 1);
+    int *todo = malloc(sizeof(int) * (size_t)h), *around = malloc(sizeof(int) * (size_t)(cy1 - job.cy0));
+    if (adaptive) {
+        job.mask = malloc((size_t)w * (size_t)h);
+        job.centre = malloc(sizeof(float) * 3 * (size_t)(job.cx1 - job.cx0) * (size_t)(cy1 - job.cy0));
     }
-    if (pthread_mutex_init(&job.lock, NULL) != 0) {
-        free(job.mask);
-        return -1;
+    int rc = -1, ntodo = 0, naround = 0;
+    if (!done || !todo || !around || (adaptive && (!job.mask || !job.centre)) ||
+        pthread_mutex_init(&job.lock, NULL) != 0)
+        goto out;
+    job.rows_done = done;
+    for (int y = p->y0; y < p->y1; y++)
+        if (!done[y - p->y0])
+            todo[ntodo++] = y;
+    for (int y = job.cy0; y < cy1; y++) {
+        int need = 0;
+        for (int d = -1; d <= 1; d++)
+            need |= y + d >= p->y0 && y + d < p->y1 && !done[y + d - p->y0];
+        if (need)
+            around[naround++] = y;
     }
-    int rc = run_pass(&job, p->threads);
-    if (rc == 0 && job.mask) {
-        long n = aa_mask(img, p->aa_threshold, job.mask);
-        job.stats.supersampled += (unsigned long long)n;
-        job.pass = 2;
-        job.next_row = 0;
-        rc = run_pass(&job, p->threads);
+    job.progress_total = ntodo + (adaptive ? naround : 0);
+    if (!adaptive)
+        rc = run_pass(&job, 0, todo, ntodo, p->threads);
+    else {
+        rc = run_pass(&job, 1, around, naround, p->threads);
+        if (rc == 0) {
+            job.rows = todo;
+            job.nrows = ntodo;
+            job.stats.supersampled += (unsigned long long)aa_mask(&job);
+            rc = run_pass(&job, 2, todo, ntodo, p->threads);
+        }
     }
     pthread_mutex_destroy(&job.lock);
-    free(job.mask);
     raystats_add(stats, &job.stats);
+out:
+    if (!(opt && opt->rows_done))
+        free(done);
+    free(todo);
+    free(around);
+    free(job.mask);
+    free(job.centre);
     return rc;
 }

@@ -50,7 +50,7 @@ typedef struct {
     size_t errlen;
     Scene *s;
     int cap_materials, cap_lights, cap_prims, cap_place, cap_patches, cap_ellipsoids;
-    int have_image, have_camera;
+    int have_image, have_camera, cap_keys;
 } Parser;
 
 LEX_PRINTF(3, 4) static int fail(Parser *P, Loc loc, const char *fmt, ...)
@@ -194,8 +194,8 @@ static const char *tok_desc(const Token *t, char *buf, size_t len)
 
 static int is_keyword(const Token *t)
 {
-    static const char *const kw[] = {"image",    "camera",          "light", "material", "sphere", "plane",
-                                     "triangle", "smooth_triangle", "box",   "obox",     "mesh",   "pn_triangle"};
+    static const char *const kw[] = {"image", "camera",          "light", "material", "sphere",      "plane",
+                                     "triangle", "smooth_triangle", "box", "obox", "mesh", "pn_triangle", "keyframe"};
     for (size_t i = 0; i < sizeof kw / sizeof kw[0]; i++)
         if (tok_is(t, kw[i]))
             return 1;
@@ -547,6 +547,108 @@ static int parse_camera(Parser *P, Loc at)
                     v[UP].set ? "" : " (by default 0 1 0)");
     if (!(c->fovy > 0.0f && c->fovy < 180.0f))
         return fail(P, v[FOV].value, "camera: 'fov' must be between 0 and 180 degrees");
+    return 0;
+}
+
+/* A key of the camera path. Keys come in the order of their frames; fov,
+ * when not given, is the camera block's. */
+static int parse_keyframe(Parser *P, Loc at)
+{
+    enum { FRAME, EYE, TARGET, FOV, N };
+    static const Field f[N] = {{"frame", F_NUM}, {"eye", F_VEC}, {"target", F_VEC}, {"fov", F_NUM}};
+    Value v[N];
+    Scene *s = P->s;
+    if (parse_block(P, "keyframe", f, N, v))
+        return -1;
+    for (int i = 0; i < FOV; i++)
+        if (require(P, "keyframe", f, v, i, at))
+            return -1;
+    if (!whole(&v[FRAME], 0, 0, LIMIT_FRAME))
+        return fail(P, v[FRAME].value, "keyframe: 'frame' must be a whole number from 0 to %d", LIMIT_FRAME);
+    int frame = (int)v[FRAME].v[0];
+    if (s->nkeys > 0 && frame <= s->keys[s->nkeys - 1].frame)
+        return fail(P, v[FRAME].value, "keyframe: frame %d must come after frame %d (keys go in the order of their frames)",
+                    frame, s->keys[s->nkeys - 1].frame);
+    if (v[EYE].v[0] == v[TARGET].v[0] && v[EYE].v[1] == v[TARGET].v[1] && v[EYE].v[2] == v[TARGET].v[2])
+        return fail(P, v[TARGET].value, "keyframe: 'target' must differ from 'eye'");
+    if (v[FOV].set && !(v[FOV].v[0] > 0.0 && v[FOV].v[0] < 180.0))
+        return fail(P, v[FOV].value, "keyframe: 'fov' must be between 0 and 180 degrees");
+    if (s->nkeys == P->cap_keys) {
+        int cap = P->cap_keys ? 2 * P->cap_keys : 8;
+        CameraKey *k = realloc(s->keys, sizeof *k * (size_t)cap);
+        if (!k)
+            return fail(P, at, "out of memory");
+        s->keys = k;
+        P->cap_keys = cap;
+    }
+    CameraKey *k = &s->keys[s->nkeys++];
+    k->frame = frame;
+    dvec_of(&v[EYE], k->eye);
+    dvec_of(&v[TARGET], k->target);
+    k->fov = v[FOV].set ? v[FOV].v[0] : -1.0; /* the camera block's, at the end */
+    return 0;
+}
+
+/* Component c of the keys' values (val) at frame f, f0 <= f < f1 of keys
+ * i and i+1: a cubic Hermite segment whose tangents are Catmull-Rom's over
+ * non-uniform knots, (p[i+1] - p[i-1]) / (f[i+1] - f[i-1]), one-sided at
+ * the path's ends. On a key it is the key's value exactly. */
+static double path_at(const CameraKey *k, int n, int i, double f, double (*val)(const CameraKey *, int), int c)
+{
+    double f0 = k[i].frame, f1 = k[i + 1].frame, h = f1 - f0, s = (f - f0) / h;
+    double p0 = val(&k[i], c), p1 = val(&k[i + 1], c);
+    double m0 = i > 0 ? (p1 - val(&k[i - 1], c)) / (f1 - k[i - 1].frame) : (p1 - p0) / h;
+    double m1 = i + 2 < n ? (val(&k[i + 2], c) - p0) / (k[i + 2].frame - f0) : (p1 - p0) / h;
+    double s2 = s * s, s3 = s2 * s;
+    return (2 * s3 - 3 * s2 + 1) * p0 + (s3 - 2 * s2 + s) * h * m0 + (3 * s2 - 2 * s3) * p1 + (s3 - s2) * h * m1;
+}
+
+static double key_eye(const CameraKey *k, int c) { return k->eye[c]; }
+static double key_target(const CameraKey *k, int c) { return k->target[c]; }
+static double key_fov(const CameraKey *k, int c) { return (void)c, k->fov; }
+
+int scene_camera_frame(Scene *s, int frame, char *err, size_t errlen)
+{
+    if (s->nkeys == 0) {
+        snprintf(err, errlen, "the scene has no camera path (no 'keyframe' block)");
+        return -1;
+    }
+    const CameraKey *k = s->keys;
+    int n = s->nkeys, i = 0;
+    CameraSpec *c = &s->camera;
+    double fov;
+    if (frame <= k[0].frame || frame >= k[n - 1].frame) {
+        const CameraKey *e = frame <= k[0].frame ? &k[0] : &k[n - 1];
+        memcpy(c->eye_at, e->eye, sizeof c->eye_at);
+        memcpy(c->target_at, e->target, sizeof c->target_at);
+        fov = e->fov;
+    } else {
+        while (k[i + 1].frame <= frame)
+            i++;
+        for (int d = 0; d < 3; d++) {
+            c->eye_at[d] = path_at(k, n, i, frame, key_eye, d);
+            c->target_at[d] = path_at(k, n, i, frame, key_target, d);
+        }
+        fov = path_at(k, n, i, frame, key_fov, 0);
+    }
+    c->eye = round3(c->eye_at);
+    c->target = round3(c->target_at);
+    c->fovy = (float)fov;
+    const double *e = c->eye_at, *t = c->target_at;
+    Vec3 fwd = vec3((float)(t[0] - e[0]), (float)(t[1] - e[1]), (float)(t[2] - e[2]));
+    const char *bad = NULL;
+    if (!vec_is_finite(c->eye) || !vec_is_finite(c->target))
+        bad = "puts the camera out of float's range";
+    else if (!(vec_length(fwd) > 0.0f && isfinite(vec_length(fwd))))
+        bad = "puts the eye on the target";
+    else if (!(vec_length(vec_cross(vec_normalize(fwd), vec_normalize(c->up))) > 1e-6f))
+        bad = "turns the view along the camera's up";
+    else if (!(c->fovy > 0.0f && c->fovy < 180.0f))
+        bad = "takes fov out of 0 to 180 degrees";
+    if (bad) {
+        snprintf(err, errlen, "frame %d: the camera path %s", frame, bad);
+        return -1;
+    }
     return 0;
 }
 
@@ -1158,6 +1260,11 @@ static int add_input(Scene *s, const char *path)
     if (!in)
         return -1;
     s->inputs = in;
+    unsigned char(*d)[SHA256_BYTES] = realloc(s->input_sha256, sizeof *d * (size_t)(s->ninputs + 1));
+    if (!d)
+        return -1;
+    s->input_sha256 = d;
+    memset(d[s->ninputs], 0, SHA256_BYTES);
     if (!(in[s->ninputs] = malloc(strlen(path) + 1)))
         return -1;
     strcpy(in[s->ninputs++], path);
@@ -1192,6 +1299,7 @@ static int parse_mesh(Parser *P, Loc at)
         return fail(P, at, "out of memory");
     if (mesh_load(path, &m, err, sizeof err) != 0)
         return fail(P, v[FILE_].value, "mesh: %s", err);
+    memcpy(P->s->input_sha256[P->s->ninputs - 1], m.sha256, SHA256_BYTES);
     int smooth = v[SMOOTH].set || v[PN].set, dropped = 0;
     if (smooth && !m.n && mesh_vertex_normals(&m, err, sizeof err) != 0) {
         mesh_free(&m);
@@ -1275,6 +1383,8 @@ static int dispatch_statement(Parser *P, Token kw)
         return parse_mesh(P, kw.loc);
     if (tok_is(&kw, "pn_triangle"))
         return parse_pn_triangle(P, kw.loc);
+    if (tok_is(&kw, "keyframe"))
+        return parse_keyframe(P, kw.loc);
     return fail(P, kw.loc, "unknown keyword %s", tok_desc(&kw, buf, sizeof buf)); /* not reached */
 }
 
@@ -1728,6 +1838,7 @@ int scene_split_triangles(Scene *s)
 void scene_free(Scene *s)
 {
     free(s->materials);
+    free(s->keys);
     free(s->lights);
     free(s->prims);
     free(s->place);
@@ -1736,7 +1847,19 @@ void scene_free(Scene *s)
     for (int i = 0; i < s->ninputs; i++)
         free(s->inputs[i]);
     free(s->inputs);
+    free(s->input_sha256);
     memset(s, 0, sizeof *s);
+}
+
+void scene_content_hash(const Scene *s, char hex[SHA256_HEX])
+{
+    Sha256 h;
+    unsigned char d[SHA256_BYTES];
+    sha256_init(&h);
+    for (int i = 0; i < s->ninputs; i++)
+        sha256_update(&h, s->input_sha256[i], SHA256_BYTES);
+    sha256_final(&h, d);
+    sha256_hex(d, hex);
 }
 
 int scene_parse(const char *name, const char *text, size_t len, Scene *s, char *err, size_t errlen)
@@ -1768,6 +1891,9 @@ int scene_parse(const char *name, const char *text, size_t len, Scene *s, char *
         scene_free(s);
         return rc;
     }
+    for (int i = 0; i < s->nkeys; i++)
+        if (s->keys[i].fov < 0.0)
+            s->keys[i].fov = s->camera.fovy;
     /* Patches without a pn_mode of their own take the image block's, which
      * may come after them. */
     for (int i = 0; i < s->nprims; i++)
@@ -1786,11 +1912,17 @@ int scene_load(const char *path, Scene *s, char *err, size_t errlen)
     if (afile_read(path, (unsigned long long)LIMIT_SCENE_BYTES, "scenes", &buf, &len, err, errlen) != 0)
         return -1;
     int rc = scene_parse(path, buf, len, s, err, errlen);
-    free(buf);
     if (rc == 0 && add_input(s, path) != 0) {
         snprintf(err, errlen, "%s: out of memory", path);
         scene_free(s);
-        return -1;
+        rc = -1;
     }
+    if (rc == 0) {
+        Sha256 h;
+        sha256_init(&h);
+        sha256_update(&h, buf, len);
+        sha256_final(&h, s->input_sha256[s->ninputs - 1]);
+    }
+    free(buf);
     return rc;
 }

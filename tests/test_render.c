@@ -192,7 +192,7 @@ static void test_stop_keeps_finished_rows(void **state)
             Image img;
             assert_int_equal(image_init(&img, w, h), 0);
             unsigned char done[41];
-            memset(done, 7, sizeof done);
+            memset(done, 0, sizeof done);
             StopAfter sa = {after == 0, after};
             RenderOptions opt = {stop_after, &sa, &sa.stop, done};
             assert_int_equal(render_image(&p, a, &opt, &img, &st), 1);

@@ -23,6 +23,11 @@
 typedef struct {
     int width, height;
     float *rgb; /* width * height * 3 floats, owned by the Image */
+    /* Where it lies in the full picture (a tile of a larger render): its
+     * top-left pixel, and the full picture's size. image_init makes an
+     * image its own full picture; in an EXR these are the data window and
+     * the display window. */
+    int x, y, full_width, full_height;
 } Image;
 
 typedef enum { IMAGE_HALF, IMAGE_FLOAT } ImagePrecision;
@@ -35,7 +40,8 @@ typedef enum { IMAGE_HALF, IMAGE_FLOAT } ImagePrecision;
 int image_init(Image *img, int width, int height);
 void image_free(Image *img);
 
-/* OpenEXR through OpenEXRCore (openexr.h): one scanline part, ZIP
+/* OpenEXR through OpenEXRCore (openexr.h): one scanline part whose data
+ * window is the image and display window its full picture, ZIP
  * compression, channels R, G, B (stored in the file's alphabetical order
  * B, G, R) as half or 32-bit float. Half rounds to nearest even: magnitudes
  * from 65520 up become infinity, tiny values become subnormals or zero, NaN
@@ -55,7 +61,9 @@ int image_write_exr_file(const Image *img, const char *file, const char *name, I
 
 /* Reads the R, G and B channels of a scanline or tiled EXR into a new image
  * (img must be uninitialised or freed); missing channels read as 0. The
- * image is the data window (its offset is dropped); half, float and uint
+ * image is the data window, placed in the display window (x, y,
+ * full_width and full_height; a data window that is not inside the display
+ * window makes a picture of its own); half, float and uint
  * channels all become float; tiled files give their full-resolution level
  * and multi-part files their first part. Deep data and subsampled R, G or B
  * are errors. On failure img is left empty. */
@@ -64,6 +72,22 @@ int image_read_exr(const char *path, Image *img, char *err, size_t errlen);
 /* image_read_exr of an EXR held in memory (len bytes at data); messages
  * name `name`. */
 int image_parse_exr(const char *name, const void *data, size_t len, Image *img, char *err, size_t errlen);
+
+/* What an EXR's header says beside its pixels: its string attributes whose
+ * names start with "lancer:", and whether R, G and B are all half. */
+#define IMAGE_META_MAX 16
+typedef struct {
+    int n;
+    char *name[IMAGE_META_MAX], *value[IMAGE_META_MAX];
+    int half;
+} ImageMeta;
+
+/* image_read_exr, and the header's ImageMeta into *meta (freed with
+ * image_meta_free, also after a failure). */
+int image_read_exr_meta(const char *path, Image *img, ImageMeta *meta, char *err, size_t errlen);
+void image_meta_free(ImageMeta *meta);
+/* The value of attribute `name`, or NULL. */
+const char *image_meta_get(const ImageMeta *meta, const char *name);
 
 /* 8-bit RGB PNG: each channel clamped to [0,1] and sRGB-encoded. */
 int image_write_png(const Image *img, const char *path, char *err, size_t errlen);

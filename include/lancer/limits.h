@@ -52,4 +52,8 @@
 /* `lancer diff --downsample`, per side. */
 #define LIMIT_DOWNSAMPLE 64
 
+/* The last frame number of a camera path: frame patterns such as %04d
+ * stay short. */
+#define LIMIT_FRAME 999999
+
 #endif

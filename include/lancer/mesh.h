@@ -95,6 +95,7 @@
 #include <stddef.h>
 
 #include "lancer/limits.h"
+#include "lancer/sha256.h"
 #include "lancer/vec.h"
 
 
@@ -109,13 +110,14 @@ typedef struct {
     int nt;
     int (*ntri)[3];    /* per-corner indices into n (NULL when there are no normals) */
     int degenerate;    /* triangles dropped because they have zero area */
+    unsigned char sha256[SHA256_BYTES]; /* the file's bytes' digest (mesh_load; else zero) */
 } Mesh;
 
 /* Reads and parses a mesh file; the format comes from the extension .off,
  * .obj, .ply or .stl (any case). Returns 0, or -1 with "path:line: message" (or
  * "path: message") in err and m left empty. On success the caller owns the
- * arrays in m and releases them with mesh_free. err may be NULL when errlen
- * is 0. */
+ * arrays in m and releases them with mesh_free; m->sha256 is the SHA-256
+ * of the bytes parsed. err may be NULL when errlen is 0. */
 int mesh_load(const char *path, Mesh *m, char *err, size_t errlen);
 
 /* Parses a mesh held in memory (data need not be NUL-terminated; it may hold

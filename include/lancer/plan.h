@@ -56,6 +56,8 @@ typedef struct {
     int area_adaptive; /* 1 + every area light's adaptive level (Light.adaptive) */
     double scale;      /* > 0 */
     double translate[3];
+    int region;        /* 1: render only columns rx0..rx1-1 of rows ry0..ry1-1 */
+    int rx0, rx1, ry0, ry1;
 } PlanOptions;
 
 
@@ -85,6 +87,7 @@ typedef enum {
 typedef struct {
     const Scene *scene; /* the world, in the plan's coordinates */
     int width, height, spp, max_depth, threads;
+    int x0, x1, y0, y1;    /* the region rendered, half-open: the whole image unless asked */
     PrimVariant variant;
     int patches[2];        /* the PN patches traced in each PnMode (the classic variant traces all fast) */
     double offset[3];      /* added to the plan's coordinates, gives the scene's as moved by the options */

@@ -66,6 +66,14 @@ typedef struct {
     double eye_at[3], target_at[3];   /* eye and target in double, as placed */
 } CameraSpec;
 
+/* A key of the camera path: the camera at a frame. Between keys, eye,
+ * target and fov follow Catmull-Rom splines over the frame numbers. */
+typedef struct {
+    int frame;
+    double eye[3], target[3];
+    double fov; /* degrees */
+} CameraKey;
+
 /* Where a primitive stands, in double, as the scene file placed it and the
  * moves since (scene_transform) took it: its float coordinates are these,
  * rounded. Per kind:
@@ -97,6 +105,8 @@ typedef struct {
     SceneImage image;
     Vec3 background; /* what a ray that hits nothing sees */
     CameraSpec camera;
+    CameraKey *keys; /* the camera path, by increasing frame (keyframe blocks) */
+    int nkeys;
     Material *materials;
     int nmaterials;
     Light *lights;
@@ -116,7 +126,8 @@ typedef struct {
     Place *place;
     int placed;
     int degenerate; /* mesh triangles dropped for having no area */
-    char **inputs;  /* the files read: the scene file (scene_load), then each mesh */
+    char **inputs;  /* the files read: each mesh, then the scene file (scene_load) */
+    unsigned char (*input_sha256)[SHA256_BYTES]; /* each input's bytes' digest */
     int ninputs;
 } Scene;
 
@@ -175,6 +186,22 @@ Place scene_place(const Scene *s, int i);
  * primitive well formed, every material index valid. Returns 0, or -1 with
  * what is wrong in err. */
 int scene_validate(const Scene *s, char *err, size_t errlen);
+
+/* Puts the camera where the camera path has it at `frame` (scene_camera
+ * takes the camera block's up): on a key, the key's camera exactly;
+ * between keys, the Catmull-Rom splines through them, with the frame
+ * numbers as knots and one-sided tangents at the ends; before the first
+ * key and after the last, that key's. Call it before plan_build moves the
+ * scene. Returns 0, or -1 with a message in err: no camera path, or a
+ * camera that the path degenerates at this frame (eye on target, up along
+ * the view, fov out of range). */
+int scene_camera_frame(Scene *s, int frame, char *err, size_t errlen);
+
+/* The scene's content hash, in hex: the SHA-256 of its inputs' digests in
+ * order, so of the scene file and every mesh it loads, as they were read.
+ * Two scenes with the same hash render the same picture under the same
+ * settings; a tile of a stale scene has another hash. */
+void scene_content_hash(const Scene *s, char hex[SHA256_HEX]);
 
 void scene_free(Scene *s);
 

@@ -52,6 +52,39 @@ int cli_default_output(const char *path, const char *ext, char *buf, size_t len)
     return 0;
 }
 
+int cli_frame_path(const char *option, const char *path, int frame, char *buf, size_t len, int *count)
+{
+    size_t at = 0;
+    int n = 0;
+    for (const char *p = path; *p; p++) {
+        char piece[16];
+        int w;
+        if (*p != '%')
+            w = snprintf(piece, sizeof piece, "%c", *p);
+        else if (p[1] == '%')
+            w = snprintf(piece, sizeof piece, "%%"), p++;
+        else if (p[1] == 'd')
+            w = snprintf(piece, sizeof piece, "%d", frame), p++, n++;
+        else if (p[1] == '0' && p[2] >= '1' && p[2] <= '9' && p[3] == 'd')
+            w = snprintf(piece, sizeof piece, "%0*d", p[2] - '0', frame), p += 3, n++;
+        else {
+            fprintf(stderr, "lancer: %s %s: a frame pattern is %%d or %%0Nd (N from 1 to 9), and %%%% a percent sign\n",
+                    option, path);
+            return -1;
+        }
+        if (w < 0 || at + (size_t)w >= len) {
+            fprintf(stderr, "lancer: %s %s: path too long\n", option, path);
+            return -1;
+        }
+        memcpy(buf + at, piece, (size_t)w);
+        at += (size_t)w;
+    }
+    buf[at] = '\0';
+    if (count)
+        *count = n;
+    return 0;
+}
+
 int cli_check_output(const char *path)
 {
     char err[512];

@@ -39,7 +39,7 @@ typedef struct {
     int (*run)(void *args, const char **pos, int npos);
 } Command;
 
-extern const Command cmd_render, cmd_export_pov, cmd_diff, cmd_bench;
+extern const Command cmd_render, cmd_tiles, cmd_merge, cmd_export_pov, cmd_diff, cmd_bench;
 
 /* Prints "lancer CMD: message" and a pointer to --help; returns 2. */
 int cli_usage_error(const char *cmd, const char *fmt, ...)
@@ -54,6 +54,13 @@ int cli_parse_int(const char *s, int lo, int hi, int *out);
 /* "out/<basename of path without extension><ext>" into buf, creating out/.
  * Returns 0, or -1 after a message. */
 int cli_default_output(const char *path, const char *ext, char *buf, size_t len);
+
+/* Fills the frame pattern in path with frame into buf: "%d" and "%0Nd"
+ * (N from 1 to 9) give the frame number, "%%" a percent sign. Sets *count
+ * to how many numbers it put in (NULL: not wanted). Returns 0, or -1
+ * after a message naming option when the pattern is another printf
+ * conversion or the path is too long. */
+int cli_frame_path(const char *option, const char *path, int frame, char *buf, size_t len, int *count);
 
 /* 0 when path (NULL: none) can be written, else -1 after a message. */
 int cli_check_output(const char *path);

@@ -15,6 +15,7 @@
 #include "lancer/afile.h"
 #include "lancer/render.h"
 #include "outputs.h"
+#include "stamp.h"
 
 static const char usage[] =
     "usage: lancer render SCENE [options]\n"
@@ -66,9 +67,9 @@ static const char usage[] =
 typedef struct {
     const char *exr, *png, *stats;
     int width, height, spp, max_depth, threads, quiet, use_float, classic, explain, no_plan;
-    int area_samples, area_adaptive;
+    int area_samples, area_adaptive, resume, frame;
     double scale, adc, aa;
-    const char *translate, *pn_mode, *accel, *quality;
+    const char *translate, *pn_mode, *accel, *quality, *region, *frames;
 } Args;
 
 /* The quality presets, points on or near every benchmark scene's frontier
@@ -94,6 +95,7 @@ static void defaults(void *args)
     a->adc = -1.0;
     a->aa = -1.0;
     a->area_adaptive = -1;
+    a->frame = -1;
 }
 
 typedef struct {
@@ -311,31 +313,36 @@ static int plan_options_of(const Args *a, PlanOptions *o)
     return 0;
 }
 
+/* One render's files: its frame's names. */
+typedef struct {
+    char exr[AFILE_PATH_MAX], png[AFILE_PATH_MAX], stats[AFILE_PATH_MAX], partial[AFILE_PATH_MAX];
+} Paths;
+
 /* Writes the run's outputs into temporary files and puts them all in place
  * together, or none. Returns 0, -1 after a message, or 1 when a signal came
  * while they were written (they are then discarded). */
-static int write_outputs(const Args *a, const char *scene, const RenderPlan *plan, const Image *img,
-                         double phase[4], const RayStats *st)
+static int write_outputs(const Args *a, const Paths *pp, const char *scene, const RenderPlan *plan, const Image *img,
+                         const ImageAttr *attrs, int nattrs, double phase[4], const RayStats *st)
 {
     char err[AFILE_PATH_MAX + 128];
     double t0 = clock_now();
-    const char *exr = outputs_add(a->exr);
-    const char *png = exr && a->png ? outputs_add(a->png) : NULL;
-    const char *stats = exr && (!a->png || png) && a->stats ? outputs_add(a->stats) : NULL;
+    const char *exr = outputs_add(pp->exr);
+    const char *png = exr && a->png ? outputs_add(pp->png) : NULL;
+    const char *stats = exr && (!a->png || png) && a->stats ? outputs_add(pp->stats) : NULL;
     int rc = 0;
     if (!exr || (a->png && !png) || (a->stats && !stats))
         rc = -1;
-    if (rc == 0 && image_write_exr_file(img, exr, a->exr, a->use_float ? IMAGE_FLOAT : IMAGE_HALF, NULL, 0, err,
-                                        sizeof err) != 0) {
+    if (rc == 0 && image_write_exr_file(img, exr, pp->exr, a->use_float ? IMAGE_FLOAT : IMAGE_HALF, attrs, nattrs,
+                                        err, sizeof err) != 0) {
         fprintf(stderr, "lancer: %s\n", err);
         rc = -1;
     }
-    if (rc == 0 && png && image_write_png_file(img, png, a->png, err, sizeof err) != 0) {
+    if (rc == 0 && png && image_write_png_file(img, png, pp->png, err, sizeof err) != 0) {
         fprintf(stderr, "lancer: %s\n", err);
         rc = -1;
     }
     phase[3] = clock_now() - t0;
-    if (rc == 0 && stats && write_stats(stats, a->stats, scene, plan, phase, st) != 0)
+    if (rc == 0 && stats && write_stats(stats, pp->stats, scene, plan, phase, st) != 0)
         rc = -1;
     if (rc == 0 && outputs_stop)
         rc = 1;
@@ -346,40 +353,103 @@ static int write_outputs(const Args *a, const char *scene, const RenderPlan *pla
     return outputs_commit();
 }
 
-static int run(void *args, const char **pos, int npos)
+/* 1 when img's place in the picture is the same as o's. */
+static int same_place(const Image *img, const Image *o)
 {
-    Args *a = args;
-    if (npos == 0)
-        return cli_usage_error("render", "missing SCENE");
-    const char *scene = pos[0];
-    PlanOptions po;
-    int rc = plan_options_of(a, &po);
-    if (rc)
-        return rc;
+    return o->x == img->x && o->y == img->y && o->width == img->width && o->height == img->height &&
+           o->full_width == img->full_width && o->full_height == img->full_height;
+}
 
-    char exr_default[AFILE_PATH_MAX], partial[AFILE_PATH_MAX], err[1024];
+/* --resume: returns 2 when the output is already complete, with this
+ * stamp and region (nothing to do); 0 after taking the partial image's
+ * rows into img and done, or when there is no partial image; -1 after a
+ * message (a partial image of another render is never discarded). */
+static int resume(const Paths *pp, const Stamp *st, Image *img, unsigned char *done, int quiet)
+{
+    char err[AFILE_PATH_MAX + 256], why[512];
+    Image o;
+    ImageMeta m;
+    struct stat sb;
+    if (stat(pp->exr, &sb) == 0 && S_ISREG(sb.st_mode)) {
+        int complete = image_read_exr_meta(pp->exr, &o, &m, err, sizeof err) == 0 &&
+                       !image_meta_get(&m, "lancer:rows") && !stamp_differs(st, &m, why, sizeof why) &&
+                       same_place(img, &o);
+        image_free(&o);
+        image_meta_free(&m);
+        if (complete)
+            return 2;
+    }
+    if (lstat(pp->partial, &sb) != 0) {
+        if (errno == ENOENT)
+            return 0;
+        fprintf(stderr, "lancer: cannot resume from %s: %s\n", pp->partial, strerror(errno));
+        return -1;
+    }
+    int rc = -1;
+    const char *rows = NULL;
+    if (image_read_exr_meta(pp->partial, &o, &m, err, sizeof err) != 0)
+        fprintf(stderr, "lancer: cannot resume: %s\n", err);
+    else if (!(rows = image_meta_get(&m, "lancer:rows")))
+        fprintf(stderr, "lancer: cannot resume from %s: it lists no finished rows (not a partial render)\n",
+                pp->partial);
+    else if (stamp_differs(st, &m, why, sizeof why))
+        fprintf(stderr, "lancer: cannot resume from %s: it was %s; remove it to render from the start\n", pp->partial,
+                why);
+    else if (!same_place(img, &o))
+        fprintf(stderr,
+                "lancer: cannot resume from %s: it holds the region %d:%d,%d:%d of a %dx%d picture, not %d:%d,%d:%d "
+                "of %dx%d; remove it to render from the start\n",
+                pp->partial, o.x, o.x + o.width, o.y, o.y + o.height, o.full_width, o.full_height, img->x,
+                img->x + img->width, img->y, img->y + img->height, img->full_width, img->full_height);
+    else if (outputs_parse_rows(rows, done, img->height) != 0)
+        fprintf(stderr, "lancer: cannot resume from %s: its list of finished rows is corrupt\n", pp->partial);
+    else {
+        int n = 0;
+        for (int y = 0; y < img->height; y++)
+            if (done[y]) {
+                size_t row = (size_t)y * (size_t)img->width * 3;
+                memcpy(img->rgb + row, o.rgb + row, sizeof(float) * 3 * (size_t)img->width);
+                n++;
+            }
+        if (!quiet)
+            fprintf(stderr, "lancer: resuming from %s: %d of %d rows done\n", pp->partial, n, img->height);
+        rc = 0;
+    }
+    image_free(&o);
+    image_meta_free(&m);
+    return rc;
+}
+
+/* Renders one picture (frame -1: a still) into the files pp names.
+ * Returns the exit status. */
+static int render_one(Args *a, const char *scene, const PlanOptions *po, int frame, const Paths *pp)
+{
+    char err[1024];
     double phase[4] = {0, 0, 0, 0}, t0 = clock_now();
     Scene s;
     if (scene_load(scene, &s, err, sizeof err) != 0) {
         fprintf(stderr, "%s\n", err);
         return 1;
     }
-    phase[0] = clock_now() - t0;
-    if (!a->quiet && phase[0] > PROGRESS_PHASE)
-        fprintf(stderr, "lancer: read %s (%d primitives) in %.1f s; building the BVH\n", scene, s.nprims, phase[0]);
-    RenderPlan plan;
-    if (plan_build(&plan, &s, &po, err, sizeof err) != 0) {
+    if (frame >= 0 && scene_camera_frame(&s, frame, err, sizeof err) != 0) {
         fprintf(stderr, "lancer: %s: %s\n", scene, err);
         scene_free(&s);
         return 1;
     }
-    if (!a->exr && cli_default_output(scene, ".exr", exr_default, sizeof exr_default) == 0)
-        a->exr = exr_default;
+    phase[0] = clock_now() - t0;
+    if (!a->quiet && phase[0] > PROGRESS_PHASE)
+        fprintf(stderr, "lancer: read %s (%d primitives) in %.1f s; building the BVH\n", scene, s.nprims, phase[0]);
+    RenderPlan plan;
+    if (plan_build(&plan, &s, po, err, sizeof err) != 0) {
+        fprintf(stderr, "lancer: %s: %s\n", scene, err);
+        scene_free(&s);
+        return 1;
+    }
     /* Fail on an output that cannot or must not be written before spending
      * time on the render. */
-    const CliOutput outs[] = {{"-o", a->exr}, {"--png", a->png}, {"--stats", a->stats}, {"(partial)", partial}};
-    if (!a->exr || outputs_partial_name(a->exr, partial, sizeof partial) != 0 ||
-        cli_check_outputs(outs, 4, (const char *const *)s.inputs, s.ninputs) != 0) {
+    const CliOutput outs[] = {{"-o", pp->exr}, {"--png", a->png ? pp->png : NULL},
+                              {"--stats", a->stats ? pp->stats : NULL}, {"(partial)", pp->partial}};
+    if (cli_check_outputs(outs, 4, (const char *const *)s.inputs, s.ninputs) != 0) {
         plan_free(&plan);
         scene_free(&s);
         return 1;
@@ -387,24 +457,36 @@ static int run(void *args, const char **pos, int npos)
 
     Image img;
     RayStats st = {0, 0, 0, 0, 0, 0, 0};
-    unsigned char *done = malloc((size_t)plan.height);
-    if (!done || image_init(&img, plan.width, plan.height) != 0) {
-        fprintf(stderr, "lancer: out of memory for a %dx%d image\n", plan.width, plan.height);
+    int w = plan.x1 - plan.x0, h = plan.y1 - plan.y0, rc;
+    unsigned char *done = calloc((size_t)h, 1);
+    if (!done || image_init(&img, w, h) != 0) {
+        fprintf(stderr, "lancer: out of memory for a %dx%d image\n", w, h);
         free(done);
         plan_free(&plan);
         scene_free(&s);
         return 1;
     }
-    outputs_catch_signals();
+    img.x = plan.x0;
+    img.y = plan.y0;
+    img.full_width = plan.width;
+    img.full_height = plan.height;
+    Stamp stamp;
+    stamp_make(&stamp, scene, &s, &plan, po, a->use_float, frame);
+    ImageAttr attrs[STAMP_ATTRS];
+    int nattrs = stamp_attrs(&stamp, attrs);
+    Accel *acc = NULL;
+    if (a->resume && (rc = resume(pp, &stamp, &img, done, a->quiet)) != 0) {
+        if (rc == 2 && !a->quiet)
+            fprintf(stderr, "lancer: %s is complete, from this scene and these settings; nothing to do\n", pp->exr);
+        rc = rc == 2 ? 0 : 1;
+        goto out;
+    }
     t0 = clock_now();
-    Accel *acc = accel_build_as(&s, plan.variant, plan.threads, plan.loop);
+    acc = accel_build_as(&s, plan.variant, plan.threads, plan.loop);
     if (!acc) {
         fprintf(stderr, "lancer: out of memory building the acceleration structure\n");
-        image_free(&img);
-        free(done);
-        plan_free(&plan);
-        scene_free(&s);
-        return 1;
+        rc = 1;
+        goto out;
     }
     phase[1] = clock_now() - t0;
     if (!a->quiet && phase[1] > PROGRESS_PHASE)
@@ -418,28 +500,121 @@ static int run(void *args, const char **pos, int npos)
     if (rc < 0)
         fprintf(stderr, "lancer: could not set up the render threads\n");
     else if (rc == 0)
-        rc = write_outputs(a, scene, &plan, &img, phase, &st);
+        rc = write_outputs(a, pp, scene, &plan, &img, attrs, nattrs, phase, &st);
     if (rc == 1) /* stopped, while rendering or writing */
-        rc = outputs_save_partial(scene, a->exr, partial, &img, done,
-                          prog.tty && prog.shown && prog.last_percent < 100 ? "\n" : "");
+        rc = outputs_save_partial(attrs, nattrs, pp->exr, pp->partial, &img, done,
+                                  prog.tty && prog.shown && prog.last_percent < 100 ? "\n" : "");
     else if (rc == 0) {
         struct stat old;
-        if (lstat(partial, &old) == 0 && S_ISREG(old.st_mode))
-            unlink(partial); /* the rest of a stopped run, now done */
+        if (lstat(pp->partial, &old) == 0 && S_ISREG(old.st_mode))
+            unlink(pp->partial); /* the rest of a stopped run, now done */
         if (!a->quiet)
-            fprintf(stderr, "lancer: wrote %s%s%s (%dx%d, %d thread%s, render %.3f s)\n", a->exr,
-                    a->png ? " and " : "", a->png ? a->png : "", plan.width, plan.height, plan.threads,
-                    plan.threads > 1 ? "s" : "", phase[2]);
+            fprintf(stderr, "lancer: wrote %s%s%s (%dx%d, %d thread%s, render %.3f s)\n", pp->exr,
+                    a->png ? " and " : "", a->png ? pp->png : "", w, h, plan.threads, plan.threads > 1 ? "s" : "",
+                    phase[2]);
         if (a->explain)
             explain(stdout, scene, &plan, phase, &st);
     } else
         rc = 1;
+out:
     accel_free(acc);
     image_free(&img);
     free(done);
     plan_free(&plan);
     scene_free(&s);
     return rc;
+}
+
+/* Copies path (NULL: "") into buf; 0 when it does not fit. */
+static int fits(char *buf, size_t len, const char *path)
+{
+    int n = snprintf(buf, len, "%s", path ? path : "");
+    return n >= 0 && (size_t)n < len;
+}
+
+/* The files of frame `frame` (-1: a still, names as given). Returns 0, or
+ * 1 after a message. */
+static int paths_of(const Args *a, int frame, Paths *pp)
+{
+    if (frame < 0) {
+        if (!fits(pp->exr, sizeof pp->exr, a->exr) || !fits(pp->png, sizeof pp->png, a->png) ||
+            !fits(pp->stats, sizeof pp->stats, a->stats)) {
+            fprintf(stderr, "lancer: an output path is too long\n");
+            return 1;
+        }
+    } else if (cli_frame_path("-o", a->exr, frame, pp->exr, sizeof pp->exr, NULL) != 0 ||
+               (a->png && cli_frame_path("--png", a->png, frame, pp->png, sizeof pp->png, NULL) != 0) ||
+               (a->stats && cli_frame_path("--stats", a->stats, frame, pp->stats, sizeof pp->stats, NULL) != 0))
+        return 1;
+    return outputs_partial_name(pp->exr, pp->partial, sizeof pp->partial) != 0;
+}
+
+/* "A:B" into *a and *b, the numbers lo <= A < B <= hi. */
+static int parse_range(const char *s, int lo, int hi, int *a, int *b)
+{
+    char tail;
+    return sscanf(s, "%d:%d%c", a, b, &tail) == 2 && lo <= *a && *a < *b && *b <= hi ? 0 : -1;
+}
+
+static int run(void *args, const char **pos, int npos)
+{
+    Args *a = args;
+    if (npos == 0)
+        return cli_usage_error("render", "missing SCENE");
+    const char *scene = pos[0];
+    PlanOptions po;
+    int rc = plan_options_of(a, &po);
+    if (rc)
+        return rc;
+    if (a->region) {
+        char tail;
+        po.region = 1;
+        if (sscanf(a->region, "%d:%d,%d:%d%c", &po.rx0, &po.rx1, &po.ry0, &po.ry1, &tail) != 4 ||
+            !(0 <= po.rx0 && po.rx0 < po.rx1 && 0 <= po.ry0 && po.ry0 < po.ry1))
+            return cli_usage_error("render", "--region needs X0:X1,Y0:Y1 with 0 <= X0 < X1 and 0 <= Y0 < Y1, not '%s'",
+                                   a->region);
+    }
+    int first = -1, last = 0; /* frames first..last-1; -1: a still */
+    if (a->frame >= 0 && a->frames)
+        return cli_usage_error("render", "--frame and --frames exclude each other");
+    if (a->frame >= 0) {
+        first = a->frame;
+        last = a->frame + 1;
+    }
+    if (a->frames && parse_range(a->frames, 0, LIMIT_FRAME + 1, &first, &last) != 0)
+        return cli_usage_error("render", "--frames needs A:B, frames A to B-1 with 0 <= A < B <= %d, not '%s'",
+                               LIMIT_FRAME + 1, a->frames);
+
+    char exr_default[AFILE_PATH_MAX];
+    if (!a->exr) {
+        if (cli_default_output(scene, first >= 0 ? ".%04d.exr" : ".exr", exr_default, sizeof exr_default) != 0)
+            return 1;
+        a->exr = exr_default;
+    }
+    if (last - first > 1) { /* each frame needs files of its own */
+        const char *const opt_names[3] = {"-o", "--png", "--stats"}, *const paths[3] = {a->exr, a->png, a->stats};
+        char buf[AFILE_PATH_MAX];
+        for (int i = 0; i < 3; i++) {
+            int n = 0;
+            if (paths[i] && cli_frame_path(opt_names[i], paths[i], 0, buf, sizeof buf, &n) != 0)
+                return 1;
+            if (paths[i] && n == 0)
+                return cli_usage_error("render", "%s %s: several frames need a frame pattern in the name, such as %%04d",
+                                       opt_names[i], paths[i]);
+        }
+    }
+    outputs_catch_signals();
+    for (int f = first; f < last; f++) { /* once, at -1, for a still */
+        Paths pp;
+        if (paths_of(a, f, &pp) != 0)
+            return 1;
+        rc = render_one(a, scene, &po, f, &pp);
+        if (rc != 0)
+            return rc;
+        if (outputs_stop && f + 1 < last) /* between two frames: the next one is not begun */
+            return 128 + outputs_stop;
+    }
+    return 0;
 }
 
 static const Opt opts[] = {
@@ -465,6 +640,10 @@ static const Opt opts[] = {
     {"--aa-threshold", NULL, OPT_DOUBLE, offsetof(Args, aa), 0, 3},
     {"--area-samples", NULL, OPT_INT, offsetof(Args, area_samples), 1, LIMIT_AREA_SAMPLES},
     {"--area-adaptive", NULL, OPT_INT, offsetof(Args, area_adaptive), 0, LIMIT_AREA_ADAPTIVE},
+    {"--region", NULL, OPT_STRING, offsetof(Args, region), 0, 0},
+    {"--resume", NULL, OPT_FLAG, offsetof(Args, resume), 0, 0},
+    {"--frame", NULL, OPT_INT, offsetof(Args, frame), 0, LIMIT_FRAME},
+    {"--frames", NULL, OPT_STRING, offsetof(Args, frames), 0, 0},
 };
 
 const Command cmd_render = {"render", usage, opts, (int)(sizeof opts / sizeof opts[0]), 1, sizeof(Args), defaults, run};

@@ -17,6 +17,8 @@ static const char *usage_main =
     "\n"
     "commands:\n"
     "  render SCENE      render a scene file to an EXR image (and a PNG preview)\n"
+    "  tiles SCENE       split a render into regions, one per line, for a scheduler\n"
+    "  merge TILE...     assemble rendered tiles into the full image\n"
     "  export-pov SCENE  write the POV-Ray 3.7 scene that renders the same picture\n"
     "  diff A.exr B.exr  compare two images pixel by pixel\n"
     "  bench ...         generate benchmark rays for a mesh, or time ray casting\n"
@@ -29,7 +31,7 @@ static const char *usage_main =
     "'lancer COMMAND --help' describes a command's options; 'man lancer' has\n"
     "them all.\n";
 
-static const Command *const commands[] = {&cmd_render, &cmd_export_pov, &cmd_diff, &cmd_bench};
+static const Command *const commands[] = {&cmd_render, &cmd_tiles, &cmd_merge, &cmd_export_pov, &cmd_diff, &cmd_bench};
 #define NCOMMANDS ((int)(sizeof commands / sizeof commands[0]))
 
 #define HELP_SHOWN 3 /* parse_opts showed --help: exit 0 */
@@ -111,11 +113,13 @@ static int parse_opts(const Command *c, int argc, char **argv, char *args, const
 /* Runs command c on its arguments. */
 static int run(const Command *c, int argc, char **argv)
 {
-    const char *pos[8];
     int npos;
+    const char **pos = malloc(sizeof *pos * (size_t)(argc + 1));
     char *args = calloc(1, c->args_size);
-    if (!args) {
+    if (!args || !pos) {
         fprintf(stderr, "lancer: out of memory\n");
+        free(args);
+        free(pos);
         return 1;
     }
     if (c->defaults)
@@ -126,6 +130,7 @@ static int run(const Command *c, int argc, char **argv)
     else if (rc == HELP_SHOWN)
         rc = 0;
     free(args);
+    free(pos);
     return rc;
 }
 

@@ -127,8 +127,8 @@ static void rows_list(const unsigned char *done, int h, char *buf, size_t len)
  * rows not finished black, the finished ones listed in its header
  * ("lancer:rows"). Returns the exit status: 128 + the signal, or 1 when
  * the partial image cannot be written. */
-int outputs_save_partial(const char *scene, const char *exr, const char *partial, Image *img,
-                        const unsigned char *done, const char *lead)
+int outputs_save_partial(const ImageAttr *attrs, int nattrs, const char *exr, const char *partial, Image *img,
+                         const unsigned char *done, const char *lead)
 {
     int sig = outputs_stop, n = 0, w = img->width, h = img->height;
     for (int y = 0; y < h; y++)
@@ -148,9 +148,13 @@ int outputs_save_partial(const char *scene, const char *exr, const char *partial
         return 1;
     }
     rows_list(done, h, rows, len);
-    const ImageAttr attrs[] = {{"lancer:rows", rows}, {"lancer:scene", scene}};
+    ImageAttr all[IMAGE_META_MAX];
+    int n_all = 0;
+    for (int i = 0; i < nattrs && n_all < IMAGE_META_MAX - 1; i++)
+        all[n_all++] = attrs[i];
+    all[n_all++] = (ImageAttr){"lancer:rows", rows};
     const char *tmp = outputs_add(partial);
-    int rc = !tmp || image_write_exr_file(img, tmp, partial, IMAGE_FLOAT, attrs, 2, err, sizeof err) != 0;
+    int rc = !tmp || image_write_exr_file(img, tmp, partial, IMAGE_FLOAT, all, n_all, err, sizeof err) != 0;
     if (tmp && rc)
         fprintf(stderr, "lancer: %s\n", err);
     if (rc)
@@ -163,4 +167,30 @@ int outputs_save_partial(const char *scene, const char *exr, const char *partial
     fprintf(stderr, "%slancer: stopped by %s: %d of %d rows saved in %s; %s is unchanged\n", lead, name, n, h,
             partial, exr);
     return 128 + sig;
+}
+
+int outputs_parse_rows(const char *rows, unsigned char *done, int h)
+{
+    memset(done, 0, (size_t)h);
+    const char *p = rows;
+    while (*p) {
+        char *end;
+        long a = strtol(p, &end, 10), b = a;
+        if (end == p || a < 0 || a >= h)
+            return -1;
+        p = end;
+        if (*p == '-') {
+            b = strtol(p + 1, &end, 10);
+            if (end == p + 1 || b < a || b >= h)
+                return -1;
+            p = end;
+        }
+        for (long y = a; y <= b; y++)
+            done[y] = 1;
+        if (*p == ',')
+            p++;
+        else if (*p)
+            return -1;
+    }
+    return 0;
 }

@@ -41,13 +41,19 @@ void outputs_abort(void);
  * Returns 0, or -1 after a message. */
 int outputs_partial_name(const char *exr, char *buf, size_t len);
 
-/* Writes the finished rows of a stopped render (done[y] for each row y) to
- * `partial`, the other rows black, the finished ones listed in its header
- * ("lancer:rows", inclusive ranges such as "0-143,150") beside
- * "lancer:scene"; says so on stderr, after `lead`. Writes nothing when no
- * row is done. Returns the exit status: 128 + the signal, or 1 when the
- * partial image cannot be written. */
-int outputs_save_partial(const char *scene, const char *exr, const char *partial, Image *img,
+/* Writes the finished rows of a stopped render (done[y] for each row y of
+ * img) to `partial`, in 32-bit floats, the other rows black, the finished
+ * ones listed in its header ("lancer:rows", inclusive ranges such as
+ * "0-143,150") beside the nattrs attributes given (the render's stamp);
+ * says so on stderr, after `lead`. Writes nothing when no row is done.
+ * Returns the exit status: 128 + the signal, or 1 when the partial image
+ * cannot be written. */
+int outputs_save_partial(const ImageAttr *attrs, int nattrs, const char *exr, const char *partial, Image *img,
                          const unsigned char *done, const char *lead);
+
+/* Reads a partial image's "lancer:rows" into done (h flags, which it
+ * clears first). Returns 0, or -1 when the list is malformed or names a
+ * row outside 0..h-1. */
+int outputs_parse_rows(const char *rows, unsigned char *done, int h);
 
 #endif
