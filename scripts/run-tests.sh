@@ -23,6 +23,7 @@ for t in "$dir"/test_*; do
 done
 run tests/cli.sh sh tests/cli.sh "$dir/lancer"
 run tests/signals.sh sh tests/signals.sh "$dir/lancer"
+run tests/tiles.sh sh tests/tiles.sh "$dir/lancer"
 # every input that ever failed a fuzzer, through its harness once more
 for r in "$dir"/replay_*; do
     name=${r##*/replay_}

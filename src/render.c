@@ -74,6 +74,9 @@ static void trace_packet(const Job *job, const float *sx, const float *sy, const
     }
 }
 
+/* Adaptive supersampling goes in bands of at least this many rows. */
+#define RENDER_BAND 16
+
 static int stopped(const Job *job) { return job->stop && *job->stop; }
 
 /* Columns xa..xb-1 of image row y into out (3 floats a pixel, from xa):
@@ -253,23 +256,40 @@ int render_image(const RenderPlan *p, const Accel *a, const RenderOptions *opt, 
     for (int y = p->y0; y < p->y1; y++)
         if (!done[y - p->y0])
             todo[ntodo++] = y;
-    for (int y = job.cy0; y < cy1; y++) {
-        int need = 0;
-        for (int d = -1; d <= 1; d++)
-            need |= y + d >= p->y0 && y + d < p->y1 && !done[y + d - p->y0];
-        if (need)
-            around[naround++] = y;
-    }
-    job.progress_total = ntodo + (adaptive ? naround : 0);
-    if (!adaptive)
+    if (!adaptive) {
+        job.progress_total = ntodo;
         rc = run_pass(&job, 0, todo, ntodo, p->threads);
-    else {
-        rc = run_pass(&job, 1, around, naround, p->threads);
-        if (rc == 0) {
-            job.rows = todo;
-            job.nrows = ntodo;
-            job.stats.supersampled += (unsigned long long)aa_mask(&job);
-            rc = run_pass(&job, 2, todo, ntodo, p->threads);
+    } else {
+        /* In bands of rows, so that a stopped render keeps the bands done:
+         * the centres a band needs (its rows and the rows around them, each
+         * traced once), its mask, then its grids. */
+        for (int y = job.cy0; y < cy1; y++) {
+            int need = 0;
+            for (int d = -1; d <= 1; d++)
+                need |= y + d >= p->y0 && y + d < p->y1 && !done[y + d - p->y0];
+            naround += need;
+        }
+        job.progress_total = ntodo + naround;
+        int band = 4 * p->threads > RENDER_BAND ? 4 * p->threads : RENDER_BAND, traced = job.cy0;
+        rc = 0;
+        for (int b = 0; b < ntodo && rc == 0; b += band) {
+            int nb = ntodo - b < band ? ntodo - b : band, n = 0;
+            int last = todo[b + nb - 1] + 1 < cy1 ? todo[b + nb - 1] + 1 : cy1 - 1;
+            for (int y = todo[b] - 1 > traced ? todo[b] - 1 : traced; y <= last; y++) {
+                int need = 0;
+                for (int d = -1; d <= 1; d++)
+                    need |= y + d >= p->y0 && y + d < p->y1 && !done[y + d - p->y0];
+                if (need)
+                    around[n++] = y;
+            }
+            traced = last + 1;
+            rc = run_pass(&job, 1, around, n, p->threads);
+            if (rc == 0) {
+                job.rows = todo + b;
+                job.nrows = nb;
+                job.stats.supersampled += (unsigned long long)aa_mask(&job);
+                rc = run_pass(&job, 2, todo + b, nb, p->threads);
+            }
         }
     }
     pthread_mutex_destroy(&job.lock);

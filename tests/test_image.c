@@ -321,6 +321,49 @@ static void test_exr_float_roundtrip(void **state)
     image_free(&img);
 }
 
+/* A tile: the data window is the image, placed at (x, y) in a display
+ * window of the full picture's size, and reads back so, with the header's
+ * "lancer:" strings and its channel type; an image placed past its
+ * picture is not written. */
+static void test_exr_tile_windows(void **state)
+{
+    Fixture *f = *state;
+    char err[512] = "";
+    Image img, back;
+    ImageMeta meta;
+    assert_int_equal(image_init(&img, 29, 37), 0);
+    fill_random_floats(&img, 777u);
+    img.x = 13;
+    img.y = 7; /* not a multiple of the 16-row chunks */
+    img.full_width = 100;
+    img.full_height = 80;
+    const char *path = join(f, "tile.exr");
+    const ImageAttr attrs[] = {{"lancer:a", "one"}, {"other", "not kept"}, {"lancer:b", ""}};
+    char tmp[1024];
+    snprintf(tmp, sizeof tmp, "%s", path);
+    assert_int_equal(image_write_exr_file(&img, tmp, path, IMAGE_FLOAT, attrs, 3, err, sizeof err), 0);
+    assert_int_equal(image_read_exr_meta(path, &back, &meta, err, sizeof err), 0);
+    assert_true(back.x == 13 && back.y == 7 && back.width == 29 && back.height == 37);
+    assert_true(back.full_width == 100 && back.full_height == 80);
+    assert_memory_equal(back.rgb, img.rgb, sizeof(float) * 3 * 29 * 37);
+    assert_int_equal(meta.n, 2);
+    assert_string_equal(image_meta_get(&meta, "lancer:a"), "one");
+    assert_string_equal(image_meta_get(&meta, "lancer:b"), "");
+    assert_null(image_meta_get(&meta, "other"));
+    assert_int_equal(meta.half, 0);
+    image_meta_free(&meta);
+    image_free(&back);
+    assert_int_equal(image_write_exr(&img, path, IMAGE_HALF, err, sizeof err), 0);
+    assert_int_equal(image_read_exr_meta(path, &back, &meta, err, sizeof err), 0);
+    assert_true(meta.half && meta.n == 0 && back.x == 13 && back.full_height == 80);
+    image_meta_free(&meta);
+    image_free(&back);
+    img.x = 72; /* 72 + 29 > 100 */
+    assert_int_equal(image_write_exr(&img, path, IMAGE_HALF, err, sizeof err), -1);
+    assert_non_null(strstr(err, "invalid image"));
+    image_free(&img);
+}
+
 static void test_exr_half_roundtrip(void **state)
 {
     Fixture *f = *state;
@@ -1000,6 +1043,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_init_sizes),
         cmocka_unit_test_setup_teardown(test_exr_float_roundtrip, setup, teardown),
         cmocka_unit_test_setup_teardown(test_exr_half_roundtrip, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_exr_tile_windows, setup, teardown),
         cmocka_unit_test_setup_teardown(test_exr_read_layouts, setup, teardown),
         cmocka_unit_test_setup_teardown(test_exr_read_errors, setup, teardown),
         cmocka_unit_test_setup_teardown(test_exr_read_foreign_channels, setup, teardown),

@@ -282,6 +282,127 @@ static void test_adaptive_antialiasing(void **state)
     image_free(&ad3);
 }
 
+/* Renders `path` at w x h, spp and aa threshold aa on `threads` threads:
+ * the region r (x0, x1, y0, y1; NULL: all) into img, keeping the rows
+ * whose done flag is set (done NULL: none); img must be set up by the
+ * caller when done is given (a resumed render's rows). */
+static void render_region(const char *path, int w, int h, int spp, float aa, int threads, const int *r,
+                          unsigned char *done, Image *img, RayStats *st)
+{
+    char err[512];
+    Scene s;
+    RenderPlan p;
+    assert_int_equal(scene_load(path, &s, err, sizeof err), 0);
+    PlanOptions o = plan_options();
+    o.width = w;
+    o.height = h;
+    o.spp = spp;
+    o.aa_threshold = aa;
+    o.threads = threads;
+    if (r) {
+        o.region = 1;
+        o.rx0 = r[0];
+        o.rx1 = r[1];
+        o.ry0 = r[2];
+        o.ry1 = r[3];
+    }
+    assert_int_equal(plan_build(&p, &s, &o, err, sizeof err), 0);
+    Accel *a = accel_build(&s, p.variant, 1);
+    assert_non_null(a);
+    if (!done)
+        assert_int_equal(image_init(img, p.x1 - p.x0, p.y1 - p.y0), 0);
+    memset(st, 0, sizeof *st);
+    RenderOptions opt = {NULL, NULL, NULL, done};
+    assert_int_equal(render_image(&p, a, &opt, img, st), 0);
+    accel_free(a);
+    plan_free(&p);
+    scene_free(&s);
+}
+
+/* Each pixel of region r of img is full's (w wide), bit for bit. */
+static void assert_region_equal(const Image *img, const Image *full, const int *r)
+{
+    for (int y = r[2]; y < r[3]; y++)
+        assert_memory_equal(img->rgb + (size_t)(y - r[2]) * (size_t)img->width * 3,
+                            full->rgb + ((size_t)y * (size_t)full->width + (size_t)r[0]) * 3,
+                            sizeof(float) * 3 * (size_t)(r[1] - r[0]));
+}
+
+/* A region renders the pixels of the whole render, bit for bit: with one
+ * sample, the regular grid, and adaptive supersampling (whose decisions
+ * look past the region's edges), on one thread and three, for regions at
+ * the corners, in the middle, one pixel, one row and one column. */
+static void test_regions_are_the_whole_renders_pixels(void **state)
+{
+    (void)state;
+    const int w = 61, h = 45;
+    static const int regions[][4] = {{0, 17, 0, 9}, {44, 61, 36, 45}, {13, 40, 11, 30}, {30, 31, 22, 23},
+                                     {0, 61, 20, 21}, {7, 8, 0, 45}};
+    static const struct {
+        int spp;
+        float aa;
+    } modes[] = {{1, 0.0f}, {2, 0.0f}, {3, 0.05f}};
+    for (int m = 0; m < 3; m++) {
+        Image full;
+        RayStats st, stf;
+        render_region("scenes/parity/antialias.scn", w, h, modes[m].spp, modes[m].aa, 2, NULL, NULL, &full, &stf);
+        assert_true(modes[m].aa == 0.0f || (stf.supersampled > 0 && stf.supersampled < (unsigned)(w * h)));
+        for (size_t k = 0; k < sizeof regions / sizeof regions[0]; k++) {
+            Image img;
+            render_region("scenes/parity/antialias.scn", w, h, modes[m].spp, modes[m].aa, 1 + 2 * (int)(k % 2),
+                          regions[k], NULL, &img, &st);
+            assert_region_equal(&img, &full, regions[k]);
+            long n = (long)(regions[k][1] - regions[k][0]) * (regions[k][3] - regions[k][2]);
+            if (modes[m].aa == 0.0f) /* only its own pixels are traced */
+                assert_int_equal(st.camera, (unsigned long long)(n * modes[m].spp * modes[m].spp));
+            image_free(&img);
+        }
+        image_free(&full);
+    }
+}
+
+/* A render resumed from any set of finished rows (kept as they are) ends
+ * with the whole render's pixels, bit for bit, with adaptive
+ * supersampling, in a region too; the rows kept are not traced again. */
+static void test_resumed_render_is_the_whole_render(void **state)
+{
+    (void)state;
+    const int w = 48, h = 37;
+    const int whole[4] = {0, w, 0, h}, part[4] = {5, 40, 3, 30};
+    Image full;
+    RayStats st;
+    render_region("scenes/parity/antialias.scn", w, h, 3, 0.05f, 1, NULL, NULL, &full, &st);
+    for (int trial = 0; trial < 4; trial++) {
+        const int *r = trial < 2 ? whole : part;
+        int rh = r[3] - r[2], rw = r[1] - r[0];
+        unsigned char done[64];
+        Image img;
+        assert_int_equal(image_init(&img, rw, rh), 0);
+        unsigned long long seed = 0x9e3779b97f4a7c15ULL + (unsigned)trial;
+        int kept = 0;
+        for (int y = 0; y < rh; y++) {
+            seed ^= seed << 13, seed ^= seed >> 7, seed ^= seed << 17;
+            /* trial 0 and 2: a run of rows, as a stop leaves; 1 and 3: any */
+            done[y] = (unsigned char)(trial % 2 ? (seed >> 20) % 2 : y >= 4 && y < rh - 9);
+            if (done[y]) { /* the rows kept: the whole render's */
+                memcpy(img.rgb + (size_t)y * (size_t)rw * 3,
+                       full.rgb + ((size_t)(y + r[2]) * (size_t)w + (size_t)r[0]) * 3, sizeof(float) * 3 * (size_t)rw);
+                kept++;
+            }
+        }
+        assert_true(kept > 0 && kept < rh);
+        render_region("scenes/parity/antialias.scn", w, h, 3, 0.05f, 2, r, done, &img, &st);
+        assert_region_equal(&img, &full, r);
+        for (int y = 0; y < rh; y++)
+            assert_int_equal(done[y], 1);
+        /* pass 1 traces the centres of the rows to do and their neighbours
+         * only: fewer camera rays than the rows to do, twice, at spp 1 */
+        assert_true(st.camera < (unsigned long long)(rw + 2) * (unsigned)(rh - kept) * 3 + 9ULL * st.supersampled);
+        image_free(&img);
+    }
+    image_free(&full);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -290,6 +411,8 @@ int main(void)
         cmocka_unit_test(test_pixels_are_single_rays),
         cmocka_unit_test(test_stop_keeps_finished_rows),
         cmocka_unit_test(test_adaptive_antialiasing),
+        cmocka_unit_test(test_regions_are_the_whole_renders_pixels),
+        cmocka_unit_test(test_resumed_render_is_the_whole_render),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

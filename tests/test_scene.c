@@ -523,6 +523,21 @@ static const BadCase bad_cases[] = {
     BAD("a triangle its scale takes past float",
         PRE "triangle { a 0 0 0 b 1 0 0 c 0 1 0 scale 1e30 1e30 1e30 translate 1e30 0 0 matrix 1e10 0 0 0 1e10 0 0 0 1e10 0 0 0 material m }",
         "t.scn:3:1: triangle: its transform leaves it flat or out of float's range"),
+    BAD("a keyframe without a frame",
+        PRE "keyframe { eye 0 0 -5 target 0 0 0 }",
+        "t.scn:3:1: keyframe: missing property 'frame'"),
+    BAD("a keyframe at a fractional frame",
+        PRE "keyframe { frame 1.5 eye 0 0 -5 target 0 0 0 }",
+        "t.scn:3:18: keyframe: 'frame' must be a whole number from 0 to 999999"),
+    BAD("keyframes out of order",
+        PRE "keyframe { frame 4 eye 0 0 -5 target 0 0 0 }\nkeyframe { frame 4 eye 1 0 -5 target 0 0 0 }",
+        "t.scn:4:18: keyframe: frame 4 must come after frame 4 (keys go in the order of their frames)"),
+    BAD("a keyframe whose eye is its target",
+        PRE "keyframe { frame 0 eye 1 2 3 target 1 2 3 }",
+        "t.scn:3:37: keyframe: 'target' must differ from 'eye'"),
+    BAD("a keyframe fov of 180",
+        PRE "keyframe { frame 0 eye 0 0 -5 target 0 0 0 fov 180 }",
+        "t.scn:3:48: keyframe: 'fov' must be between 0 and 180 degrees"),
     BAD("error after many objects",
         PRE "sphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nbogus\n",
         "t.scn:23:1: unknown keyword 'bogus'"),
@@ -1325,6 +1340,113 @@ static int write_seeds(const char *dir)
     return rc ? 1 : 0;
 }
 
+/* The camera path: on a key, the key's camera exactly (fov from the camera
+ * block when the key has none); between two keys, the line between them;
+ * among more, Catmull-Rom's cubic, which keeps a uniform motion uniform
+ * and gives the hand-computed value elsewhere; before the first key and
+ * after the last, those keys. */
+static void test_camera_path(void **state)
+{
+    (void)state;
+    Scene s;
+    char err[256];
+    parse_ok(CAM "keyframe { frame 10 eye 0 0 -10 target 0 0 0 }\n"
+                 "keyframe { frame 20 eye 10 0 -10 target 0 0 0 fov 60 }\n"
+                 "keyframe { frame 30 eye 20 0 -10 target 0 0 0 }\n"
+                 "keyframe { frame 50 eye 20 20 -10 target 0 0 0 }\n",
+             &s);
+    assert_int_equal(s.nkeys, 4);
+    assert_int_equal(scene_camera_frame(&s, 20, err, sizeof err), 0);
+    assert_true(s.camera.eye_at[0] == 10 && s.camera.eye_at[1] == 0 && s.camera.eye_at[2] == -10);
+    assert_float_equal(s.camera.fovy, 60, 0);
+    assert_int_equal(scene_camera_frame(&s, 10, err, sizeof err), 0);
+    assert_float_equal(s.camera.fovy, 40, 0); /* the camera block's */
+    assert_int_equal(scene_camera_frame(&s, 0, err, sizeof err), 0);
+    assert_true(s.camera.eye_at[0] == 0 && s.camera.eye_at[2] == -10);
+    assert_int_equal(scene_camera_frame(&s, 99, err, sizeof err), 0);
+    assert_true(s.camera.eye_at[0] == 20 && s.camera.eye_at[1] == 20);
+    /* x moves uniformly over keys 10, 20, 30, then stops; on 10..20 both
+     * tangents are 1 a frame: linear */
+    assert_int_equal(scene_camera_frame(&s, 13, err, sizeof err), 0);
+    assert_float_equal(s.camera.eye_at[0], 3.0, 1e-12);
+    /* y: 0, 0, 0 at 10, 20, 30 and 20 at 50. On 20..30 (h 10, s 0.5) the
+     * tangents are 0 and (20 - 0) / (50 - 20): y = h11 h m1 with
+     * h11 = s^3 - s^2 = -1/8, so -10/8 * 2/3 = -5/6 */
+    assert_int_equal(scene_camera_frame(&s, 25, err, sizeof err), 0);
+    assert_float_equal(s.camera.eye_at[1], -5.0 / 6.0, 1e-12);
+    /* fov: 40, 60, 40 at 10, 20, 30 (the keys without one take the
+     * block's). At 15: tangents (60 - 40) / 10 = 2, one-sided, and
+     * (40 - 40) / 20 = 0: 40 h00 + 2 h10 h + 60 h01 = 20 + 2.5 + 30 */
+    assert_int_equal(scene_camera_frame(&s, 15, err, sizeof err), 0);
+    assert_float_equal(s.camera.fovy, 52.5f, 1e-5);
+    scene_free(&s);
+    /* two keys: a straight line, the midpoint at the middle frame */
+    parse_ok(CAM "keyframe { frame 0 eye 0 0 -4 target 0 0 0 }\nkeyframe { frame 8 eye 4 2 -8 target 0 1 0 }\n",
+             &s);
+    assert_int_equal(scene_camera_frame(&s, 4, err, sizeof err), 0);
+    assert_true(s.camera.eye_at[0] == 2 && s.camera.eye_at[1] == 1 && s.camera.eye_at[2] == -6);
+    assert_true(s.camera.target_at[1] == 0.5);
+    scene_free(&s);
+    /* a path through the target: the eye meets it between keys */
+    parse_ok(CAM "keyframe { frame 0 eye -1 0 0 target 0 0 0 }\nkeyframe { frame 2 eye 1 0 0 target 0 0 0 }\n", &s);
+    assert_int_equal(scene_camera_frame(&s, 1, err, sizeof err), -1);
+    assert_string_equal(err, "frame 1: the camera path puts the eye on the target");
+    scene_free(&s);
+    parse_ok(CAM, &s);
+    assert_int_equal(scene_camera_frame(&s, 1, err, sizeof err), -1);
+    assert_string_equal(err, "the scene has no camera path (no 'keyframe' block)");
+    scene_free(&s);
+}
+
+/* Writes text to path. */
+static void put_file(const char *path, const char *mode, const char *text)
+{
+    FILE *f = fopen(path, mode);
+    assert_non_null(f);
+    if (f) {
+        fputs(text, f);
+        fclose(f);
+    }
+}
+
+/* The content hash of the scene file at path. */
+static void hash_of(const char *path, char hex[SHA256_HEX])
+{
+    Scene s;
+    char err[512];
+    assert_int_equal(scene_load(path, &s, err, sizeof err), 0);
+    scene_content_hash(&s, hex);
+    scene_free(&s);
+}
+
+/* The content hash covers the scene file and its meshes as read: it
+ * changes with a byte of either, and not with the scene file's name. */
+static void test_content_hash(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/lancer-hash-XXXXXX", path[256], scn[300], scn2[300];
+    char h1[SHA256_HEX], h2[SHA256_HEX], h3[SHA256_HEX], h4[SHA256_HEX];
+    temp_mesh(dir, path, sizeof path, "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+    const char *text = CAM "material m { }\nmesh { file \"quad.off\" material m }\n";
+    snprintf(scn, sizeof scn, "%s/a.scn", dir);
+    snprintf(scn2, sizeof scn2, "%s/b.scn", dir);
+    put_file(scn, "w", text);
+    put_file(scn2, "w", text);
+    hash_of(scn, h1);
+    hash_of(scn2, h2);
+    assert_string_equal(h1, h2);
+    put_file(path, "w", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 2 0\n3 0 1 2\n"); /* one coordinate of the mesh */
+    hash_of(scn, h3);
+    assert_string_not_equal(h1, h3);
+    put_file(scn, "a", "# a comment\n"); /* a comment more in the scene */
+    hash_of(scn, h4);
+    assert_string_not_equal(h3, h4);
+    unlink(path);
+    unlink(scn);
+    unlink(scn2);
+    rmdir(dir);
+}
+
 int main(int argc, char **argv)
 {
     if (argc == 3 && !strcmp(argv[1], "--seeds"))
@@ -1352,6 +1474,8 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_load_default_scene),
         cmocka_unit_test(test_scene_from_mesh),
         cmocka_unit_test(test_split_triangles),
+        cmocka_unit_test(test_camera_path),
+        cmocka_unit_test(test_content_hash),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
