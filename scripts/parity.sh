@@ -14,7 +14,10 @@
 # which allows N pixels over 2e-3 instead. A scene whose twin needs a finer
 # tessellation of its PN patches says so in a line
 #     # parity-pn-segments: N
-# passed to export-pov as --pn-segments N. Prints one line per scene, then
+# passed to export-pov as --pn-segments N. A scene with a camera path is
+# compared at the frame a line
+#     # parity-frame: N
+# names (export-pov and render --frame N). Prints one line per scene, then
 # "parity: N passed, N failed"; exits non-zero if any failed.
 set -u
 LANCER=${1:-build/lancer}
@@ -31,7 +34,8 @@ for scn in "$@"; do
     name=$(basename "$scn" .scn)
     pov="$WORK/$name.pov"
     segs=$(sed -n 's/^# parity-pn-segments: \([0-9]*\)$/\1/p' "$scn")
-    if ! "$LANCER" export-pov "$scn" ${segs:+--pn-segments "$segs"} -o "$pov"; then
+    frame=$(sed -n 's/^# parity-frame: \([0-9]*\)$/\1/p' "$scn")
+    if ! "$LANCER" export-pov "$scn" ${segs:+--pn-segments "$segs"} ${frame:+--frame "$frame"} -o "$pov"; then
         echo "parity: $name FAIL (export)"
         fail=$((fail + 1))
         continue
@@ -54,7 +58,7 @@ EOF
         mv "$tmp" "$ref"
     fi
     out="$WORK/$name.exr"
-    if ! "$LANCER" render "$scn" -o "$out" --float -q; then
+    if ! "$LANCER" render "$scn" ${frame:+--frame "$frame"} -o "$out" --float -q; then
         echo "parity: $name FAIL (render)"
         fail=$((fail + 1))
         continue

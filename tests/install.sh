@@ -35,7 +35,7 @@ else
     bad "man -l: $(head -5 "$T/warn")"
 fi
 # ... and names every option of every command's usage
-for cmd in render export-pov diff bench; do
+for cmd in render tiles merge export-pov diff bench; do
     for opt in $("$bin" help "$cmd" | grep -o -- '--[a-z][a-z-]*' | sort -u); do
         if grep -qF -- "$opt" "$T/page.txt"; then ok; else bad "lancer.1 does not describe $cmd $opt"; fi
     done

@@ -25,12 +25,15 @@ static const char usage[] =
     "      --pn-segments N   write each PN patch as a smooth mesh of N segments\n"
     "                        per edge, N x N triangles (default 16); the error\n"
     "                        falls as 1/N^2\n"
+    "      --frame N         the camera at frame N of the scene's camera path\n"
     "  -h, --help            show this help\n";
 
 typedef struct {
     const char *out;
-    int width, height, pn_segments;
+    int width, height, pn_segments, frame;
 } Args;
+
+static void defaults(void *args) { ((Args *)args)->frame = -1; }
 
 static int run(void *args, const char **pos, int npos)
 {
@@ -42,6 +45,11 @@ static int run(void *args, const char **pos, int npos)
     char path[AFILE_PATH_MAX], tmp[AFILE_PATH_MAX], err[1024];
     if (scene_load(scene, &s, err, sizeof err) != 0) {
         fprintf(stderr, "%s\n", err);
+        return 1;
+    }
+    if (a->frame >= 0 && scene_camera_frame(&s, a->frame, err, sizeof err) != 0) {
+        fprintf(stderr, "lancer: %s: %s\n", scene, err);
+        scene_free(&s);
         return 1;
     }
     int w = a->width ? a->width : s.image.width, h = a->height ? a->height : s.image.height;
@@ -78,7 +86,8 @@ static const Opt opts[] = {
     {"--width", NULL, OPT_INT, offsetof(Args, width), 1, LIMIT_IMAGE_SIDE},
     {"--height", NULL, OPT_INT, offsetof(Args, height), 1, LIMIT_IMAGE_SIDE},
     {"--pn-segments", NULL, OPT_INT, offsetof(Args, pn_segments), 1, LIMIT_PN_SEGMENTS},
+    {"--frame", NULL, OPT_INT, offsetof(Args, frame), 0, LIMIT_FRAME},
 };
 
-const Command cmd_export_pov = {"export-pov", usage, opts, (int)(sizeof opts / sizeof opts[0]), 1, sizeof(Args), NULL,
+const Command cmd_export_pov = {"export-pov", usage, opts, (int)(sizeof opts / sizeof opts[0]), 1, sizeof(Args), defaults,
                                 run};

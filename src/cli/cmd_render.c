@@ -25,7 +25,8 @@ static const char usage[] =
     "into place together, so existing files are only replaced by complete new\n"
     "ones. An output may not be an input (the scene, a mesh) or a device.\n"
     "SIGINT or SIGTERM stops the render: the rows done are saved in\n"
-    "OUT.partial.exr, the outputs are untouched, and lancer exits 130 or 143.\n"
+    "OUT.partial.exr, the outputs are untouched, and lancer exits 130 or 143;\n"
+    "--resume continues from there.\n"
     "\n"
     "options:\n"
     "  -o, --output OUT.exr  the EXR to write (default: out/<scene name>.exr)\n"
@@ -61,6 +62,13 @@ static const char usage[] =
     "                        the primitives (default: the plan's choice)\n"
     "      --no-plan         skip nothing the plan would skip: the same picture,\n"
     "                        by all the work (to measure what the plan saves)\n"
+    "      --region X0:X1,Y0:Y1  render only columns X0..X1-1 of rows Y0..Y1-1 (the\n"
+    "                        pixels of the whole render, bit for bit; see merge)\n"
+    "      --frame N         render frame N of the scene's camera path (keyframes)\n"
+    "      --frames A:B      render frames A to B-1; the output names then need a\n"
+    "                        frame pattern, %d or %0Nd (default out/<scene>.%04d.exr)\n"
+    "      --resume          continue from OUT.partial.exr when it is of this scene,\n"
+    "                        settings and region; do nothing when OUT is complete\n"
     "  -q, --quiet           no progress bar or summary on stderr\n"
     "  -h, --help            show this help\n";
 
