@@ -177,6 +177,7 @@ static void write_plan(FILE *f, const RenderPlan *p)
             "\"intersect\": \"%s\", \"adc_bailout\": %.9g, \"aa_threshold\": %.9g,\n",
             p->width, p->height, p->spp, p->max_depth, p->threads, p->variant == PRIM_CLASSIC ? "classic" : "robust",
             (double)p->adc_bailout, (double)p->aa_threshold);
+    fprintf(f, "           \"region\": [%d, %d, %d, %d],\n", p->x0, p->x1, p->y0, p->y1);
     fprintf(f, "           \"camera_offset\": [%.9g, %.9g, %.9g], \"camera_inside\": [", p->offset[0], p->offset[1],
             p->offset[2]);
     for (int i = 0; i < p->camera_in.n; i++)
