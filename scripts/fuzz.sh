@@ -32,7 +32,8 @@ done
 printf 'image { width 6 height 4 }\ncamera { eye 0 1 -4 target 0 0 0 fov 50 }\nlight { position 2 4 -3 }\n'\
 'material m { color 1 0.5 0.2 }\nsphere { center 0 0 0 radius 1 material m }\n' >"$seeds/tiny.scn"
 "$san/lancer" render "$seeds/tiny.scn" -o "$seeds/exr/lancer-half.exr" -q &&
-    "$san/lancer" render "$seeds/tiny.scn" -o "$seeds/exr/lancer-float.exr" --float -q || exit 1
+    "$san/lancer" render "$seeds/tiny.scn" -o "$seeds/exr/lancer-float.exr" --float -q &&
+    "$san/lancer" render "$seeds/tiny.scn" -o "$seeds/exr/lancer-tile.exr" --region 1:5,1:3 -q || exit 1
 printf 'OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n' >"$seeds/tet.off"
 "$san/lancer" bench --gen-rays "$seeds/tet.off" "$seeds/rays" 4 4 >/dev/null || exit 1
 printf 'LNCRAYS1\002\0\0\0\0\0\0\0' >"$seeds/rays/short"

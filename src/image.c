@@ -569,16 +569,13 @@ const char *image_meta_get(const ImageMeta *meta, const char *name)
     return NULL;
 }
 
-static int parse_exr(const char *name, const void *data, size_t len, Image *img, ImageMeta *meta, char *err,
-                     size_t errlen);
-
 int image_parse_exr(const char *name, const void *data, size_t len, Image *img, char *err, size_t errlen)
 {
-    return parse_exr(name, data, len, img, NULL, err, errlen);
+    return image_parse_exr_meta(name, data, len, img, NULL, err, errlen);
 }
 
-static int parse_exr(const char *name, const void *data, size_t len, Image *img, ImageMeta *meta, char *err,
-                     size_t errlen)
+int image_parse_exr_meta(const char *name, const void *data, size_t len, Image *img, ImageMeta *meta, char *err,
+                         size_t errlen)
 {
     img->width = 0;
     img->height = 0;
@@ -615,7 +612,7 @@ int image_read_exr_meta(const char *path, Image *img, ImageMeta *meta, char *err
     size_t len;
     if (afile_read(path, (unsigned long long)LIMIT_EXR_BYTES, "images", &data, &len, err, errlen) != 0)
         return -1;
-    int rc = parse_exr(path, data, len, img, meta, err, errlen);
+    int rc = image_parse_exr_meta(path, data, len, img, meta, err, errlen);
     free(data);
     return rc;
 }

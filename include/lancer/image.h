@@ -85,6 +85,9 @@ typedef struct {
 /* image_read_exr, and the header's ImageMeta into *meta (freed with
  * image_meta_free, also after a failure). */
 int image_read_exr_meta(const char *path, Image *img, ImageMeta *meta, char *err, size_t errlen);
+/* The same of an EXR held in memory. */
+int image_parse_exr_meta(const char *name, const void *data, size_t len, Image *img, ImageMeta *meta, char *err,
+                         size_t errlen);
 void image_meta_free(ImageMeta *meta);
 /* The value of attribute `name`, or NULL. */
 const char *image_meta_get(const ImageMeta *meta, const char *name);
