@@ -53,7 +53,7 @@ TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/%)
 
 .PHONY: all run test tests deps-run deps-test clean exact exact-judge stress cgal-data bench install uninstall \
-        fuzz fuzz-build fuzzers frontier
+        fuzz fuzz-build fuzzers frontier test-cluster
 .DEFAULT_GOAL := all
 
 all: $(BUILD)/lancer
@@ -180,6 +180,14 @@ test: deps-test
 	$(MAKE) BUILD=build/san SAN=1 WERROR=1 tests
 	$(MAKE) exact-judge
 	EXACT_RAYS=$(EXACT_RAYS) sh scripts/run-tests.sh build/san $(EXACT_DIR)/judge
+	$(MAKE) test-cluster
+
+# lancer on a one-node Slurm cluster and GNU parallel, started and stopped
+# by the test (root only; skipped with a message otherwise), on the
+# release build: the renders must be large enough to stop midway.
+test-cluster: deps-test
+	$(MAKE) all
+	bash tests/cluster.sh $(BUILD)/lancer
 
 # Fuzzing: each harness for FUZZ_SECONDS (default 60) from the seeds the
 # tests and scenes give, the corpus kept in build/fuzz-corpus between runs.

@@ -8,7 +8,7 @@
 set -eu
 
 pkgs="gcc make pkg-config libc6-dev libopenexr-dev libpng-dev"
-test_pkgs="libcmocka-dev povray g++ libcgal-dev libcgal-demo libgmp-dev libmpfr-dev man-db openexr openimageio-tools clang libclang-rt-14-dev"
+test_pkgs="libcmocka-dev povray g++ libcgal-dev libcgal-demo libgmp-dev libmpfr-dev man-db openexr openimageio-tools clang libclang-rt-14-dev slurm-wlm munge parallel"
 case "${1:-run}" in
     run) ;;
     test) pkgs="$pkgs $test_pkgs" ;;
