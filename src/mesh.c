@@ -9,6 +9,7 @@
 #include <float.h>
 #include <limits.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -85,6 +86,22 @@ int mesh_format_from_path(const char *path, MeshFormat *fmt)
     return -1;
 }
 
+typedef struct {
+    const char *buf;
+    size_t len;
+    unsigned char *out;
+} HashJob;
+
+static void *hash_bytes(void *arg)
+{
+    HashJob *j = arg;
+    Sha256 h;
+    sha256_init(&h);
+    sha256_update(&h, j->buf, j->len);
+    sha256_final(&h, j->out);
+    return NULL;
+}
+
 int mesh_load(const char *path, Mesh *m, char *err, size_t errlen)
 {
     MeshFormat fmt;
@@ -97,13 +114,19 @@ int mesh_load(const char *path, Mesh *m, char *err, size_t errlen)
     }
     if (afile_read(path, (unsigned long long)LIMIT_MESH_BYTES, "meshes", &buf, &len, err, errlen) != 0)
         return -1;
+    /* The digest on another thread, beside the parse: both only read buf,
+     * and the parse takes longer. */
+    unsigned char digest[SHA256_BYTES];
+    HashJob job = {buf, len, digest};
+    pthread_t tid;
+    int threaded = pthread_create(&tid, NULL, hash_bytes, &job) == 0;
+    if (!threaded)
+        hash_bytes(&job);
     int rc = mesh_parse(path, buf, len, fmt, m, err, errlen);
-    if (rc == 0) {
-        Sha256 h;
-        sha256_init(&h);
-        sha256_update(&h, buf, len);
-        sha256_final(&h, m->sha256);
-    }
+    if (threaded)
+        pthread_join(tid, NULL);
+    if (rc == 0)
+        memcpy(m->sha256, digest, SHA256_BYTES);
     free(buf);
     return rc;
 }
