@@ -17,7 +17,8 @@ Submits the render of SCENE to Slurm and prints the job ids, then returns:
 Every task runs `lancer render ... --resume`: submitting the same command
 again renders only what is missing. A finished tile or frame is left as it
 is, and a task stopped by scancel or its time limit (SIGTERM, then SIGKILL
-after KillWait) continues from its partial image.
+after KillWait) continues from its partial image. When a tile fails or is
+cancelled, Slurm cancels the merge job too (--kill-on-invalid-dep=yes).
 
 options:
   --lancer PATH       the lancer binary, on every node (default: lancer on PATH)
@@ -132,7 +133,9 @@ JOB
 array=${array%%;*}
 names=""
 for ((i = 0; i < count; i++)); do names+=" $(printf '%q' "$outdir/tile.$(printf %04d "$i").exr")"; done
-merge=$("${sb[@]}" --job-name=lancer-merge --dependency=afterok:"$array" -o "$logs/merge.log" <<JOB
+# a failed or cancelled tile cancels the merge, rather than leaving it
+# pending for ever; submitting again renders what is missing and merges
+merge=$("${sb[@]}" --job-name=lancer-merge --dependency=afterok:"$array" --kill-on-invalid-dep=yes -o "$logs/merge.log" <<JOB
 #!/bin/sh
 exec $(printf '%q' "$lancer") merge -o $(printf '%q' "$out")$names
 JOB

@@ -114,15 +114,9 @@ if [ -e "$W/big.tiles/tile.0001.partial.exr" ] && [ ! -e "$W/big.tiles/tile.0001
     bad "the cancelled tile left no partial image: $(ls "$W/big.tiles"; cat "$W/big.tiles/log/tile.1.log")"
 fi
 saved=$(grep -o '[0-9]* of [0-9]* rows saved' "$W/big.tiles/log/tile.1.log")
-i=0 # slurmctld judges the dependency on its next pass
-while [ $i -lt 120 ]; do
-    reason=$(scontrol -o show job "$merge" | sed -n 's/.*Reason=\([A-Za-z_]*\).*/\1/p')
-    [ "$reason" = DependencyNeverSatisfied ] && break
-    sleep 0.5
-    i=$((i + 1))
-done
-if [ "$reason" = DependencyNeverSatisfied ]; then ok; else bad "the merge job waits for '$reason'"; fi
-scancel "$merge"
+if slurm_wait "$merge" 120; then ok; else bad "the merge job outlived its cancelled tile: $(squeue)"; fi
+mstate=$(slurm_state "$merge")
+if [ "$mstate" = CANCELLED ]; then ok; else bad "the merge job ended $mstate, not CANCELLED"; fi
 t0=$(now)
 "$SR" --lancer "$LANCER" --tiles 4 "$W/orbit.scn" "$W/big.exr" -- $B >"$W/ids" 2>"$W/err" || bad "slurm-render again: $(cat "$W/err")"
 ids "$W/ids"
@@ -136,7 +130,7 @@ if grep -q "resuming from .*tile.0001.partial.exr" "$W/big.tiles/log/tile.1.log"
 fi
 same "$W/big.exr" "$W/big-single.exr" "cancelled and resumed tiles"
 echo "cluster: Slurm, 4 tiles of 1280x960 (spp 8): task ${first_array}_1 cancelled by scancel after 2 s ($saved), merge" \
-    "$first_merge left DependencyNeverSatisfied and cancelled; resubmitted as $array and $merge: 3 tiles skipped, 1" \
+    "$first_merge cancelled by Slurm (--kill-on-invalid-dep); resubmitted as $array and $merge: 3 tiles skipped, 1" \
     "resumed, $(secs "$t0" "$(now)") s; merged = single: $(cmp -s "$W/big.exr" "$W/big-single.exr" && echo bit-identical || echo DIFFERENT)"
 
 # 4. GNU parallel, two local workers: tiles, then frames
