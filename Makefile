@@ -210,8 +210,9 @@ stress: deps-test exact-judge
 	LANCER_PN_CRACK_RAYS=$(STRESS_PN_RAYS) build/san/test_pntri
 
 # Benchmarks (not tests): the routines' speed, lancer against Embree on ray
-# files of three CGAL meshes, the bunny frame against POV-Ray, and PN
-# surfaces' time against error.
+# files of six CGAL meshes, the bunny frame and the parity scenes against
+# POV-Ray, and PN surfaces' time against error; then one table of the
+# targets against the measured ratios (build/bench/table.md).
 $(BUILD)/prim_bench: tests/bench/prim_bench.c $(BUILD)/liblancer.a
 	$(CC) $(CPPFLAGS) -Isrc/cli $(ALLCFLAGS) $^ $(LDLIBS) -o $@
 
@@ -225,9 +226,17 @@ bench:
 	sh scripts/deps.sh bench
 	sh scripts/cgal-data.sh build/cgal-data
 	$(MAKE) all $(BUILD)/prim_bench $(BUILD)/embree_bench $(BUILD)/pn_tess
-	sh scripts/bench.sh
-	sh scripts/bench-frame.sh $(BUILD)/lancer
-	sh scripts/bench-pn.sh $(BUILD)/lancer $(BUILD)/pn_tess
+	mkdir -p build/bench
+	: >build/bench/results.tsv
+	sh scripts/bench.sh build/bench/results.tsv
+	@echo; echo "## The bunny mirror frame against POV-Ray"; echo
+	sh scripts/bench-frame.sh $(BUILD)/lancer 9 build/bench/results.tsv
+	@echo; echo "## The parity scenes against POV-Ray"; echo
+	sh scripts/bench-pov.sh $(BUILD)/lancer 5 2 build/bench/results.tsv
+	@echo; echo "## PN surfaces: time against error"; echo
+	sh scripts/bench-pn.sh $(BUILD)/lancer $(BUILD)/pn_tess build/bench/results.tsv
+	@echo; echo "## Targets"; echo
+	@sh scripts/bench-table.sh build/bench/results.tsv | tee build/bench/table.md
 
 # Time against error: the render knobs swept on six scenes (the bunny's mesh
 # from cgal-data), against POV-Ray references; writes build/frontier/frontier.csv

@@ -6,15 +6,18 @@
 # "render" phase of --stats: neither counts parsing, set-up or output.
 # Each ratio is the median of the runs' own ratios (the two sides of a
 # ratio ran a moment apart, so the shared machine's slow spells cancel),
-# and every time is a median. Not a test: it asserts nothing.
+# and every time is a median. With RESULTS, appends the "mirror" (POV-Ray /
+# lancer) and "scaling" (one thread / two) lines to it
+# (scripts/bench-table.sh). Not a test: it asserts nothing.
 #
-#   sh scripts/bench-frame.sh [LANCER] [RUNS]
+#   sh scripts/bench-frame.sh [LANCER] [RUNS] [RESULTS]
 #
 # LANCER defaults to build/lancer, RUNS to 9. Needs povray and the CGAL
 # meshes (make cgal-data).
 set -eu
 LANCER=${1:-build/lancer}
 RUNS=${2:-9}
+RESULTS=${3:-/dev/null}
 SCN=scenes/bunny.scn
 WORK=build/bench-frame
 mkdir -p "$WORK"
@@ -42,3 +45,5 @@ echo "| ${w}x$h, medians of $RUNS runs in turns | POV-Ray trace (s) | lancer, 1 
 echo "| --- | --- | --- | --- | --- | --- |"
 printf '| %s | %.3f | %.3f | %.3f | %.2f | %.2f |\n' "$(basename "$SCN")" "$(col '$1')" "$(col '$2')" "$(col '$3')" \
     "$(col '$1 / $2')" "$(col '$2 / $3')"
+printf 'mirror\tbunny.scn, 1 thread\t%.3f\nscaling\tbunny.scn, %sx%s\t%.3f\n' "$(col '$1 / $2')" "$w" "$h" "$(col '$2 / $3')" \
+    >>"$RESULTS"

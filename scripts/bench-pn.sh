@@ -5,14 +5,21 @@
 # on one thread. For each: the BVH build time, the render time, the peak
 # memory, and the image error against the exact render. Writes
 # docs/pn-time-error.csv and, when gnuplot is installed, docs/pn-time-error.svg.
+# With RESULTS, appends the PN targets' ratios to it (scripts/bench-table.sh):
+# "pn-exact", exact over flat render time (bunny00); "pn-memory", PN over
+# flat peak memory; "pn-fast", the time (build and render) of the first
+# tessellation whose error is at most fast mode's over fast mode's, "inf"
+# when none of those tried reaches it; "pn-tess-memory", PN's peak memory
+# over that tessellation's (or the finest tried, which has more error).
 #
-#   sh scripts/bench-pn.sh [LANCER] [PN_TESS]
+#   sh scripts/bench-pn.sh [LANCER] [PN_TESS] [RESULTS]
 #
 # LANCER defaults to build/lancer, PN_TESS (tests/bench/pn_tess.c) to
 # build/pn_tess; the meshes come from build/cgal-data (make cgal-data).
 set -eu
 LANCER=${1:-build/lancer}
 TESS=${2:-build/pn_tess}
+RESULTS=${3:-/dev/null}
 WORK=build/bench-pn
 CSV=docs/pn-time-error.csv
 MESHES=build/cgal-data/meshes
@@ -47,7 +54,7 @@ scene() {
 render() {
     /usr/bin/time -f "%M" -o "$WORK/$1.rss" "$LANCER" render "$2" -o "$WORK/$1.exr" --float --threads 1 \
         --stats "$WORK/$1.json" -q
-    b=$(sed -n 's/.*"build": \([0-9.]*\).*/\1/p' "$WORK/$1.json")
+    b=$(sed -n 's/.*"phases_s": {[^}]*"build": \([0-9.]*\).*/\1/p' "$WORK/$1.json")
     r=$(sed -n 's/.*"phases_s": {[^}]*"render": \([0-9.]*\).*/\1/p' "$WORK/$1.json")
     kb=$(tail -n 1 "$WORK/$1.rss")
     echo "$b $r $((kb / 1024))"
@@ -86,6 +93,28 @@ echo "$plan" | while IFS=: read -r mesh ns; do
     done
 done
 mv "$CSV.tmp" "$CSV"
+
+# The targets, mesh by mesh; the rows of a mesh come exact, fast, flat, then
+# the tessellations by n.
+awk -F, 'NR > 1 {
+        m = $1
+        if ($2 == "exact") { et[m] = $6; em[m] = $7; order[++nm] = m }
+        else if ($2 == "fast") { ft[m] = $5 + $6; frms[m] = $8 }
+        else if ($2 == "flat") { lt[m] = $6; lm[m] = $7 }
+        else if (!(m in reach)) {
+            tm[m] = $7
+            if ($8 <= frms[m]) { reach[m] = ($5 + $6) / ft[m] }
+        }
+    }
+    END {
+        for (i = 1; i <= nm; i++) {
+            m = order[i]
+            if (m == "bunny00") printf "pn-exact\t%s\t%.3f\n", m, et[m] / lt[m]
+            printf "pn-memory\t%s\t%.3f\n", m, em[m] / lm[m]
+            printf "pn-fast\t%s\t%s\n", m, (m in reach) ? sprintf("%.3f", reach[m]) : "inf"
+            printf "pn-tess-memory\t%s\t%.3f\n", m, em[m] / tm[m]
+        }
+    }' "$CSV" >>"$RESULTS"
 
 if command -v gnuplot >/dev/null; then
     gnuplot <<EOF

@@ -1,49 +1,64 @@
 #!/bin/sh
-# Speed against POV-Ray: renders every parity scene with both renderers, at
-# one thread and at every thread, alternating run by run, and prints a
-# Markdown table of median times and the ratio POV-Ray / lancer (above 1:
-# lancer is faster). Not a test: times on a shared machine are noisy, which
-# is why the two renderers alternate and only medians are compared.
+# Speed against POV-Ray on every parity scene: both renderers at one thread
+# and at two, in turns run by run, at SCALE times the scene's size (so that
+# times stand well above POV-Ray's 1 ms resolution). POV-Ray's time is the
+# "Trace Time" of its statistics, lancer's the "render" phase of --stats:
+# neither counts parsing, set-up or output. Each ratio is the median of the
+# runs' own ratios (its two sides ran a moment apart, so the shared
+# machine's slow spells cancel), each time a median. Prints a Markdown
+# table; with RESULTS, appends "frame" (POV-Ray / lancer at equal threads)
+# and "scaling" (lancer's one thread / two threads) lines to it
+# (scripts/bench-table.sh). Not a test: it asserts nothing.
 #
-#   sh scripts/bench-pov.sh [LANCER] [RUNS] [SCALE]
+#   sh scripts/bench-pov.sh [LANCER] [RUNS] [SCALE] [RESULTS]
 #
-# LANCER defaults to build/lancer, RUNS (per renderer and setting) to 5,
-# SCALE (image size multiplier, so that times are well above POV-Ray's 1 ms
-# resolution) to 4. POV-Ray's time is the "Trace Time" of its statistics;
-# lancer's the "render" phase of --stats: both leave out parsing and start-up.
+# LANCER defaults to build/lancer, RUNS to 5, SCALE to 2.
 set -eu
 LANCER=${1:-build/lancer}
 RUNS=${2:-5}
-SCALE=${3:-4}
-ALL=$(nproc)
+SCALE=${3:-2}
+RESULTS=${4:-/dev/null}
 WORK=build/bench-pov
 mkdir -p "$WORK"
+command -v povray >/dev/null || { echo "bench-pov: povray is not installed (scripts/deps.sh test)" >&2; exit 1; }
 
 median() { sort -g | awk '{v[NR] = $1} END {print (NR % 2) ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2}'; }
+col() { awk "{print $1}" "$WORK/runs" | median; }
 
-echo "| scene | size | threads | POV-Ray trace (s) | lancer render (s) | POV-Ray / lancer |"
-echo "| --- | --- | --- | --- | --- | --- |"
+pov_s() { # threads: POV-Ray's trace time, in seconds
+    povray -D -V -A "+W$((w * k))" "+H$((h * k))" "+WT$1" +FE "+O$WORK/pov.exr" "+I$WORK/$name.pov" \
+        >"$WORK/pov.log" 2>&1
+    sed -n 's/.*Trace Time:.*(\([0-9.]*\) seconds).*/\1/p' "$WORK/pov.log"
+}
+lancer_s() { # threads: lancer's render phase, in seconds
+    "$LANCER" render "$scn" ${frame:+--frame "$frame"} --width "$w" --height "$h" --threads "$1" -q \
+        -o "$WORK/lancer.exr" --stats "$WORK/stats.json"
+    sed -n 's/.*"phases_s": {[^}]*"render": \([0-9.]*\).*/\1/p' "$WORK/stats.json"
+}
+
+echo "| scene | size | POV-Ray, 1 thread (s) | lancer, 1 (s) | POV-Ray, 2 (s) | lancer, 2 (s) | POV-Ray / lancer, 1 thread | at 2 threads | lancer 1 / 2 threads |"
+echo "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"
 for scn in scenes/parity/*.scn; do
     name=$(basename "$scn" .scn)
+    frame=$(sed -n 's/^# parity-frame: \([0-9]*\)$/\1/p' "$scn")
+    segs=$(sed -n 's/^# parity-pn-segments: \([0-9]*\)$/\1/p' "$scn")
     read -r w h k <<SIZE
-$("$LANCER" export-pov "$scn" -o - | sed -n 's|^// lancer-reference: width \([0-9]*\) height \([0-9]*\) spp \([0-9]*\)$|\1 \2 \3|p')
+$("$LANCER" export-pov "$scn" ${frame:+--frame "$frame"} -o - | sed -n 's|^// lancer-reference: width \([0-9]*\) height \([0-9]*\) spp \([0-9]*\)$|\1 \2 \3|p')
 SIZE
     w=$((w * SCALE))
     h=$((h * SCALE))
-    "$LANCER" export-pov "$scn" -o "$WORK/$name.pov" --width "$w" --height "$h"
-    for t in 1 "$ALL"; do
-        : >"$WORK/pov.times"
-        : >"$WORK/lancer.times"
-        for _ in $(seq "$RUNS"); do
-            povray -D -V -A "+W$((w * k))" "+H$((h * k))" "+WT$t" +FE "+O$WORK/pov.exr" "+I$WORK/$name.pov" \
-                >"$WORK/pov.log" 2>&1
-            sed -n 's/.*Trace Time:.*(\([0-9.]*\) seconds).*/\1/p' "$WORK/pov.log" >>"$WORK/pov.times"
-            "$LANCER" render "$scn" --width "$w" --height "$h" --threads "$t" -q -o "$WORK/lancer.exr" \
-                --stats "$WORK/stats.json"
-            sed -n 's/.*"phases_s": {[^}]*"render": \([0-9.]*\).*/\1/p' "$WORK/stats.json" >>"$WORK/lancer.times"
-        done
-        p=$(median <"$WORK/pov.times")
-        l=$(median <"$WORK/lancer.times" | awk '{printf "%.3f", $1}')
-        echo "| $name | ${w}x$h$([ "$k" -gt 1 ] && echo " (${k}x$k spp)") | $t | $p | $l | $(awk -v p="$p" -v l="$l" 'BEGIN {printf "%.2f", p / l}') |"
+    "$LANCER" export-pov "$scn" ${frame:+--frame "$frame"} ${segs:+--pn-segments "$segs"} -o "$WORK/$name.pov" \
+        --width "$w" --height "$h"
+    : >"$WORK/runs"
+    for _ in $(seq "$RUNS"); do
+        echo "$(pov_s 1) $(lancer_s 1) $(pov_s 2) $(lancer_s 2)" >>"$WORK/runs"
     done
+    r1=$(col '$1 / $2')
+    r2=$(col '$3 / $4')
+    sc=$(col '$2 / $4')
+    printf '| %s | %s | %.3f | %.3f | %.3f | %.3f | %.2f | %.2f | %.2f |\n' "$name" \
+        "${w}x$h$([ "$k" -gt 1 ] && echo " (${k}x$k spp)")" "$(col '$1')" "$(col '$2')" "$(col '$3')" "$(col '$4')" \
+        "$r1" "$r2" "$sc"
+    printf 'frame\t%s, 1 thread\t%.3f\nframe\t%s, 2 threads\t%.3f\nscaling\t%s\t%.3f\n' "$name" "$r1" "$name" "$r2" \
+        "$name" "$sc" >>"$RESULTS"
 done

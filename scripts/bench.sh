@@ -1,25 +1,25 @@
 #!/bin/sh
-# Benchmarks (make bench): the speed of each intersection routine, classic
-# against robust; then lancer against Embree 3 on the same ray files for
-# three CGAL meshes, one thread, alternating pass by pass. Prints Markdown.
-#   sh scripts/bench.sh [PASSES]
+# Ray benchmarks (make bench): the speed of each intersection routine,
+# classic against robust; then lancer against Embree 3 robust on the same
+# ray files, for six CGAL meshes, each framed loosely and tightly, one
+# thread, alternating pass by pass. Prints Markdown; appends each measured
+# ratio to RESULTS (scripts/bench-table.sh).
+#   sh scripts/bench.sh RESULTS [PASSES]
 set -eu
-passes=${1:-11}
+results=$1
+passes=${2:-11}
 data=build/cgal-data/meshes
-# The figures depend on the processor (Embree picks its code by the ISA), so
-# every run names it.
-echo "Processor: $(sed -n 's/^model name[^:]*: //p' /proc/cpuinfo | head -n 1), $(nproc) cores;" \
-    "AVX2: $(grep -qw avx2 /proc/cpuinfo && echo yes || echo no)," \
-    "AVX-512: $(grep -qw avx512f /proc/cpuinfo && echo yes || echo no)"
-echo
 echo "## Intersection routines (Mrays/s, one thread, medians of 9 alternating rounds)"
 echo
 build/prim_bench
-for m in bunny00 refined_elephant armadillo; do
-    mkdir -p "build/bench/$m"
-    build/lancer bench --gen-rays "$data/$m.off" "build/bench/$m" 1024 1024 >/dev/null
-    echo
-    echo "## $m"
-    echo
-    build/embree_bench "$data/$m.off" "build/bench/$m" "$passes"
+echo
+echo "## Rays against Embree 3 robust (one thread, medians of $passes alternating passes)"
+echo
+for m in bunny00 refined_elephant armadillo ChineseDragon-10kv diplodocus fandisk_large; do
+    for f in loose tight; do
+        mkdir -p "build/bench/$m/$f"
+        build/lancer bench --gen-rays "$data/$m.off" "build/bench/$m/$f" 1024 1024 \
+            $([ "$f" = tight ] && echo --tight) >/dev/null
+    done
+    build/embree_bench "$data/$m.off" "$passes" "$results" "build/bench/$m/loose" "build/bench/$m/tight"
 done

@@ -5,7 +5,7 @@
 set -eu
 dir=${1:-build/cgal-data}
 tarball=/usr/share/doc/libcgal-dev/data.tar.gz
-meshes="eight.off anchor.off hand.off couplingdown.off bunny00.off refined_elephant.off armadillo.off pig.stl sphere.stl"
+meshes="eight.off anchor.off hand.off couplingdown.off bunny00.off refined_elephant.off armadillo.off ChineseDragon-10kv.off diplodocus.off fandisk_large.off pig.stl sphere.stl"
 
 missing=""
 for m in $meshes; do

@@ -221,6 +221,20 @@ if grep -Eq '^mrays=[0-9.]+ hits=[1-9][0-9]* sumt=[0-9.e+]+ build_ms=[0-9.]+ ray
 fi
 expect 0 "$LANCER" bench --mesh "$T/tet.off" --rays "$T/rays/shadow.rays" --kind any --passes 1 --classic
 has "$T/out" "sumt=0 "
+# packets: the same hits and the same sum of t as ray by ray
+"$LANCER" bench --mesh "$T/tet.off" --rays "$T/rays/primary.rays" --kind closest --passes 1 |
+    sed 's/^mrays=[0-9.]* //; s/ build_ms=[0-9.]*//' >"$T/one"
+expect 0 "$LANCER" bench --mesh "$T/tet.off" --rays "$T/rays/primary.rays" --kind packet --passes 1
+if [ "$(sed 's/^mrays=[0-9.]* //; s/ build_ms=[0-9.]*//' "$T/out")" = "$(cat "$T/one")" ] && grep -q 'hits=[1-9]' "$T/one"; then
+    ok
+else
+    bad "bench --kind packet: $(cat "$T/out") against $(cat "$T/one")"
+fi
+# a tight framing: at least 90% of the camera rays hit, more than the loose one
+mkdir "$T/tight"
+expect 0 "$LANCER" bench --gen-rays "$T/tet.off" "$T/tight" 16 16 --tight
+if [ "$(sed -n 's/^primary=256 shadow=\([0-9]*\) .*/\1/p' "$T/out")" -ge 231 ]; then ok; else bad "bench --tight: $(cat "$T/out")"; fi
+expect 2 "$LANCER" bench --mesh "$T/tet.off" --rays "$T/rays/primary.rays" --kind closest --tight
 expect 0 "$LANCER" bench --build-series "$T/tet.off" --max-mtris 1
 has "$T/out" "| 4 | "
 expect 2 "$LANCER" bench --mesh "$T/tet.off" --rays "$T/rays/primary.rays" --kind nearest

@@ -24,7 +24,52 @@ void bench_free(RaySet *s)
     s->n = 0;
 }
 
-int bench_gen_rays(const Scene *s, const Accel *a, int w, int h, unsigned long long seed, RaySet *primary,
+/* The fraction of the w x h picture's rays that hit, from 32 x 32 of them
+ * spread evenly. */
+static double hit_fraction(const Accel *a, const CameraSpec *spec, int w, int h)
+{
+    Camera cam;
+    camera_init(&cam, spec, w, h);
+    RayStats st = {0, 0, 0, 0, 0, 0, 0};
+    int hits = 0;
+    for (int y = 0; y < 32; y++)
+        for (int x = 0; x < 32; x++) {
+            Ray r = camera_ray(&cam, ((float)x + 0.5f) * (float)w / 32.0f, ((float)y + 0.5f) * (float)h / 32.0f);
+            PrimHit hit;
+            hits += accel_closest(a, &r, &hit, &st) >= 0;
+        }
+    return hits / 1024.0;
+}
+
+/* Narrows the loose framing until BENCH_TIGHT_HITS of the rays hit: aimed
+ * at the surface seen at the picture's centre (the bounds' centre may be a
+ * hole), the field of view shrinks by steps. The first view that reaches
+ * the fraction is kept, else the one with the most hits. */
+static void tighten(const Accel *a, CameraSpec *spec, int w, int h)
+{
+    Camera cam;
+    camera_init(&cam, spec, 1, 1);
+    Ray r = camera_ray(&cam, 0.5f, 0.5f);
+    PrimHit hit;
+    RayStats st = {0, 0, 0, 0, 0, 0, 0};
+    if (accel_closest(a, &r, &hit, &st) >= 0)
+        spec->target = vec_madd(r.o, r.d, hit.t);
+    CameraSpec best = *spec;
+    double most = -1.0;
+    for (float fov = spec->fovy; fov >= 1.0f; fov *= 0.85f) {
+        spec->fovy = fov;
+        double f = hit_fraction(a, spec, w, h);
+        if (f > most) {
+            most = f;
+            best = *spec;
+        }
+        if (f >= BENCH_TIGHT_HITS)
+            break;
+    }
+    *spec = best;
+}
+
+int bench_gen_rays(const Scene *s, const Accel *a, int w, int h, int tight, unsigned long long seed, RaySet *primary,
                    RaySet *shadow, RaySet *diffuse)
 {
     primary->n = shadow->n = diffuse->n = 0;
@@ -46,6 +91,8 @@ int bench_gen_rays(const Scene *s, const Accel *a, int w, int h, unsigned long l
                        .target = c,
                        .up = vec3(0, 1, 0),
                        .fovy = 40.0f};
+    if (tight)
+        tighten(a, &spec, w, h);
     Vec3 light = vec_madd(c, vec3(1.5f, 3.0f, 2.0f), radius);
     Camera cam;
     camera_init(&cam, &spec, w, h);
@@ -109,12 +156,35 @@ double bench_pass(const Accel *a, const Ray *rays, size_t n, int any, size_t *hi
     return dt;
 }
 
-void bench_trace(const Accel *a, const Ray *rays, size_t n, int any, int passes, BenchResult *res)
+double bench_pass_packet(const Accel *a, const Ray *rays, size_t n, size_t *hits, double *sumt)
+{
+    RayStats st = {0, 0, 0, 0, 0, 0, 0};
+    size_t k = 0;
+    double sum = 0.0, t0 = clock_now();
+    for (size_t i = 0; i < n; i += ACCEL_PACKET) {
+        int m = n - i < ACCEL_PACKET ? (int)(n - i) : ACCEL_PACKET, best[ACCEL_PACKET];
+        PrimHit h[ACCEL_PACKET];
+        accel_closest_packet(a, rays + i, m, h, best, &st);
+        for (int j = 0; j < m; j++)
+            if (best[j] >= 0) {
+                k++;
+                sum += h[j].t;
+            }
+    }
+    double dt = clock_now() - t0;
+    *hits = k;
+    *sumt = sum;
+    return dt;
+}
+
+void bench_trace(const Accel *a, const Ray *rays, size_t n, BenchKind kind, int passes, BenchResult *res)
 {
     double best = 0.0;
-    bench_pass(a, rays, n, any, &res->hits, &res->sumt); /* warms the caches */
-    for (int p = 0; p < passes; p++) {
-        double dt = bench_pass(a, rays, n, any, &res->hits, &res->sumt);
+    for (int p = -1; p < passes; p++) { /* pass -1 warms the caches */
+        double dt = kind == BENCH_PACKET ? bench_pass_packet(a, rays, n, &res->hits, &res->sumt)
+                                         : bench_pass(a, rays, n, kind == BENCH_ANY, &res->hits, &res->sumt);
+        if (p < 0)
+            continue;
         if (dt > 0.0 && (double)n / dt / 1e6 > best)
             best = (double)n / dt / 1e6;
     }

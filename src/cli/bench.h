@@ -6,7 +6,7 @@
  *     RaySet primary, shadow, diffuse;
  *     bench_gen_rays(&scene, accel, 1024, 1024, 1, &primary, &shadow, &diffuse);
  *     BenchResult res;
- *     bench_trace(accel, primary.rays, primary.n, 0, 3, &res);
+ *     bench_trace(accel, primary.rays, primary.n, BENCH_CLOSEST, 3, &res);
  *     ... res.mrays, res.hits ...
  *     bench_free(&primary); ...
  *
@@ -14,6 +14,8 @@
  * figures can be set beside Embree's on the same files (rayfile.h):
  *
  * - primary: a camera framing the scene's bounds, one ray per pixel centre;
+ *   loosely (the whole bounds in view, many rays miss) or tightly (a
+ *   narrower view of the surface, where BENCH_TIGHT_HITS of the rays hit);
  * - shadow: from each primary hit to one point light, tmax = the distance;
  * - diffuse: from each primary hit in a uniformly random direction of the
  *   hemisphere its geometric normal faces, shuffled so that neighbouring
@@ -40,20 +42,34 @@ typedef struct {
     double sumt; /* the sum of t over hits (closest hit only) */
 } BenchResult;
 
+/* The share of camera rays that hit in a tight framing, when some view
+ * reaches it. */
+#define BENCH_TIGHT_HITS 0.9
+
 /* Generates the three sets for a w x h camera framing scene s, whose
- * queries a answers (the seed fixes the diffuse directions and their
- * order). Returns 0, or -1 when memory runs out or the scene has no
- * bounded primitive to frame. */
-int bench_gen_rays(const Scene *s, const Accel *a, int w, int h, unsigned long long seed, RaySet *primary,
+ * queries a answers, loosely or tightly (the seed fixes the diffuse
+ * directions and their order). Returns 0, or -1 when memory runs out or
+ * the scene has no bounded primitive to frame. */
+int bench_gen_rays(const Scene *s, const Accel *a, int w, int h, int tight, unsigned long long seed, RaySet *primary,
                    RaySet *shadow, RaySet *diffuse);
 
+typedef enum {
+    BENCH_CLOSEST, /* closest hits, ray by ray */
+    BENCH_ANY,     /* any hit, ray by ray */
+    BENCH_PACKET   /* closest hits, ACCEL_PACKET neighbours at a time */
+} BenchKind;
+
 /* Traces the rays on the calling thread: one warm-up pass, then `passes`
- * timed ones; closest hit, or any hit when `any`. */
-void bench_trace(const Accel *a, const Ray *rays, size_t n, int any, int passes, BenchResult *res);
+ * timed ones. */
+void bench_trace(const Accel *a, const Ray *rays, size_t n, BenchKind kind, int passes, BenchResult *res);
 
 /* One pass of bench_trace: the seconds it took; the hits, and for closest
  * hit the sum of their t, into *hits and *sumt. */
 double bench_pass(const Accel *a, const Ray *rays, size_t n, int any, size_t *hits, double *sumt);
+
+/* bench_pass for closest hits, ACCEL_PACKET rays at a time in their order
+ * (accel_closest_packet), as the renderer traces neighbouring camera rays. */
+double bench_pass_packet(const Accel *a, const Ray *rays, size_t n, size_t *hits, double *sumt);
 
 void bench_free(RaySet *s);
 

@@ -15,19 +15,22 @@
 #include "lancer/rayfile.h"
 
 static const char usage[] =
-    "usage: lancer bench --gen-rays MESH OUTDIR [W H]\n"
-    "       lancer bench --mesh MESH [--pn [--pn-mode M]] --rays FILE --kind closest|any\n"
+    "usage: lancer bench --gen-rays MESH OUTDIR [W H] [--tight]\n"
+    "       lancer bench --mesh MESH [--pn [--pn-mode M]] --rays FILE --kind closest|any|packet\n"
     "                    [--passes N] [--classic]\n"
     "       lancer bench --build-series MESH [--max-mtris M]\n"
     "\n"
     "The first form writes OUTDIR/primary.rays, shadow.rays and diffuse.rays\n"
     "for a W x H camera framing the mesh (default 1024 x 1024): one ray per\n"
     "pixel; from each hit, one to a point light and one in a random direction\n"
-    "of the hemisphere, shuffled. Ray files: \"LNCRAYS1\", a uint64 count, and\n"
+    "of the hemisphere, shuffled. With --tight, the camera looks at the\n"
+    "surface seen at the centre, its view narrowed until 90% of the rays hit.\n"
+    "Ray files: \"LNCRAYS1\", a uint64 count, and\n"
     "per ray 8 little-endian float32 ox oy oz dx dy dz tmin tmax.\n"
     "\n"
     "The second builds the BVH over the mesh, traces every ray of FILE on one\n"
-    "thread (closest hit, or any hit) for one warm-up and N timed passes\n"
+    "thread (closest hit, any hit, or closest hits eight neighbouring rays at a\n"
+    "time, as the renderer traces camera rays) for one warm-up and N timed passes\n"
     "(default 3), and prints one line:\n"
     "  mrays=<best Mrays/s> hits=<hits> sumt=<sum of t over hits> build_ms=<build> rays=<count>\n"
     "With --pn, every triangle is a PN patch of the mesh's vertex normals\n"
@@ -39,6 +42,7 @@ static const char usage[] =
     "times on 1 and 2 threads and memory per triangle for each size.\n"
     "\n"
     "options:\n"
+    "      --tight      (--gen-rays) frame the mesh tightly: most rays hit\n"
     "      --passes N   timed passes (default 3)\n"
     "      --classic    the classic intersection routines, not the robust ones\n"
     "      --pn         trace the mesh's PN surface, not its flat triangles\n"
@@ -48,7 +52,7 @@ static const char usage[] =
 
 typedef struct {
     const char *gen, *mesh, *rays, *kind, *series, *pn_mode;
-    int passes, classic, threads, max_mtris, pn;
+    int passes, classic, threads, max_mtris, pn, tight;
 } Args;
 
 static void defaults(void *args)
@@ -125,7 +129,7 @@ static int build_series(Scene *s, PrimVariant v, long max_tris)
 }
 
 /* --gen-rays: the three ray files of a w x h camera. */
-static int gen_rays(const Scene *s, const Accel *acc, const char *mesh, const char *dir, int w, int h)
+static int gen_rays(const Scene *s, const Accel *acc, const char *mesh, const char *dir, int w, int h, int tight)
 {
     static const char *const names[3] = {"primary.rays", "shadow.rays", "diffuse.rays"};
     char paths[3][AFILE_PATH_MAX];
@@ -137,7 +141,7 @@ static int gen_rays(const Scene *s, const Accel *acc, const char *mesh, const ch
     if (cli_check_outputs(outs, 3, &mesh, 1) != 0)
         return 1;
     RaySet p, sh, d;
-    if (bench_gen_rays(s, acc, w, h, 1, &p, &sh, &d) != 0) {
+    if (bench_gen_rays(s, acc, w, h, tight, 1, &p, &sh, &d) != 0) {
         fprintf(stderr, "lancer: %s: no triangles to frame, or out of memory\n", mesh);
         return 1;
     }
@@ -163,7 +167,8 @@ static int trace_rays(const Accel *acc, const Args *a, double build_ms)
         return 1;
     }
     BenchResult res;
-    bench_trace(acc, r, n, !strcmp(a->kind, "any"), a->passes, &res);
+    BenchKind kind = !strcmp(a->kind, "any") ? BENCH_ANY : !strcmp(a->kind, "packet") ? BENCH_PACKET : BENCH_CLOSEST;
+    bench_trace(acc, r, n, kind, a->passes, &res);
     printf("mrays=%.3f hits=%zu sumt=%.6g build_ms=%.2f rays=%zu\n", res.mrays, res.hits, res.sumt, build_ms, n);
     free(r);
     return 0;
@@ -192,9 +197,13 @@ static int run(void *args, const char **pos, int npos)
     if (a->gen && npos == 3 &&
         (cli_parse_int(pos[1], 1, LIMIT_IMAGE_SIDE, &w) != 0 || cli_parse_int(pos[2], 1, LIMIT_IMAGE_SIDE, &h) != 0))
         return cli_usage_error("bench", "W and H must be whole numbers from 1 to %d", LIMIT_IMAGE_SIDE);
+    if (a->tight && !a->gen)
+        return cli_usage_error("bench", "--tight goes with --gen-rays");
     if (a->mesh &&
-        (!a->rays || !a->kind || (strcmp(a->kind, "closest") != 0 && strcmp(a->kind, "any") != 0) || npos != 0))
-        return cli_usage_error("bench", "--mesh needs --rays FILE and --kind closest or any");
+        (!a->rays || !a->kind ||
+         (strcmp(a->kind, "closest") != 0 && strcmp(a->kind, "any") != 0 && strcmp(a->kind, "packet") != 0) ||
+         npos != 0))
+        return cli_usage_error("bench", "--mesh needs --rays FILE and --kind closest, any or packet");
     int pn = 0;
     if (a->pn_mode && !a->pn)
         return cli_usage_error("bench", "--pn-mode needs --pn");
@@ -215,7 +224,7 @@ static int run(void *args, const char **pos, int npos)
         return 1;
     }
     double build_ms = 1e3 * (clock_now() - t0);
-    rc = a->gen ? gen_rays(&s, acc, a->gen, pos[0], w, h) : trace_rays(acc, a, build_ms);
+    rc = a->gen ? gen_rays(&s, acc, a->gen, pos[0], w, h, a->tight) : trace_rays(acc, a, build_ms);
     accel_free(acc);
     scene_free(&s);
     return rc;
@@ -228,6 +237,7 @@ static const Opt opts[] = {
     {"--kind", NULL, OPT_STRING, offsetof(Args, kind), 0, 0},
     {"--passes", NULL, OPT_INT, offsetof(Args, passes), 1, 1000},
     {"--classic", NULL, OPT_FLAG, offsetof(Args, classic), 0, 0},
+    {"--tight", NULL, OPT_FLAG, offsetof(Args, tight), 0, 0},
     {"--pn", NULL, OPT_FLAG, offsetof(Args, pn), 0, 0},
     {"--pn-mode", NULL, OPT_STRING, offsetof(Args, pn_mode), 0, 0},
     {"--threads", NULL, OPT_INT, offsetof(Args, threads), 1, LIMIT_THREADS},

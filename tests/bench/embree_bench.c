@@ -1,24 +1,38 @@
 /*
- * embree_bench.c - lancer against Embree 3 on the same rays, one thread.
+ * embree_bench.c - lancer against Embree 3 robust on the same rays, one
+ * thread.
  *
- *     build/embree_bench MESH DIR [PASSES]
+ *     build/embree_bench MESH PASSES RESULTS DIR [DIR ...]
  *
- * DIR holds primary.rays, shadow.rays and diffuse.rays (lancer bench
- * --gen-rays). For each file the three tracers take turns pass by pass, in
- * the same run: lancer (robust, watertight), Embree default, and Embree with
- * RTC_SCENE_FLAG_ROBUST, in an order that turns each pass so that none
- * always runs first. The median Mrays/s of each and the hit counts are
- * printed, and the ratios as the median over passes of each pass's own
- * ratio: the two sides of a ratio ran a moment apart, so the shared
- * machine's slower spells cancel. Hit counts that differ are reported, not
- * hidden.
- * Build times are medians too, both on one thread, Embree at its default
- * (medium) quality, with each build's page faults: on a virtual machine a
- * fault can cost more than a build's own work on that page. A benchmark,
- * not a test: it asserts nothing.
+ * Each DIR holds primary.rays, shadow.rays and diffuse.rays (lancer bench
+ * --gen-rays), for one framing of the mesh; its last path component names
+ * the framing. Embree's scene has RTC_SCENE_FLAG_ROBUST. For each file the
+ * tracers take turns pass by pass, in an order that turns each pass so
+ * that none always runs first:
+ * - camera rays: lancer one by one (bvh_closest) and in packets of eight
+ *   neighbours (accel_closest_packet, as its renderer traces them), Embree
+ *   rtcIntersect1, and rtcIntersect8 with a valid mask and the coherent
+ *   context flag;
+ * - shadow rays: lancer's any-hit query against rtcOccluded1;
+ * - diffuse rays: closest hit against rtcIntersect1.
+ * A ratio is the median over passes of each pass's own ratio: the two sides
+ * ran a moment apart, so the shared machine's slower spells cancel. Hit
+ * counts that differ are reported, not hidden.
+ *
+ * Builds alternate too, all on one thread: lancer's, Embree's default
+ * (medium quality) and robust ones, with each build's page faults (on a
+ * virtual machine a fault can cost more than a build's own work on its
+ * page). Memory: lancer's BVH (accel_bytes) against what Embree's memory
+ * monitor callback counts as allocated by rtcCommitScene and still held,
+ * both without the mesh's own vertex and index arrays.
+ *
+ * Markdown goes to standard output; each measured ratio is appended to
+ * RESULTS as a line "target<TAB>case<TAB>value" (scripts/bench-table.sh).
+ * A benchmark, not a test: it asserts nothing.
  */
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <sys/resource.h>
 
 #include <embree3/rtcore.h>
@@ -45,13 +59,35 @@ static double faults(void)
     return getrusage(RUSAGE_SELF, &u) == 0 ? (double)u.ru_minflt : 0.0;
 }
 
-static double median(double *v, int n)
+static double median(const double *v, int n)
 {
-    qsort(v, (size_t)n, sizeof(double), cmp);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+    double s[ROUNDS_MAX];
+    memcpy(s, v, sizeof(double) * (size_t)n);
+    qsort(s, (size_t)n, sizeof(double), cmp);
+    return n % 2 ? s[n / 2] : 0.5 * (s[n / 2 - 1] + s[n / 2]);
 }
 
-static RTCScene embree_scene(RTCDevice dev, const Mesh *m, int robust, double *ms)
+static double largest(const double *v, int n)
+{
+    double m = v[0];
+    for (int i = 1; i < n; i++)
+        m = v[i] > m ? v[i] : m;
+    return m;
+}
+
+/* Bytes that Embree holds, by its memory monitor. */
+static long long embree_held;
+
+static bool monitor(void *user, ssize_t bytes, bool post)
+{
+    (void)user;
+    (void)post;
+    embree_held += bytes;
+    return true;
+}
+
+/* A scene of the mesh; *ms its build time, *bytes what its commit kept. */
+static RTCScene embree_scene(RTCDevice dev, const Mesh *m, int robust, double *ms, long long *bytes)
 {
     double t0 = clock_now();
     RTCScene sc = rtcNewScene(dev);
@@ -73,12 +109,30 @@ static RTCScene embree_scene(RTCDevice dev, const Mesh *m, int robust, double *m
     rtcCommitGeometry(g);
     rtcAttachGeometry(sc, g);
     rtcReleaseGeometry(g);
+    long long held = embree_held;
     rtcCommitScene(sc);
+    *bytes = embree_held - held;
     *ms = 1e3 * (clock_now() - t0);
     return sc;
 }
 
-/* One pass of Embree over the rays; returns seconds. */
+static void embree_ray(const Ray *r, struct RTCRay *e)
+{
+    e->org_x = r->o.x;
+    e->org_y = r->o.y;
+    e->org_z = r->o.z;
+    e->dir_x = r->d.x;
+    e->dir_y = r->d.y;
+    e->dir_z = r->d.z;
+    e->tnear = 0.0f;
+    e->tfar = r->tmax;
+    e->time = 0.0f;
+    e->mask = ~0u;
+    e->id = 0;
+    e->flags = 0;
+}
+
+/* One pass of Embree over the rays, one by one; returns seconds. */
 static double embree_pass(RTCScene sc, const Ray *rays, size_t n, int any, size_t *hits)
 {
     struct RTCIntersectContext ctx;
@@ -87,18 +141,7 @@ static double embree_pass(RTCScene sc, const Ray *rays, size_t n, int any, size_
     double t0 = clock_now();
     for (size_t i = 0; i < n; i++) {
         struct RTCRayHit rh;
-        rh.ray.org_x = rays[i].o.x;
-        rh.ray.org_y = rays[i].o.y;
-        rh.ray.org_z = rays[i].o.z;
-        rh.ray.dir_x = rays[i].d.x;
-        rh.ray.dir_y = rays[i].d.y;
-        rh.ray.dir_z = rays[i].d.z;
-        rh.ray.tnear = 0.0f;
-        rh.ray.tfar = rays[i].tmax;
-        rh.ray.time = 0.0f;
-        rh.ray.mask = ~0u;
-        rh.ray.id = 0;
-        rh.ray.flags = 0;
+        embree_ray(&rays[i], &rh.ray);
         if (any) {
             rtcOccluded1(sc, &ctx, &rh.ray);
             k += rh.ray.tfar < 0.0f; /* Embree marks an occluded ray with tfar = -inf */
@@ -113,16 +156,98 @@ static double embree_pass(RTCScene sc, const Ray *rays, size_t n, int any, size_
     return clock_now() - t0;
 }
 
+/* One pass of rtcIntersect8 over the rays, eight neighbours at a time;
+ * returns seconds. */
+static double embree_pass8(RTCScene sc, const Ray *rays, size_t n, size_t *hits)
+{
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    RTC_ALIGN(32) int valid[8];
+    RTC_ALIGN(32) struct RTCRayHit8 rh;
+    size_t k = 0;
+    double t0 = clock_now();
+    for (size_t i = 0; i < n; i += 8) {
+        for (int j = 0; j < 8; j++) {
+            valid[j] = i + (size_t)j < n ? -1 : 0;
+            const Ray *r = &rays[valid[j] ? i + (size_t)j : i];
+            rh.ray.org_x[j] = r->o.x;
+            rh.ray.org_y[j] = r->o.y;
+            rh.ray.org_z[j] = r->o.z;
+            rh.ray.dir_x[j] = r->d.x;
+            rh.ray.dir_y[j] = r->d.y;
+            rh.ray.dir_z[j] = r->d.z;
+            rh.ray.tnear[j] = 0.0f;
+            rh.ray.tfar[j] = r->tmax;
+            rh.ray.time[j] = 0.0f;
+            rh.ray.mask[j] = ~0u;
+            rh.ray.id[j] = 0;
+            rh.ray.flags[j] = 0;
+            rh.hit.geomID[j] = RTC_INVALID_GEOMETRY_ID;
+            rh.hit.instID[0][j] = RTC_INVALID_GEOMETRY_ID;
+        }
+        rtcIntersect8(valid, sc, &ctx, &rh);
+        for (int j = 0; j < 8; j++)
+            k += valid[j] && rh.hit.geomID[j] != RTC_INVALID_GEOMETRY_ID;
+    }
+    *hits = k;
+    return clock_now() - t0;
+}
+
+/* The tracers of one ray file: each fills its Mrays/s of a pass and its hits. */
+enum { LANCER, LANCER8, EMBREE, EMBREE8, TRACERS };
+
+typedef struct {
+    const Accel *acc;
+    RTCScene sc;
+    const Ray *rays;
+    size_t n;
+} Work;
+
+static double run(const Work *w, int tracer, int any, size_t *hits)
+{
+    double sumt, s;
+    switch (tracer) {
+    case LANCER:
+        s = bench_pass(w->acc, w->rays, w->n, any, hits, &sumt);
+        break;
+    case LANCER8:
+        s = bench_pass_packet(w->acc, w->rays, w->n, hits, &sumt);
+        break;
+    case EMBREE:
+        s = embree_pass(w->sc, w->rays, w->n, any, hits);
+        break;
+    default:
+        s = embree_pass8(w->sc, w->rays, w->n, hits);
+    }
+    return (double)w->n / s / 1e6;
+}
+
+static const char *base_name(const char *path)
+{
+    const char *s = strrchr(path, '/');
+    return s && s[1] ? s + 1 : path;
+}
+
 int main(int argc, char **argv)
 {
-    if (argc < 3) {
-        fprintf(stderr, "usage: embree_bench MESH DIR [PASSES]\n");
+    if (argc < 5) {
+        fprintf(stderr, "usage: embree_bench MESH PASSES RESULTS DIR [DIR ...]\n");
         return 2;
     }
-    int passes = argc > 3 ? atoi(argv[3]) : 11;
+    int passes = atoi(argv[2]);
     if (passes < 1 || passes > ROUNDS_MAX)
         passes = 11;
-    char err[1024];
+    FILE *out = fopen(argv[3], "a");
+    if (!out) {
+        perror(argv[3]);
+        return 1;
+    }
+    char err[1024], mesh[256];
+    snprintf(mesh, sizeof mesh, "%s", base_name(argv[1]));
+    char *dot = strrchr(mesh, '.');
+    if (dot)
+        *dot = '\0';
     Mesh m;
     if (mesh_load(argv[1], &m, err, sizeof err) != 0) {
         fprintf(stderr, "%s\n", err);
@@ -134,7 +259,9 @@ int main(int argc, char **argv)
         return 1;
     }
     RTCDevice dev = rtcNewDevice("threads=1");
+    rtcSetDeviceMemoryMonitorFunction(dev, monitor, NULL);
     double lb[ROUNDS_MAX], ed[ROUNDS_MAX], er[ROUNDS_MAX], lf[ROUNDS_MAX], ef[ROUNDS_MAX];
+    long long bd = 0, br = 0;
     Accel *acc = NULL;
     RTCScene sd = NULL, sr = NULL;
     for (int k = 0; k < passes; k++) { /* builds, alternating too */
@@ -149,58 +276,73 @@ int main(int argc, char **argv)
             rtcReleaseScene(sr);
         }
         f0 = faults();
-        sd = embree_scene(dev, &m, 0, &ed[k]);
-        sr = embree_scene(dev, &m, 1, &er[k]);
+        sd = embree_scene(dev, &m, 0, &ed[k], &bd);
+        sr = embree_scene(dev, &m, 1, &er[k], &br);
         ef[k] = 0.5 * (faults() - f0);
     }
-    size_t bytes = accel_bytes(acc);
-    printf("mesh %s: %d triangles, %d degenerate dropped\n", argv[1], m.nt, m.degenerate);
-    printf("build (ms, median of %d, one thread): lancer %.1f, Embree %.1f, Embree robust %.1f; "
-           "lancer / Embree = %.2f\n",
-           passes, median(lb, passes), median(ed, passes), median(er, passes), median(lb, passes) / median(ed, passes));
-    printf("page faults per build (median): lancer %.0f, Embree %.0f (the mean of its default and robust builds)\n", median(lf, passes),
-           median(ef, passes));
-    printf("lancer BVH memory: %.1f bytes per triangle (%d-wide nodes, leaves with their triangles' vertices, "
-           "leaf order)\n",
-           (double)bytes / m.nt, BVH_WIDTH);
-    printf("| rays | kind | lancer Mrays/s | Embree | Embree robust | lancer / Embree | lancer / robust | hits "
-           "(lancer, Embree, robust) |\n| --- | --- | --- | --- | --- | --- | --- | --- |\n");
-    const char *files[3] = {"primary", "shadow", "diffuse"};
-    for (int f = 0; f < 3; f++) {
-        char path[1024];
-        snprintf(path, sizeof path, "%s/%s.rays", argv[2], files[f]);
-        Ray *rays;
-        size_t n, hl = 0, hd = 0, hr = 0;
-        if (rayfile_read(path, &rays, &n, err, sizeof err) != 0) {
-            fprintf(stderr, "%s\n", err);
-            return 1;
-        }
-        int any = f == 1;
-        double sumt;
-        bench_pass(acc, rays, n, any, &hl, &sumt); /* warm-up */
-        embree_pass(sd, rays, n, any, &hd);
-        embree_pass(sr, rays, n, any, &hr);
-        double tl[ROUNDS_MAX], td[ROUNDS_MAX], trr[ROUNDS_MAX], qd[ROUNDS_MAX], qr[ROUNDS_MAX];
-        for (int k = 0; k < passes; k++) {
-            for (int j = 0; j < 3; j++)
-                switch ((j + k) % 3) {
-                case 0:
-                    tl[k] = n / bench_pass(acc, rays, n, any, &hl, &sumt) / 1e6;
-                    break;
-                case 1:
-                    td[k] = n / embree_pass(sd, rays, n, any, &hd) / 1e6;
-                    break;
-                default:
-                    trr[k] = n / embree_pass(sr, rays, n, any, &hr) / 1e6;
+    double lbytes = (double)accel_bytes(acc) / m.nt, ebytes = (double)(bd < br ? bd : br) / m.nt;
+    double eb = median(ed, passes) < median(er, passes) ? median(ed, passes) : median(er, passes);
+    printf("### %s: %d triangles (%d degenerate dropped)\n\n", mesh, m.nt, m.degenerate);
+    printf("- build, one thread, median of %d: lancer %.1f ms, Embree %.1f ms, Embree robust %.1f ms; "
+           "lancer / the faster Embree = %.2f\n",
+           passes, median(lb, passes), median(ed, passes), median(er, passes), median(lb, passes) / eb);
+    printf("- page faults per build, median and most: lancer %.0f and %.0f, Embree %.0f and %.0f "
+           "(the mean of its two builds)\n",
+           median(lf, passes), largest(lf, passes), median(ef, passes), largest(ef, passes));
+    printf("- BVH bytes per triangle: lancer %.1f, Embree %.1f, Embree robust %.1f\n\n", lbytes,
+           (double)bd / m.nt, (double)br / m.nt);
+    fprintf(out, "build\t%s\t%.3f\n", mesh, median(lb, passes) / eb);
+    fprintf(out, "faults\t%s\t%.3f\n", mesh, largest(lf, passes) / largest(ef, passes));
+    fprintf(out, "memory\t%s\t%.3f\n", mesh, lbytes / ebytes);
+
+    printf("| framing | rays | lancer Mrays/s | Embree robust | lancer / Embree | hits (lancer, Embree) |\n"
+           "| --- | --- | --- | --- | --- | --- |\n");
+    for (int d = 4; d < argc; d++) {
+        const char *framing = base_name(argv[d]);
+        static const char *const files[3] = {"primary", "shadow", "diffuse"};
+        static const char *const targets[3] = {"camera", "shadow", "diffuse"};
+        for (int f = 0; f < 3; f++) {
+            char path[1024];
+            snprintf(path, sizeof path, "%s/%s.rays", argv[d], files[f]);
+            Ray *rays;
+            size_t n;
+            if (rayfile_read(path, &rays, &n, err, sizeof err) != 0) {
+                fprintf(stderr, "%s\n", err);
+                return 1;
+            }
+            Work w = {acc, sr, rays, n};
+            int any = f == 1, tracers = f == 0 ? TRACERS : 2;
+            /* the tracers of this file: lancer and Embree one by one, and for
+             * camera rays their packets */
+            const int which[TRACERS] = {LANCER, EMBREE, LANCER8, EMBREE8};
+            double mr[TRACERS][ROUNDS_MAX], q[2][ROUNDS_MAX];
+            size_t hits[TRACERS];
+            for (int t = 0; t < tracers; t++) /* warm-up */
+                run(&w, which[t], any, &hits[t]);
+            for (int k = 0; k < passes; k++) {
+                for (int j = 0; j < tracers; j++) {
+                    int t = (j + k) % tracers;
+                    mr[t][k] = run(&w, which[t], any, &hits[t]);
                 }
-            qd[k] = tl[k] / td[k];
-            qr[k] = tl[k] / trr[k];
+                q[0][k] = mr[0][k] / mr[1][k];
+                if (tracers > 2)
+                    q[1][k] = mr[2][k] / mr[3][k];
+            }
+            char c[300];
+            snprintf(c, sizeof c, "%s/%s", mesh, framing);
+            printf("| %s | %s (%zu) | %.2f | %.2f | %.2f | %zu, %zu |\n", framing, files[f], n, median(mr[0], passes),
+                   median(mr[1], passes), median(q[0], passes), hits[0], hits[1]);
+            fprintf(out, "%s\t%s\t%.3f\n", targets[f], c, median(q[0], passes));
+            if (tracers > 2) {
+                printf("| %s | primary, packets of 8 | %.2f | %.2f | %.2f | %zu, %zu |\n", framing,
+                       median(mr[2], passes), median(mr[3], passes), median(q[1], passes), hits[2], hits[3]);
+                fprintf(out, "packet\t%s\t%.3f\n", c, median(q[1], passes));
+            }
+            free(rays);
         }
-        printf("| %s | %s | %.2f | %.2f | %.2f | %.2f | %.2f | %zu, %zu, %zu |\n", files[f], any ? "any" : "closest",
-               median(tl, passes), median(td, passes), median(trr, passes), median(qd, passes), median(qr, passes),
-               hl, hd, hr);
-        free(rays);
     }
+    printf("\n");
+    fclose(out);
     rtcReleaseScene(sd);
     rtcReleaseScene(sr);
     rtcReleaseDevice(dev);
