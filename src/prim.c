@@ -18,6 +18,11 @@
 #include "lancer/pntri.h"
 #include "rounding.h"
 
+/* The spawn margin off a triangle, in units of gamma (tri_spawn_margin). */
+#ifndef TRI_SPAWN_GAMMA
+#define TRI_SPAWN_GAMMA 64
+#endif
+
 /* t as a float, and a float bound covering both err (a bound on |t - exact|)
  * and the rounding of t itself. */
 static float round_t(double t, double err, float *terr)
@@ -793,6 +798,24 @@ static void ell_surface(const Ellipsoid *e, const Ray *r, const PrimHit *h, Surf
     *ng = vec3((float)(n[0] / nlen), (float)(n[1] / nlen), (float)(n[2] / nlen));
 }
 
+/* A ray spawned off a triangle must leave it by more than the error band
+ * of the triangle test's t, which keeps a t within its bound of 0 and so
+ * would report the triangle again. That band comes from the vertices taken
+ * relative to the ray's origin (their spread E about p, not their size),
+ * and, in length off the plane, from E times E^2 / (twice the area): the
+ * edge functions' error over the determinant, which shrinks with the area.
+ * p's own error is far smaller where the triangle lies close to a
+ * coordinate plane through the origin (a CAD model standing on z = 0), so
+ * perr grows to this margin (a2: twice the area). */
+static void tri_spawn_margin(const Triangle *t, Surface *s, float a2)
+{
+    float e = fmaxf(vec_max_abs(vec_sub(t->a, s->p)), fmaxf(vec_max_abs(vec_sub(t->b, s->p)), vec_max_abs(vec_sub(t->c, s->p))));
+    float margin = gamma_f(TRI_SPAWN_GAMMA) * e * (1.0f + e * e / a2);
+    if (!(margin <= e)) /* a sliver (or a2 = 0): at most the triangle's spread */
+        margin = e;
+    s->perr = vec3(fmaxf(s->perr.x, margin), fmaxf(s->perr.y, margin), fmaxf(s->perr.z, margin));
+}
+
 void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, Surface *s)
 {
     int robust = v == PRIM_ROBUST;
@@ -853,6 +876,7 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
             Vec3 m = vec_add(vec_add(vec3(fabsf(pa.x), fabsf(pa.y), fabsf(pa.z)), vec3(fabsf(pb.x), fabsf(pb.y), fabsf(pb.z))),
                              vec3(fabsf(pc.x), fabsf(pc.y), fabsf(pc.z)));
             s->perr = vec_scale(m, gamma_f(7));
+            tri_spawn_margin(t, s, vec_length(ng));
         }
         break;
     }

@@ -690,6 +690,74 @@ static void test_obox_grazing_slab(void **state)
     assert_int_equal(h.face, 2);
 }
 
+/* A ray spawned from a triangle hit never hits that triangle again, in
+ * any direction. The triangle of CGAL's fandisk_large.off that make bench
+ * found: it lies 3e-14 from the plane z = 0 while its other coordinates
+ * are near 17, so the hit point's own error along the normal is ~1e-20,
+ * far below the error band of the triangle test (~1e-7 of the triangle's
+ * size, from its x and y); 403 of 741 spawned rays hit it again at t ~1e-9
+ * and shadowed it. Then random triangles, placed near the origin, near a
+ * coordinate plane, or far away, some of them long and thin. */
+static void test_spawn_leaves_triangle(void **state)
+{
+    (void)state;
+    unsigned long long s = 0x9E3779B97F4A7C15ULL;
+    int tests = 0;
+    for (int n = 0; n < 4000; n++) {
+        Prim p;
+        memset(&p, 0, sizeof p);
+        p.kind = PRIM_TRIANGLE;
+        if (n == 0) {
+            p.g.tri.a = vec3(4.734222412109375f, 17.814701080322266f, -3.226528405889627e-14f);
+            p.g.tri.b = vec3(4.683684349060059f, 17.78635597229004f, -3.393399995135944e-14f);
+            p.g.tri.c = vec3(4.715593338012695f, 17.746492385864258f, -3.393399995135944e-14f);
+        } else {
+            float scale = n % 4 == 0 ? 1e-3f : n % 4 == 1 ? 1.0f : 50.0f;
+            Vec3 c = test_rvec(&s, -20, 20);
+            if (n % 3 == 0)
+                c = vec_scale(c, 1e4f);
+            p.g.tri.a = vec_add(c, vec_scale(test_rvec(&s, -1, 1), scale));
+            p.g.tri.b = vec_add(c, vec_scale(test_rvec(&s, -1, 1), scale));
+            p.g.tri.c = n % 5 == 0 ? vec_add(vec_scale(p.g.tri.a, 0.5f), vec_scale(p.g.tri.b, 0.5f))
+                                   : vec_add(c, vec_scale(test_rvec(&s, -1, 1), scale));
+            if (n % 5 == 0) /* long and thin: c just off the middle of ab */
+                p.g.tri.c = vec_add(p.g.tri.c, vec_scale(test_rvec(&s, -1, 1), scale * 1e-3f));
+            if (n % 2 == 0) { /* flat in a coordinate plane, near it but not on it */
+                int k = n / 2 % 3;
+                float off = test_uniform(&s, -1, 1) * 1e-12f;
+                Vec3 *v[3] = {&p.g.tri.a, &p.g.tri.b, &p.g.tri.c};
+                for (int i = 0; i < 3; i++) {
+                    float z = off * (1.0f + 0.1f * (float)i);
+                    *v[i] = vec3(k == 0 ? z : v[i]->x, k == 1 ? z : v[i]->y, k == 2 ? z : v[i]->z);
+                }
+            }
+        }
+        Vec3 ctr = vec_scale(vec_add(vec_add(p.g.tri.a, p.g.tri.b), p.g.tri.c), 1.0f / 3.0f);
+        for (int k = 0; k < 8; k++) {
+            float u = test_uniform(&s, 0.02f, 0.96f), v = test_uniform(&s, 0.02f, 0.98f - u);
+            Vec3 q = vec_add(vec_add(vec_scale(p.g.tri.a, 1 - u - v), vec_scale(p.g.tri.b, u)), vec_scale(p.g.tri.c, v));
+            Vec3 eye = vec_add(ctr, vec_scale(vec_normalize(test_rvec(&s, -1, 1)), 100.0f));
+            Ray r = ray_make(eye, vec_normalize(vec_sub(q, eye)), INFINITY);
+            PrimHit h;
+            if (!prim_intersect(&p, &r, PRIM_ROBUST, &h))
+                continue;
+            Surface sf;
+            prim_surface(&p, &r, &h, PRIM_ROBUST, &sf);
+            for (int j = 0; j < 4; j++) {
+                Vec3 d = vec_normalize(test_rvec(&s, -1, 1));
+                Ray out = ray_make(prim_spawn_origin(&sf, d), d, INFINITY);
+                PrimHit h2;
+                if (prim_intersect(&p, &out, PRIM_ROBUST, &h2))
+                    fail_msg("triangle %d: a ray spawned at (%g %g %g) towards (%g %g %g) hits it again at t %g",
+                             n, (double)out.o.x, (double)out.o.y, (double)out.o.z, (double)d.x, (double)d.y,
+                             (double)d.z, (double)h2.t);
+                tests++;
+            }
+        }
+    }
+    assert_true(tests > 50000);
+}
+
 /* ---- four triangles at once ---- */
 
 static unsigned long long rng = 0x2545F4914F6CDD1DULL;
@@ -930,6 +998,7 @@ int main(void)
         cmocka_unit_test(test_smooth_normal_flips_on_its_own),
         cmocka_unit_test(test_inside),
         cmocka_unit_test(test_spawn_origin),
+        cmocka_unit_test(test_spawn_leaves_triangle),
         cmocka_unit_test(test_robust_error_bounds),
         cmocka_unit_test(test_box_origin_on_slab_plane),
         cmocka_unit_test(test_watertight_shared_edge),
