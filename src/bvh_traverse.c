@@ -220,7 +220,7 @@ typedef struct {
 TRI_INLINE int leaf_tris(const BvhLeaf *L, TriPre *p, const Ray *r, LeafHits *h)
 {
     if (!p->ready) {
-        prim_triray_init(&p->tri, r);
+        tri_ray_init(&p->tri, r);
         p->ready = 1;
     }
 #ifdef TRI4_AVX
