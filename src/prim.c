@@ -809,11 +809,15 @@ static void ell_surface(const Ellipsoid *e, const Ray *r, const PrimHit *h, Surf
  * perr grows to this margin (a2: twice the area). */
 static void tri_spawn_margin(const Triangle *t, Surface *s, float a2)
 {
-    float e = fmaxf(vec_max_abs(vec_sub(t->a, s->p)), fmaxf(vec_max_abs(vec_sub(t->b, s->p)), vec_max_abs(vec_sub(t->c, s->p))));
+    /* (comparisons, not fmaxf: a libm call each without -ffast-math) */
+    float e = vec_max_abs(vec_sub(t->a, s->p)), eb = vec_max_abs(vec_sub(t->b, s->p)), ec = vec_max_abs(vec_sub(t->c, s->p));
+    e = eb > e ? eb : e;
+    e = ec > e ? ec : e;
     float margin = gamma_f(TRI_SPAWN_GAMMA) * e * (1.0f + e * e / a2);
     if (!(margin <= e)) /* a sliver (or a2 = 0): at most the triangle's spread */
         margin = e;
-    s->perr = vec3(fmaxf(s->perr.x, margin), fmaxf(s->perr.y, margin), fmaxf(s->perr.z, margin));
+    s->perr = vec3(s->perr.x > margin ? s->perr.x : margin, s->perr.y > margin ? s->perr.y : margin,
+                   s->perr.z > margin ? s->perr.z : margin);
 }
 
 void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, Surface *s)

@@ -251,7 +251,9 @@ static int worth(const Ctx *c, float wt)
 }
 
 /* The largest of a colour's channels: POV-Ray's weight of a filter. */
-static float max3(Vec3 v) { return fmaxf(v.x, fmaxf(v.y, v.z)); }
+/* fmaxf's answers (a NaN loses), without its libm call. */
+static float max2(float a, float b) { return b > a || a != a ? b : a; }
+static float max3(Vec3 v) { return max2(v.x, max2(v.y, v.z)); }
 
 /* The ray refracted into or out of primitive `prim` (POV-Ray's trace.cpp
  * ComputeRefraction: the ratio of indices comes from the ray's list of
@@ -324,7 +326,8 @@ static Vec3 trace(const Ctx *c, const Ray *r, int level, int continued, const In
  * the luminance of pass_factor, at most 1, above the bailout. */
 static int refracts(const Ctx *c, Vec3 f)
 {
-    return fminf(1.0f, 0.297f * f.x + 0.589f * f.y + 0.114f * f.z) > c->p->adc_bailout;
+    float y = 0.297f * f.x + 0.589f * f.y + 0.114f * f.z;
+    return (y < 1.0f ? y : 1.0f) > c->p->adc_bailout; /* fminf(1, y), NaN included, without the libm call */
 }
 
 /* The mirror ray of r at sf. */
