@@ -27,7 +27,9 @@
  *   "t_exact within terr of 0 or of tmax".
  * - Spawning: prim_surface bounds the hit point's error (Surface.perr), and
  *   prim_spawn_origin moves off the surface by more than that bound, so a
- *   spawned ray starts strictly on the side it leaves towards.
+ *   spawned ray starts strictly on the side it leaves towards; off a
+ *   triangle, perr also covers the triangle test's band around t = 0, so
+ *   that the ray does not hit its own triangle again.
  *
  * The classic routines report terr = 0: they claim no bound. The exact judge
  * in tests/exact measures both variants against CGAL.
