@@ -18,10 +18,9 @@
 #include "lancer/pntri.h"
 #include "rounding.h"
 
-/* The spawn margin off a triangle, in units of gamma (tri_spawn_margin). */
-#ifndef TRI_SPAWN_GAMMA
+/* The spawn margin off a triangle, in units of gamma (tri_spawn_margin):
+ * 16 times the least that test_prim's triangles need. */
 #define TRI_SPAWN_GAMMA 64
-#endif
 
 /* t as a float, and a float bound covering both err (a bound on |t - exact|)
  * and the rounding of t itself. */
@@ -810,7 +809,8 @@ static void ell_surface(const Ellipsoid *e, const Ray *r, const PrimHit *h, Surf
 static void tri_spawn_margin(const Triangle *t, Surface *s, float a2)
 {
     /* (comparisons, not fmaxf: a libm call each without -ffast-math) */
-    float e = vec_max_abs(vec_sub(t->a, s->p)), eb = vec_max_abs(vec_sub(t->b, s->p)), ec = vec_max_abs(vec_sub(t->c, s->p));
+    float e = vec_max_abs(vec_sub(t->a, s->p)), eb = vec_max_abs(vec_sub(t->b, s->p));
+    float ec = vec_max_abs(vec_sub(t->c, s->p));
     e = eb > e ? eb : e;
     e = ec > e ? ec : e;
     float margin = gamma_f(TRI_SPAWN_GAMMA) * e * (1.0f + e * e / a2);

@@ -250,8 +250,8 @@ static int worth(const Ctx *c, float wt)
     return 1;
 }
 
-/* The largest of a colour's channels: POV-Ray's weight of a filter. */
-/* fmaxf's answers (a NaN loses), without its libm call. */
+/* The largest of a colour's channels: POV-Ray's weight of a filter.
+ * fmaxf's answers (a NaN loses), without its libm call. */
 static float max2(float a, float b) { return b > a || a != a ? b : a; }
 static float max3(Vec3 v) { return max2(v.x, max2(v.y, v.z)); }
 

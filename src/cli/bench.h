@@ -4,7 +4,7 @@
  * benchmark programs in tests/bench.
  *
  *     RaySet primary, shadow, diffuse;
- *     bench_gen_rays(&scene, accel, 1024, 1024, 1, &primary, &shadow, &diffuse);
+ *     bench_gen_rays(&scene, accel, 1024, 1024, 0, 1, &primary, &shadow, &diffuse);  (0: loose)
  *     BenchResult res;
  *     bench_trace(accel, primary.rays, primary.n, BENCH_CLOSEST, 3, &res);
  *     ... res.mrays, res.hits ...
