@@ -1574,6 +1574,15 @@ void spawn_check(int rid, const Prim &p, const Ray &r, const PrimHit &h, bool ba
         if (!e.skip && e.hit) {
             ok = false;
             why = "the segment from the spawned origin along dir hits the source primitive";
+        } else if (!e.skip && var == PRIM_ROBUST) {
+            // Exactly, the segment misses; the routine itself must too: a t
+            // within its band of 0 would shadow the surface it left.
+            PrimHit again;
+            Ray out = ray_make(q, dir, (float)(L / ld));
+            if (prim_intersect(&p, &out, var, &again)) {
+                ok = false;
+                why = "the routine hits the source primitive again from the spawned origin";
+            }
         }
     }
     if (verbose)
