@@ -9,20 +9,26 @@
 
 #include "../src/cli/bench.h"
 
+/* A scene of one sphere (and one default material). */
+static void one_sphere(Scene *s, Vec3 c, float r)
+{
+    memset(s, 0, sizeof *s);
+    s->prims = calloc(1, sizeof(Prim));
+    s->materials = calloc(1, sizeof(Material));
+    assert_non_null(s->prims);
+    assert_non_null(s->materials);
+    s->nprims = s->nmaterials = 1;
+    s->prims[0].kind = PRIM_SPHERE;
+    s->prims[0].g.sphere.c = c;
+    s->prims[0].g.sphere.r = r;
+}
+
 static void test_rays_and_passes(void **state)
 {
     (void)state;
     /* one unit sphere: framed by the camera, every hit has a normal */
     Scene s;
-    memset(&s, 0, sizeof s);
-    s.prims = calloc(1, sizeof(Prim));
-    s.materials = calloc(1, sizeof(Material));
-    assert_non_null(s.prims);
-    assert_non_null(s.materials);
-    s.nprims = s.nmaterials = 1;
-    s.prims[0].kind = PRIM_SPHERE;
-    s.prims[0].g.sphere.c = vec3(0, 0, 0);
-    s.prims[0].g.sphere.r = 1;
+    one_sphere(&s, vec3(0, 0, 0), 1.0f);
     Accel *a = accel_build(&s, PRIM_ROBUST, 1);
     assert_non_null(a);
     RaySet p, sh, d;
@@ -76,15 +82,7 @@ static void test_tight_framing(void **state)
 {
     (void)state;
     Scene s;
-    memset(&s, 0, sizeof s);
-    s.prims = calloc(1, sizeof(Prim));
-    s.materials = calloc(1, sizeof(Material));
-    assert_non_null(s.prims);
-    assert_non_null(s.materials);
-    s.nprims = s.nmaterials = 1;
-    s.prims[0].kind = PRIM_SPHERE;
-    s.prims[0].g.sphere.c = vec3(5, -2, 7);
-    s.prims[0].g.sphere.r = 0.5f;
+    one_sphere(&s, vec3(5, -2, 7), 0.5f);
     Accel *a = accel_build(&s, PRIM_ROBUST, 1);
     assert_non_null(a);
     for (int tight = 0; tight < 2; tight++) {
