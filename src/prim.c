@@ -808,7 +808,7 @@ static void ell_surface(const Ellipsoid *e, const Ray *r, const PrimHit *h, Surf
  * perr grows to this margin (a2: twice the area). */
 static void tri_spawn_margin(const Triangle *t, Surface *s, float a2)
 {
-    /* (comparisons, not fmaxf: a libm call each without -ffast-math) */
+    /* (comparisons, not float_max: no operand here can be a NaN) */
     float e = vec_max_abs(vec_sub(t->a, s->p)), eb = vec_max_abs(vec_sub(t->b, s->p));
     float ec = vec_max_abs(vec_sub(t->c, s->p));
     e = eb > e ? eb : e;

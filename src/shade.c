@@ -250,10 +250,8 @@ static int worth(const Ctx *c, float wt)
     return 1;
 }
 
-/* The largest of a colour's channels: POV-Ray's weight of a filter.
- * fmaxf's answers (a NaN loses), without its libm call. */
-static float max2(float a, float b) { return b > a || a != a ? b : a; }
-static float max3(Vec3 v) { return max2(v.x, max2(v.y, v.z)); }
+/* The largest of a colour's channels: POV-Ray's weight of a filter. */
+static float max3(Vec3 v) { return float_max(v.x, float_max(v.y, v.z)); }
 
 /* The ray refracted into or out of primitive `prim` (POV-Ray's trace.cpp
  * ComputeRefraction: the ratio of indices comes from the ray's list of

@@ -42,10 +42,8 @@ int prim_triangle_hit(const Triangle *tr, const Ray *r, PrimHit *h)
     return 1;
 }
 
-/* fmaxf(a, fmaxf(b, c)), NaN handling included, without the libm call
- * that -O2 leaves for fmaxf. */
-static float max2(float a, float b) { return b > a || a != a ? b : a; }
-static float max3(float a, float b, float c) { return max2(a, max2(b, c)); }
+/* fmaxf(a, fmaxf(b, c)), without the libm calls. */
+static float max3(float a, float b, float c) { return float_max(a, float_max(b, c)); }
 
 /* A bound on the rounding of the edge function xi yj - yi xj when each
  * coordinate is off by its e: the products' own rounding, and first and

@@ -51,6 +51,10 @@ static inline Vec3 vec_normalize(Vec3 a)
     return len > 0.0f ? vec_scale(a, 1.0f / len) : a;
 }
 
+/* fmaxf(a, b), NaN handling included (a NaN loses), without the libm call
+ * that fmaxf is without -ffast-math. */
+static inline float float_max(float a, float b) { return b > a || a != a ? b : a; }
+
 static inline float vec_max_abs(Vec3 a)
 {
     float m = fabsf(a.x);
