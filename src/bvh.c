@@ -33,12 +33,18 @@
 /* Leaves of up to BVH_LEAF_MAX = 8 primitives, the lanes of one AVX2
  * triangle test. The SAH counts primitives in blocks of 8, as Embree counts
  * them in blocks of its leaf test's width: testing 8 costs what testing 1
- * does. So a node of at most 8 is always a leaf (splitting it would add a
+ * does. So a node of at most 8 triangles is always a leaf (splitting it would add a
  * box test and save no triangle test), and a larger one is always split,
  * where sum(area(child) * blocks(child)) is least; the traversal and
  * intersection costs of the SAH then drop out. (Leaves of 8 also make rays
  * visit fewer nodes than leaves of 4: docs/performance.md.) */
 #define BVH_BLOCKS(n) (((n) + BVH_LEAF_MAX - 1) / BVH_LEAF_MAX)
+/* A primitive that the leaf does not test in lanes (a sphere, a box, a PN
+ * patch: anything but a triangle) costs a test of its own, as much as a
+ * block or more; so it counts as a block, and a leaf holds at most one,
+ * where the node's box test culls the others (a ref's lo[3] is 1 for
+ * such a primitive, else 0). The cost of n primitives of which c are so: */
+#define BVH_TESTS(n, c) (BVH_BLOCKS((n) - (c)) + (c))
 /* Below this many primitives a subtree is built on the calling thread:
  * starting a thread costs more than it saves. */
 #define BVH_PARALLEL_MIN 4096
@@ -288,6 +294,15 @@ static inline V4 bin_of(const Ref *r, V4 clo, V4 scale)
     return v4_max(v4_min(v4_mul(v4_sub(c, clo), scale), v4_set((float)(BVH_BINS - 1))), v4_set(0.0f));
 }
 
+/* The primitives among refs[begin, end) that cost a test of their own. */
+static int costly(const Ref *refs, int begin, int end)
+{
+    int c = 0;
+    for (int i = begin; i < end; i++)
+        c += refs[i].lo[3] != 0.0f;
+    return c;
+}
+
 /* Chooses a split of refs[begin, end) (centroid box clo, chi, doubled) and
  * partitions them; returns the index where the right half starts, or -1
  * to make a leaf. All three axes are binned in one pass. */
@@ -295,7 +310,7 @@ static int split(Builder *B, int begin, int end, int depth, V4 clo, V4 chi)
 {
     Ref *refs = B->refs;
     int count = end - begin;
-    if (count <= BVH_LEAF_MAX)
+    if (count <= BVH_LEAF_MAX && costly(refs, begin, end) <= 1)
         return -1;
     if (depth >= BVH_SAH_DEPTH)
         return begin + count / 2;
@@ -308,7 +323,7 @@ static int split(Builder *B, int begin, int end, int depth, V4 clo, V4 chi)
      * refs often fall in the same bin, and one set would make each update
      * wait for the previous one to be stored. */
     V4 blo[2][3][BVH_BINS], bhi[2][3][BVH_BINS];
-    int bcount[2][3][BVH_BINS] = {{{0}}};
+    int bcount[2][3][BVH_BINS] = {{{0}}}, bcostly[2][3][BVH_BINS] = {{{0}}};
     for (int s = 0; s < 2; s++)
         for (int a = 0; a < 3; a++)
             for (int k = 0; k < BVH_BINS; k++) {
@@ -320,9 +335,11 @@ static int split(Builder *B, int begin, int end, int depth, V4 clo, V4 chi)
         int s = i & 1;
         v4_store(kf, bin_of(&refs[i], clo, scale));
         V4 l = v4_load(refs[i].lo), h = v4_load(refs[i].hi);
+        int c = refs[i].lo[3] != 0.0f;
         for (int a = 0; a < 3; a++) {
             int k = (int)kf[a];
             bcount[s][a][k]++;
+            bcostly[s][a][k] += c;
             blo[s][a][k] = v4_min(l, blo[s][a][k]);
             bhi[s][a][k] = v4_max(h, bhi[s][a][k]);
         }
@@ -330,6 +347,7 @@ static int split(Builder *B, int begin, int end, int depth, V4 clo, V4 chi)
     for (int a = 0; a < 3; a++)
         for (int k = 0; k < BVH_BINS; k++) {
             bcount[0][a][k] += bcount[1][a][k];
+            bcostly[0][a][k] += bcostly[1][a][k];
             blo[0][a][k] = v4_min(blo[1][a][k], blo[0][a][k]);
             bhi[0][a][k] = v4_max(bhi[1][a][k], bhi[0][a][k]);
         }
@@ -340,7 +358,7 @@ static int split(Builder *B, int begin, int end, int depth, V4 clo, V4 chi)
             continue;
         /* sweep: areas and counts to the right of each boundary */
         float rarea[BVH_BINS], b4[2][4];
-        int rcount[BVH_BINS], n = 0;
+        int rcount[BVH_BINS], rcostly[BVH_BINS], n = 0, nc = 0;
         V4 lo = v4_set(INFINITY), hi = v4_set(-INFINITY);
         for (int k = BVH_BINS - 1; k > 0; k--) {
             lo = v4_min(blo[0][axis][k], lo);
@@ -348,21 +366,25 @@ static int split(Builder *B, int begin, int end, int depth, V4 clo, V4 chi)
             v4_store(b4[0], lo);
             v4_store(b4[1], hi);
             n += bcount[0][axis][k];
+            nc += bcostly[0][axis][k];
             rarea[k] = area(b4[0], b4[1]);
             rcount[k] = n;
+            rcostly[k] = nc;
         }
         lo = v4_set(INFINITY);
         hi = v4_set(-INFINITY);
-        n = 0;
+        n = nc = 0;
         for (int k = 0; k < BVH_BINS - 1; k++) {
             lo = v4_min(blo[0][axis][k], lo);
             hi = v4_max(bhi[0][axis][k], hi);
             n += bcount[0][axis][k];
+            nc += bcostly[0][axis][k];
             if (n == 0 || rcount[k + 1] == 0)
                 continue;
             v4_store(b4[0], lo);
             v4_store(b4[1], hi);
-            float cost = area(b4[0], b4[1]) * (float)BVH_BLOCKS(n) + rarea[k + 1] * (float)BVH_BLOCKS(rcount[k + 1]);
+            float cost = area(b4[0], b4[1]) * (float)BVH_TESTS(n, nc) +
+                         rarea[k + 1] * (float)BVH_TESTS(rcount[k + 1], rcostly[k + 1]);
             if (cost < best_cost) {
                 best_cost = cost;
                 best_axis = axis;
@@ -745,7 +767,8 @@ int bvh_build(Bvh *b, const Prim *prims, int n, PrimVariant v, int threads)
         Ref *r = &B.refs[m];
         if (!bvh_prim_bounds(&prims[i], r->lo, r->hi))
             continue;
-        r->lo[3] = r->hi[3] = 0.0f;
+        r->lo[3] = prims[i].kind == PRIM_TRIANGLE || prims[i].kind == PRIM_SMOOTH_TRIANGLE ? 0.0f : 1.0f;
+        r->hi[3] = 0.0f;
         B.ids[m++] = i;
     }
     int rc = 0;

@@ -140,8 +140,10 @@ static void test_coincident_centroids(void **state)
     (void)state;
     /* 1000 copies of one sphere: no split separates them, so the builder
      * halves by index, and the tree stays as shallow as a balanced one:
-     * 125 leaves of 8 under binary halving are 7 binary levels, which the
-     * collapse into 8-wide nodes folds into 3. */
+     * 1000 leaves of one sphere each under binary halving are 10 binary
+     * levels; the collapse into 8-wide nodes, which counts nodes and not
+     * levels, folds them into no more (6 here), where a chain would be 143
+     * deep. */
     Prim *p = calloc(1000, sizeof(Prim));
     assert_non_null(p);
     for (int i = 0; i < 1000; i++) {
@@ -151,12 +153,43 @@ static void test_coincident_centroids(void **state)
     }
     Bvh b;
     build_ok(&b, p, 1000, 1);
-    assert_true(tree_depth(&b, 0) <= 3);
+    assert_int_equal(b.nleaves, 1000);
+    assert_true(tree_depth(&b, 0) <= 10);
     unsigned long long tests = 0;
     PrimHit h;
     Ray r = ray_make(vec3(1, 2, -10), vec3(0, 0, 1), INFINITY);
     assert_int_equal(bvh_closest(&b, &r, &h, &tests), 0); /* a tie: the lowest index */
     assert_float_equal(h.t, 12, 1e-5);
+    bvh_free(&b);
+    free(p);
+}
+
+static void test_costly_primitives_get_leaves_of_their_own(void **state)
+{
+    (void)state;
+    /* A leaf tests its triangles together but every other primitive on
+     * its own, each as costly as a node's box test or more: so a leaf
+     * holds at most one such primitive, and the node's box test culls
+     * the rest. Triangles still share leaves: they still fill them. */
+    const int n = 20000;
+    Prim *p = random_prims(n);
+    Bvh b;
+    build_ok(&b, p, n, 1);
+    for (int i = 0; i < b.nleaves; i++) {
+        const BvhLeaf *L = &b.leaves[i];
+        int costly = 0;
+        for (int k = 0; k < L->count; k++)
+            costly += p[b.order[L->first + k]].kind != PRIM_TRIANGLE;
+        assert_true(costly <= 1);
+    }
+    bvh_free(&b);
+    /* the triangles alone */
+    int m = 0;
+    for (int i = 0; i < n; i++)
+        if (p[i].kind == PRIM_TRIANGLE)
+            p[m++] = p[i];
+    build_ok(&b, p, m, 1);
+    assert_true(m > 6 * b.nleaves); /* 7.1 a leaf */
     bvh_free(&b);
     free(p);
 }
@@ -665,6 +698,7 @@ int main(void)
         cmocka_unit_test(test_wide_nodes_are_full),
         cmocka_unit_test(test_huge_boxes),
         cmocka_unit_test(test_coincident_centroids),
+        cmocka_unit_test(test_costly_primitives_get_leaves_of_their_own),
         cmocka_unit_test(test_validate_catches_damage),
         cmocka_unit_test(test_non_finite_rays_and_boxes),
         cmocka_unit_test(test_agrees_with_brute_force),
