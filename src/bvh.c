@@ -43,8 +43,9 @@
  * patch: anything but a triangle) costs a test of its own, as much as a
  * block or more; so it counts as a block, and a leaf holds at most one,
  * where the node's box test culls the others (a ref's lo[3] is 1 for
- * such a primitive, else 0). The cost of n primitives of which c are so: */
-#define BVH_TESTS(n, c) (BVH_BLOCKS((n) - (c)) + (c))
+ * such a primitive, else 0). The cost of a bin count (split()): its
+ * primitives n in the low 32 bits, the costly c among them in the high. */
+#define BVH_TESTS(nc) (BVH_BLOCKS((int)((nc) & 0xffffffffu) - (int)((nc) >> 32)) + (int)((nc) >> 32))
 /* Below this many primitives a subtree is built on the calling thread:
  * starting a thread costs more than it saves. */
 #define BVH_PARALLEL_MIN 4096
@@ -83,6 +84,7 @@ typedef struct {
     int *ids; /* ids[i]: the caller's index of refs[i] */
     BvhNode *nodes;
     int nnodes, cap;
+    int costly; /* 1 when some ref costs a test of its own (BVH_TESTS) */
 } Builder;
 
 /* Four-lane min, max, add, sub and mul for the build: SSE, or a loop.
@@ -310,7 +312,7 @@ static int split(Builder *B, int begin, int end, int depth, V4 clo, V4 chi)
 {
     Ref *refs = B->refs;
     int count = end - begin;
-    if (count <= BVH_LEAF_MAX && costly(refs, begin, end) <= 1)
+    if (count <= BVH_LEAF_MAX && (!B->costly || costly(refs, begin, end) <= 1))
         return -1;
     if (depth >= BVH_SAH_DEPTH)
         return begin + count / 2;
@@ -323,7 +325,9 @@ static int split(Builder *B, int begin, int end, int depth, V4 clo, V4 chi)
      * refs often fall in the same bin, and one set would make each update
      * wait for the previous one to be stored. */
     V4 blo[2][3][BVH_BINS], bhi[2][3][BVH_BINS];
-    int bcount[2][3][BVH_BINS] = {{{0}}}, bcostly[2][3][BVH_BINS] = {{{0}}};
+    /* a bin's refs in the low 32 bits, the costly among them in the high:
+     * one addition counts both */
+    uint64_t bcount[2][3][BVH_BINS] = {{{0}}};
     for (int s = 0; s < 2; s++)
         for (int a = 0; a < 3; a++)
             for (int k = 0; k < BVH_BINS; k++) {
@@ -335,11 +339,10 @@ static int split(Builder *B, int begin, int end, int depth, V4 clo, V4 chi)
         int s = i & 1;
         v4_store(kf, bin_of(&refs[i], clo, scale));
         V4 l = v4_load(refs[i].lo), h = v4_load(refs[i].hi);
-        int c = refs[i].lo[3] != 0.0f;
+        uint64_t one = 1 + ((uint64_t)(B->costly && refs[i].lo[3] != 0.0f) << 32);
         for (int a = 0; a < 3; a++) {
             int k = (int)kf[a];
-            bcount[s][a][k]++;
-            bcostly[s][a][k] += c;
+            bcount[s][a][k] += one;
             blo[s][a][k] = v4_min(l, blo[s][a][k]);
             bhi[s][a][k] = v4_max(h, bhi[s][a][k]);
         }
@@ -347,7 +350,6 @@ static int split(Builder *B, int begin, int end, int depth, V4 clo, V4 chi)
     for (int a = 0; a < 3; a++)
         for (int k = 0; k < BVH_BINS; k++) {
             bcount[0][a][k] += bcount[1][a][k];
-            bcostly[0][a][k] += bcostly[1][a][k];
             blo[0][a][k] = v4_min(blo[1][a][k], blo[0][a][k]);
             bhi[0][a][k] = v4_max(bhi[1][a][k], bhi[0][a][k]);
         }
@@ -358,7 +360,7 @@ static int split(Builder *B, int begin, int end, int depth, V4 clo, V4 chi)
             continue;
         /* sweep: areas and counts to the right of each boundary */
         float rarea[BVH_BINS], b4[2][4];
-        int rcount[BVH_BINS], rcostly[BVH_BINS], n = 0, nc = 0;
+        uint64_t rcount[BVH_BINS], n = 0;
         V4 lo = v4_set(INFINITY), hi = v4_set(-INFINITY);
         for (int k = BVH_BINS - 1; k > 0; k--) {
             lo = v4_min(blo[0][axis][k], lo);
@@ -366,25 +368,21 @@ static int split(Builder *B, int begin, int end, int depth, V4 clo, V4 chi)
             v4_store(b4[0], lo);
             v4_store(b4[1], hi);
             n += bcount[0][axis][k];
-            nc += bcostly[0][axis][k];
             rarea[k] = area(b4[0], b4[1]);
             rcount[k] = n;
-            rcostly[k] = nc;
         }
         lo = v4_set(INFINITY);
         hi = v4_set(-INFINITY);
-        n = nc = 0;
+        n = 0;
         for (int k = 0; k < BVH_BINS - 1; k++) {
             lo = v4_min(blo[0][axis][k], lo);
             hi = v4_max(bhi[0][axis][k], hi);
             n += bcount[0][axis][k];
-            nc += bcostly[0][axis][k];
             if (n == 0 || rcount[k + 1] == 0)
                 continue;
             v4_store(b4[0], lo);
             v4_store(b4[1], hi);
-            float cost = area(b4[0], b4[1]) * (float)BVH_TESTS(n, nc) +
-                         rarea[k + 1] * (float)BVH_TESTS(rcount[k + 1], rcostly[k + 1]);
+            float cost = area(b4[0], b4[1]) * (float)BVH_TESTS(n) + rarea[k + 1] * (float)BVH_TESTS(rcount[k + 1]);
             if (cost < best_cost) {
                 best_cost = cost;
                 best_axis = axis;
@@ -475,6 +473,7 @@ static int build_tree(Builder *B, int n, int threads)
     memset(&right, 0, sizeof right);
     right.b.refs = B->refs;
     right.b.ids = B->ids;
+    right.b.costly = B->costly;
     right.b.cap = 64;
     right.b.nodes = malloc(sizeof(BvhNode) * 64);
     right.begin = mid;
@@ -770,6 +769,7 @@ int bvh_build(Bvh *b, const Prim *prims, int n, PrimVariant v, int threads)
         r->lo[3] = prims[i].kind == PRIM_TRIANGLE || prims[i].kind == PRIM_SMOOTH_TRIANGLE ? 0.0f : 1.0f;
         r->hi[3] = 0.0f;
         B.ids[m++] = i;
+        B.costly |= r->lo[3] != 0.0f;
     }
     int rc = 0;
     if (m > 0) {
