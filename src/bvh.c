@@ -694,10 +694,14 @@ static int count_wide(const Collapse *C, int ni)
     return n;
 }
 
-/* Builds b->nodes and b->leaves from the binary tree of nbin nodes. */
-static int build_wide(Bvh *b, const BvhNode *bin, int nbin)
+/* Builds b->nodes and b->leaves from the binary tree of nbin nodes. The
+ * plan goes into spare (spare_bytes long, aligned for any type: the
+ * build's refs, done with by now) when it fits, so that it faults no new
+ * pages; a mesh's plan always fits (a binary node a leaf of about 7 refs). */
+static int build_wide(Bvh *b, const BvhNode *bin, int nbin, void *spare, size_t spare_bytes)
 {
-    Plan *plan = malloc(sizeof(Plan) * (size_t)nbin);
+    size_t plan_bytes = sizeof(Plan) * (size_t)nbin;
+    Plan *plan = plan_bytes <= spare_bytes ? spare : malloc(plan_bytes);
     if (!plan)
         return -1;
     plan_collapse(bin, nbin, plan);
@@ -711,7 +715,8 @@ static int build_wide(Bvh *b, const BvhNode *bin, int nbin)
     if (posix_memalign(&nodes, 64, sizeof(BvhWideNode) * (size_t)nwide) != 0 ||
         posix_memalign(&leaves, 64, sizeof(BvhLeaf) * (size_t)((nbin + 1) / 2)) != 0) {
         free(nodes);
-        free(plan);
+        if (plan != spare)
+            free(plan);
         return -1;
     }
     b->nodes = nodes;
@@ -721,7 +726,8 @@ static int build_wide(Bvh *b, const BvhNode *bin, int nbin)
         fill_node(&C, &root, 1, 0); /* a leaf root stays alone in slot 0 */
     else
         collapse(&C, 0, 0);
-    free(plan);
+    if (plan != spare)
+        free(plan);
     for (int a = 0; a < 3; a++) {
         b->lo[a] = bin[0].lo[a];
         b->hi[a] = bin[0].hi[a];
@@ -779,7 +785,7 @@ int bvh_build(Bvh *b, const Prim *prims, int n, PrimVariant v, int threads)
             b->order = order ? order : B.ids;
             B.ids = NULL;
             b->nprims = m;
-            rc = build_wide(b, B.nodes, B.nnodes);
+            rc = build_wide(b, B.nodes, B.nnodes, B.refs, sizeof(Ref) * (size_t)n);
         }
     }
     free(B.refs);
