@@ -971,9 +971,10 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
     s->ns = oriented ? s->ng : vec_dot(ns, r->d) > 0.0f ? vec_neg(ns) : ns;
 }
 
-Vec3 prim_spawn_origin(const Surface *s, Vec3 dir)
+/* prim_spawn_origin for a direction with nd = dot(ng, dir): its side is
+ * all the origin depends on. */
+static Vec3 spawn_side(const Surface *s, float nd)
 {
-    float nd = vec_dot(s->ng, dir);
     if (s->pin_side && (nd > 0.0f) == (s->pin_side > 0))
         return s->pin; /* into an oriented box, from beside one of its edges */
     Vec3 n = nd < 0.0f ? vec_neg(s->noff) : s->noff; /* the side dir leaves to */
@@ -987,6 +988,14 @@ Vec3 prim_spawn_origin(const Surface *s, Vec3 dir)
         if (nn[i] != 0.0f)
             c[i] = float_next(c[i], nn[i] > 0.0f);
     return vec3(c[0], c[1], c[2]);
+}
+
+Vec3 prim_spawn_origin(const Surface *s, Vec3 dir) { return spawn_side(s, vec_dot(s->ng, dir)); }
+
+void prim_spawn_origins(const Surface *s, Vec3 o[2])
+{
+    o[0] = spawn_side(s, -1.0f);
+    o[1] = spawn_side(s, 1.0f);
 }
 
 int prim_inside(const Prim *p, Vec3 q)

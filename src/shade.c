@@ -72,13 +72,14 @@ static float toward(Vec3 p, Vec3 q, Vec3 *dir)
     return dist;
 }
 
-/* The light arriving at p from point q, at distance dist in unit
- * direction d: 1 when nothing is in between, 0 behind an opaque object,
- * and, when shadows are filtered, the product of pass_factor over every
- * transparent surface crossed (refraction is ignored, as in POV-Ray). */
-static Vec3 transmittance(const Ctx *c, PlanShadow mode, const Surface *from, Vec3 q, Vec3 d, float dist)
+/* The light arriving at a surface point from point q, at distance dist in
+ * unit direction d, along a ray from o (the point's spawn origin toward
+ * d): 1 when nothing is in between, 0 behind an opaque object, and, when
+ * shadows are filtered, the product of pass_factor over every transparent
+ * surface crossed (refraction is ignored, as in POV-Ray). */
+static Vec3 transmittance(const Ctx *c, PlanShadow mode, Vec3 o, Vec3 q, Vec3 d, float dist)
 {
-    Ray r = ray_make(prim_spawn_origin(from, d), d, dist);
+    Ray r = ray_make(o, d, dist);
     c->st->shadow++;
     if (mode == PLAN_SHADOW_OPAQUE) /* any hit will do */
         return accel_occluded(c->a, &r, c->st) ? vec3(0, 0, 0) : vec3(1, 1, 1);
@@ -101,12 +102,20 @@ static Vec3 transmittance(const Ctx *c, PlanShadow mode, const Surface *from, Ve
     return vec3(0, 0, 0);
 }
 
+/* prim_spawn_origin(sf, d) from sf's two spawn origins o. */
+static Vec3 spawn_toward(const Surface *sf, const Vec3 o[2], Vec3 d)
+{
+    float nd = vec_dot(sf->ng, d);
+    return nd < 0.0f ? o[0] : nd > 0.0f ? o[1] : prim_spawn_origin(sf, d);
+}
+
 /* An area light's sample grid, each sample traced at most once, for
  * POV-Ray's adaptive subdivision (area_cell). */
 typedef struct {
     const Ctx *c;
     PlanShadow mode;
     const Surface *sf;
+    Vec3 o[2]; /* sf's spawn origins (prim_spawn_origins) */
     const Light *l;
     Vec3 lc; /* the light's colour at the point, faded by the centre's distance */
     Vec3 t[LIMIT_AREA_SAMPLES * LIMIT_AREA_SAMPLES];
@@ -127,7 +136,7 @@ static Vec3 area_sample(AreaGrid *g, int i, int j)
     if (!g->traced[k]) {
         Vec3 d, q = area_point(g->l, i, j);
         float qd = toward(g->sf->p, q, &d);
-        g->t[k] = transmittance(g->c, g->mode, g->sf, q, d, qd);
+        g->t[k] = transmittance(g->c, g->mode, spawn_toward(g->sf, g->o, d), q, d, qd);
         g->traced[k] = 1;
     }
     return g->t[k];
@@ -171,23 +180,25 @@ static Vec3 light_visibility(const Ctx *c, int li, const Surface *sf, Vec3 L, fl
     const Light *l = &c->s->lights[li];
     PlanShadow mode = c->p->shadow[li];
     if (l->area_n1 * l->area_n2 == 1)
-        return transmittance(c, mode, sf, l->pos, L, dist);
+        return transmittance(c, mode, prim_spawn_origin(sf, L), l->pos, L, dist);
     if (l->adaptive > 0) {
         AreaGrid g;
         g.c = c, g.mode = mode, g.sf = sf, g.l = l, g.lc = lc;
+        prim_spawn_origins(sf, g.o);
         memset(g.traced, 0, (size_t)(l->area_n1 * l->area_n2));
         return area_cell(&g, 0, 0, l->area_n1 - 1, l->area_n2 - 1, 0);
     }
     float w1[LIMIT_AREA_SAMPLES], w2[LIMIT_AREA_SAMPLES];
     shade_area_weights(l->area_n1, w1);
     shade_area_weights(l->area_n2, w2);
-    Vec3 vis = vec3(0, 0, 0);
+    Vec3 vis = vec3(0, 0, 0), o[2];
+    prim_spawn_origins(sf, o);
     for (int j = 0; j < l->area_n2; j++) {
         for (int i = 0; i < l->area_n1; i++) {
             Vec3 q = area_point(l, i, j);
             Vec3 d;
             float qd = toward(sf->p, q, &d);
-            vis = vec_madd(vis, transmittance(c, mode, sf, q, d, qd), w1[i] * w2[j]);
+            vis = vec_madd(vis, transmittance(c, mode, spawn_toward(sf, o, d), q, d, qd), w1[i] * w2[j]);
         }
     }
     return vis;

@@ -476,6 +476,25 @@ static void test_robust_error_bounds(void **state)
 
 /* Box coordinate i of q, in double: N_i . (q - c) / det, N_i the cross
  * product of the other two axes (products of floats are exact in double). */
+/* prim_spawn_origins' pair against prim_spawn_origin for directions on
+ * both sides of surface s: bit for bit. Returns the directions compared. */
+static int spawn_pair_agrees(const Surface *s, unsigned long long *seed)
+{
+    Vec3 o[2];
+    prim_spawn_origins(s, o);
+    int n = 0;
+    for (int k = 0; k < 64; k++) {
+        Vec3 d = test_rvec(seed, -1, 1);
+        float nd = vec_dot(s->ng, d);
+        if (nd == 0.0f)
+            continue;
+        Vec3 want = prim_spawn_origin(s, d), got = o[nd > 0.0f];
+        assert_memory_equal(&want, &got, sizeof want);
+        n++;
+    }
+    return n;
+}
+
 static double obox_coord(const OBox *b, Vec3 q, int i)
 {
     const Vec3 ax[3] = {b->u, b->v, b->w};
@@ -517,7 +536,64 @@ static void test_obox_spawn_inside_near_edge(void **state)
         Vec3 q = prim_spawn_origin(&s, vec_neg(r.d));
         for (int i = 0; i < 3; i++)
             assert_true(fabs(obox_coord(&p.g.obox, q, i)) < 1.0);
+        /* pinned: the origin of one side is the pin, as a pair too */
+        assert_true(s.pin_side != 0);
+        unsigned long long seed = 5;
+        assert_true(spawn_pair_agrees(&s, &seed) > 0);
     }
+}
+
+static void test_spawn_origins_pair(void **state)
+{
+    (void)state;
+    /* Rays from inside and outside every bounded kind, the oriented boxes'
+     * near their edges too (where the origin is pinned on one side). */
+    unsigned long long seed = 77;
+    int compared = 0;
+    for (int i = 0; i < 3000; i++) {
+        Prim p;
+        memset(&p, 0, sizeof p);
+        switch (i % 4) {
+        case 0:
+            p.kind = PRIM_SPHERE;
+            p.g.sphere.c = test_rvec(&seed, -5, 5);
+            p.g.sphere.r = test_uniform(&seed, 0.1f, 3.0f);
+            break;
+        case 1:
+            p.kind = PRIM_TRIANGLE;
+            p.g.tri.a = test_rvec(&seed, -5, 5);
+            p.g.tri.b = test_rvec(&seed, -5, 5);
+            p.g.tri.c = test_rvec(&seed, -5, 5);
+            break;
+        case 2:
+            p.kind = PRIM_BOX;
+            p.g.box.lo = test_rvec(&seed, -5, 0);
+            p.g.box.hi = vec_add(p.g.box.lo, test_rvec(&seed, 0.1f, 5));
+            break;
+        default:
+            p.kind = PRIM_OBOX;
+            p.g.obox.c = test_rvec(&seed, -2, 2);
+            p.g.obox.u = test_rvec(&seed, -2, 2);
+            p.g.obox.v = test_rvec(&seed, -2, 2);
+            p.g.obox.w = test_rvec(&seed, -2, 2);
+            if (prim_obox_init(&p.g.obox) != 0)
+                continue;
+        }
+        Vec3 mid = p.kind == PRIM_SPHERE     ? p.g.sphere.c
+                   : p.kind == PRIM_TRIANGLE ? vec_scale(vec_add(vec_add(p.g.tri.a, p.g.tri.b), p.g.tri.c), 1.0f / 3)
+                   : p.kind == PRIM_BOX      ? vec_scale(vec_add(p.g.box.lo, p.g.box.hi), 0.5f)
+                                             : p.g.obox.c;
+        /* from near the middle (inside the solids) and from far outside */
+        Vec3 o = i & 4 ? vec_add(mid, test_rvec(&seed, -0.05f, 0.05f)) : vec_add(mid, test_rvec(&seed, -20, 20));
+        Ray r = ray_make(o, vec_sub(vec_add(mid, test_rvec(&seed, -1, 1)), o), INFINITY);
+        PrimHit h;
+        if (!prim_intersect(&p, &r, PRIM_ROBUST, &h))
+            continue;
+        Surface sf;
+        prim_surface(&p, &r, &h, PRIM_ROBUST, &sf);
+        compared += spawn_pair_agrees(&sf, &seed);
+    }
+    assert_true(compared > 50000); /* (the pinned ones: test_obox_spawn_inside_near_edge) */
 }
 
 static void test_box_origin_on_slab_plane(void **state)
@@ -998,6 +1074,7 @@ int main(void)
         cmocka_unit_test(test_smooth_normal_flips_on_its_own),
         cmocka_unit_test(test_inside),
         cmocka_unit_test(test_spawn_origin),
+        cmocka_unit_test(test_spawn_origins_pair),
         cmocka_unit_test(test_spawn_leaves_triangle),
         cmocka_unit_test(test_robust_error_bounds),
         cmocka_unit_test(test_box_origin_on_slab_plane),

@@ -300,4 +300,10 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
  * epsilon: the offset is the error bound of this very hit. */
 Vec3 prim_spawn_origin(const Surface *s, Vec3 dir);
 
+/* prim_spawn_origin's two answers, for the many rays that leave one point
+ * (an area light's samples): o[0] for every dir with dot(s->ng, dir) < 0,
+ * o[1] for every dir with dot(s->ng, dir) > 0. A dir with neither (in the
+ * tangent plane, or not a number) takes prim_spawn_origin. */
+void prim_spawn_origins(const Surface *s, Vec3 o[2]);
+
 #endif
