@@ -697,7 +697,8 @@ static int count_wide(const Collapse *C, int ni)
 /* Builds b->nodes and b->leaves from the binary tree of nbin nodes. The
  * plan goes into spare (spare_bytes long, aligned for any type: the
  * build's refs, done with by now) when it fits, so that it faults no new
- * pages; a mesh's plan always fits (a binary node a leaf of about 7 refs). */
+ * pages. It fits when the leaves hold 5 refs or more on average (two
+ * binary nodes a leaf): meshes' leaves hold about 7. */
 static int build_wide(Bvh *b, const BvhNode *bin, int nbin, void *spare, size_t spare_bytes)
 {
     size_t plan_bytes = sizeof(Plan) * (size_t)nbin;
