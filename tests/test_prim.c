@@ -217,12 +217,10 @@ static void test_ellipsoid_spawn(void **state)
         Vec3 q = test_rvec(&rng, -1, 1), from = vec_add(vec3(1000, -2000, 500), vec_scale(test_rvec(&rng, -1, 1), 600));
         Vec3 to = vec3((float)(1000 + 300 * c * q.x), (float)(-2000 + 300 * sn * q.x), (float)(500 + 5 * q.z));
         Ray r = ray_make(from, vec_normalize(vec_sub(to, from)), INFINITY);
-        PrimHit h;
         Surface sf;
-        if (!prim_intersect(&p, &r, PRIM_ROBUST, &h))
+        if (!test_surface(&p, &r, PRIM_ROBUST, &sf))
             continue;
         hits++;
-        prim_surface(&p, &r, &h, PRIM_ROBUST, &sf);
         /* out again (reflection) and in (refraction): outside, then inside */
         Vec3 out = vec_neg(r.d);
         assert_false(prim_inside(&p, prim_spawn_origin(&sf, out)));
@@ -586,11 +584,9 @@ static void test_spawn_origins_pair(void **state)
         /* from near the middle (inside the solids) and from far outside */
         Vec3 o = i & 4 ? vec_add(mid, test_rvec(&seed, -0.05f, 0.05f)) : vec_add(mid, test_rvec(&seed, -20, 20));
         Ray r = ray_make(o, vec_sub(vec_add(mid, test_rvec(&seed, -1, 1)), o), INFINITY);
-        PrimHit h;
-        if (!prim_intersect(&p, &r, PRIM_ROBUST, &h))
-            continue;
         Surface sf;
-        prim_surface(&p, &r, &h, PRIM_ROBUST, &sf);
+        if (!test_surface(&p, &r, PRIM_ROBUST, &sf))
+            continue;
         compared += spawn_pair_agrees(&sf, &seed);
     }
     assert_true(compared > 50000); /* (the pinned ones: test_obox_spawn_inside_near_edge) */
@@ -814,11 +810,9 @@ static void test_spawn_leaves_triangle(void **state)
             Vec3 q = vec_add(vec_add(vec_scale(p.g.tri.a, 1 - u - v), vec_scale(p.g.tri.b, u)), vec_scale(p.g.tri.c, v));
             Vec3 eye = vec_add(ctr, vec_scale(vec_normalize(test_rvec(&s, -1, 1)), 100.0f));
             Ray r = ray_make(eye, vec_normalize(vec_sub(q, eye)), INFINITY);
-            PrimHit h;
-            if (!prim_intersect(&p, &r, PRIM_ROBUST, &h))
-                continue;
             Surface sf;
-            prim_surface(&p, &r, &h, PRIM_ROBUST, &sf);
+            if (!test_surface(&p, &r, PRIM_ROBUST, &sf))
+                continue;
             for (int j = 0; j < 4; j++) {
                 Vec3 d = vec_normalize(test_rvec(&s, -1, 1));
                 Ray out = ray_make(prim_spawn_origin(&sf, d), d, INFINITY);

@@ -360,11 +360,9 @@ static void test_no_self_shadowing_on_spheres(void **state)
             /* aim at a random point of the disc the sphere shows the eye */
             Vec3 target = vec3(1.2f + 0.8f * (u - 0.5f), 0.4f + 0.8f * (w - 0.5f), -0.8f);
             Ray r = ray_make(eye, vec_normalize(vec_sub(target, eye)), INFINITY);
-            PrimHit h;
-            if (!prim_intersect(&sphere, &r, var, &h))
-                continue;
             Surface sf;
-            prim_surface(&sphere, &r, &h, var, &sf);
+            if (!test_surface(&sphere, &r, var, &sf))
+                continue;
             /* At the silhouette even the side the normal faces is uncertain;
              * either way that point is dark, so it is not counted. */
             if (vec_dot(r.d, sf.ng) > -0.01f)

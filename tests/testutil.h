@@ -9,6 +9,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "lancer/prim.h"
 #include "lancer/vec.h"
 
 /* Each component of v within tol of (x, y, z). */
@@ -20,6 +21,16 @@ static inline void assert_vec(Vec3 v, float x, float y, float z, float tol)
 }
 
 /* xorshift64, uniform in [lo, hi): the same sequence on every machine. */
+/* 1 with *sf filled when ray r hits p (variant v), else 0. */
+static inline int test_surface(const Prim *p, const Ray *r, PrimVariant v, Surface *sf)
+{
+    PrimHit h;
+    if (!prim_intersect(p, r, v, &h))
+        return 0;
+    prim_surface(p, r, &h, v, sf);
+    return 1;
+}
+
 static inline float test_uniform(unsigned long long *s, float lo, float hi)
 {
     *s ^= *s << 13;
