@@ -20,6 +20,7 @@
 #include <emmintrin.h>
 #endif
 #include <pthread.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -515,13 +516,20 @@ static int build_tree(Builder *B, int n, int threads)
 /* ---- the wide tree ---- */
 
 /* How binary node n's subtree is best laid out in i slots of a wide node
- * (at most i of its nodes side by side), for i = 1 .. BVH_WIDTH. */
+ * (at most i of its nodes side by side), for i = 1 .. BVH_WIDTH. The
+ * costs that decide it are kept apart (Cost): they are done with before
+ * the tree is written, and can lie where it goes. */
 typedef struct {
-    double cost[BVH_WIDTH]; /* cost[i - 1]: the least sum of the areas of the wide nodes made */
     uint8_t left[BVH_WIDTH]; /* left[i - 1]: 0 for n itself in one slot, else the slots of
                               * its left child (the right child takes the other i - left) */
     uint8_t wide_left; /* n as a wide node: the slots of its left child among its own */
 } Plan;
+
+/* cost[i - 1]: the least sum of the areas of the wide nodes made of n's
+ * subtree in i slots. */
+typedef struct {
+    double cost[BVH_WIDTH];
+} Cost;
 
 typedef struct {
     Bvh *b;
@@ -577,7 +585,7 @@ static void fill_leaves(Bvh *b)
  * answer is a valid split even when every cost is infinite or not a number
  * (a box too large for its area in float): the plan must place every
  * node whatever the costs. */
-static double share(const Plan *a, const Plan *b, int slots, uint8_t *left)
+static double share(const Cost *a, const Cost *b, int slots, uint8_t *left)
 {
     double best = a->cost[0] + b->cost[slots - 2];
     *left = 1;
@@ -600,28 +608,29 @@ static double share(const Plan *a, const Plan *b, int slots, uint8_t *left)
  * enters each). Greedily opening the largest child left many nodes with two
  * children of eight. Children follow their parents in
  * bin[], so one backward pass sees children first. */
-static void plan_collapse(const BvhNode *bin, int nbin, Plan *plan)
+static void plan_collapse(const BvhNode *bin, int nbin, Cost *cost, Plan *plan)
 {
     for (int n = nbin - 1; n >= 0; n--) {
         Plan *p = &plan[n];
+        double *pc = cost[n].cost;
         memset(p->left, 0, sizeof p->left);
         p->wide_left = 0;
         if (bin[n].count > 0) { /* a leaf: one slot, no wide node */
             for (int i = 0; i < BVH_WIDTH; i++)
-                p->cost[i] = 0.0;
+                pc[i] = 0.0;
             continue;
         }
-        const Plan *l = &plan[bin[n].first], *r = &plan[bin[n].first + 1];
+        const Cost *l = &cost[bin[n].first], *r = &cost[bin[n].first + 1];
         const float *lo = bin[n].lo, *hi = bin[n].hi; /* the area in double: no overflow */
         double dx = (double)hi[0] - lo[0], dy = (double)hi[1] - lo[1], dz = (double)hi[2] - lo[2];
-        p->cost[0] = dx * dy + dy * dz + dz * dx + share(l, r, BVH_WIDTH, &p->wide_left);
+        pc[0] = dx * dy + dy * dz + dz * dx + share(l, r, BVH_WIDTH, &p->wide_left);
         for (int i = 2; i <= BVH_WIDTH; i++) {
             uint8_t k = 1;
             double c = share(l, r, i, &k);
-            p->cost[i - 1] = p->cost[i - 2];
+            pc[i - 1] = pc[i - 2];
             p->left[i - 1] = p->left[i - 2];
-            if (c < p->cost[i - 1]) {
-                p->cost[i - 1] = c;
+            if (c < pc[i - 1]) {
+                pc[i - 1] = c;
                 p->left[i - 1] = k;
             }
         }
@@ -694,61 +703,79 @@ static int count_wide(const Collapse *C, int ni)
     return n;
 }
 
-/* Builds b->nodes and b->leaves from the binary tree of nbin nodes. The
- * plan goes into spare (spare_bytes long, aligned for any type: the
- * build's refs, done with by now) when it fits, so that it faults no new
- * pages. It fits when the leaves hold 5 refs or more on average (two
- * binary nodes a leaf): meshes' leaves hold about 7. */
-static int build_wide(Bvh *b, const BvhNode *bin, int nbin, void *spare, size_t spare_bytes)
+/* Grows block *m of *size bytes to `need` when it is smaller, its last
+ * `tail` bytes moved to the new end. */
+static int grow(char **m, size_t *size, size_t need, size_t tail)
 {
-    size_t plan_bytes = sizeof(Plan) * (size_t)nbin;
-    Plan *plan = plan_bytes <= spare_bytes ? spare : malloc(plan_bytes);
-    if (!plan)
+    if (need <= *size)
+        return 0;
+    char *g = realloc(*m, need);
+    if (!g)
         return -1;
-    plan_collapse(bin, nbin, plan);
-    Collapse C = {b, bin, plan};
-    /* Every binary leaf is a leaf here; the wide nodes are counted first,
-     * so that both arrays are allocated once at their size, aligned to
-     * cache lines: a copy into exact arrays afterwards would write the tree
-     * twice, into fresh pages, a page fault each (docs/performance.md). */
+    memmove(g + need - tail, g + *size - tail, tail);
+    *m = g;
+    *size = need;
+    return 0;
+}
+
+/* Builds b->nodes and b->leaves from the binary tree of nbin nodes, in
+ * *block (size bytes), the build's references, done with by now: the tree
+ * goes into pages the build has faulted in already (docs/performance.md).
+ * The collapse's plan lies at the block's end, and its costs, done with
+ * before the tree is written, at its start; the block grows when they or
+ * the tree do not fit. It is not cut to the tree afterwards: the next
+ * build's block would then not fit where this one was, and would fault
+ * fresh pages; the part of it that neither touches costs no memory. On
+ * success b->mem owns the block and *block is NULL; on failure *block is
+ * the caller's to free. */
+static int build_wide(Bvh *b, const BvhNode *bin, int nbin, void **block, size_t size)
+{
+    char *m = *block;
+    const size_t plan_bytes = sizeof(Plan) * (size_t)nbin;
+    if (grow(&m, &size, sizeof(Cost) * (size_t)nbin + plan_bytes, 0) != 0)
+        return -1;
+    *block = m;
+    plan_collapse(bin, nbin, (Cost *)m, (Plan *)(m + size - plan_bytes));
+    Collapse C = {b, bin, (Plan *)(m + size - plan_bytes)};
+    /* Every binary leaf is a leaf; the wide nodes are counted first, so
+     * that the tree is written once, in its place: a copy would fault its
+     * pages twice. The first 64 bytes align it to cache lines. */
     const int root = 0, nwide = bin[0].count > 0 ? 1 : count_wide(&C, 0);
-    void *nodes = NULL, *leaves = NULL;
-    if (posix_memalign(&nodes, 64, sizeof(BvhWideNode) * (size_t)nwide) != 0 ||
-        posix_memalign(&leaves, 64, sizeof(BvhLeaf) * (size_t)((nbin + 1) / 2)) != 0) {
-        free(nodes);
-        if (plan != spare)
-            free(plan);
+    const size_t leaf_bytes = sizeof(BvhLeaf) * (size_t)((nbin + 1) / 2);
+    const size_t tree_bytes = leaf_bytes + sizeof(BvhWideNode) * (size_t)nwide;
+    if (grow(&m, &size, 64 + tree_bytes + plan_bytes, plan_bytes) != 0)
         return -1;
-    }
-    b->nodes = nodes;
-    b->leaves = leaves;
+    *block = NULL;
+    b->mem = m;
+    C.plan = (Plan *)(m + size - plan_bytes);
+    size_t skew = (64 - (uintptr_t)m % 64) % 64;
+    b->leaves = (BvhLeaf *)(m + skew);
+    b->nodes = (BvhWideNode *)(m + skew + leaf_bytes);
     b->nnodes = 1;
     if (bin[0].count > 0)
         fill_node(&C, &root, 1, 0); /* a leaf root stays alone in slot 0 */
     else
         collapse(&C, 0, 0);
-    if (plan != spare)
-        free(plan);
     for (int a = 0; a < 3; a++) {
         b->lo[a] = bin[0].lo[a];
         b->hi[a] = bin[0].hi[a];
     }
     b->lo[3] = b->hi[3] = 0.0f;
     fill_leaves(b);
+    b->plan_bytes = plan_bytes;
     return 0;
 }
 
 void bvh_free(Bvh *b)
 {
-    free(b->leaves);
-    free(b->nodes);
+    free(b->mem);
     free(b->order);
     memset(b, 0, sizeof *b);
 }
 
 size_t bvh_bytes(const Bvh *b)
 {
-    return sizeof(BvhWideNode) * (size_t)b->nnodes + sizeof(BvhLeaf) * (size_t)b->nleaves +
+    return sizeof(BvhWideNode) * (size_t)b->nnodes + sizeof(BvhLeaf) * (size_t)b->nleaves + b->plan_bytes +
            sizeof(int) * (size_t)b->nprims;
 }
 
@@ -759,13 +786,17 @@ int bvh_build(Bvh *b, const Prim *prims, int n, PrimVariant v, int threads)
     b->prims = prims;
     Builder B;
     memset(&B, 0, sizeof B);
-    void *refs = NULL;
-    if (posix_memalign(&refs, 16, sizeof(Ref) * (size_t)(n > 0 ? n : 1)) != 0)
+    /* The refs' block becomes the tree's (build_wide), with room for the
+     * tree of a mesh (about 56 bytes a triangle); malloc, not
+     * posix_memalign, so that it may grow by realloc. */
+    size_t size = 16 + 2 * sizeof(Ref) * (size_t)(n > 0 ? n : 1);
+    void *block = malloc(size);
+    if (!block)
         return -1;
-    B.refs = refs;
+    B.refs = (Ref *)((char *)block + (16 - (uintptr_t)block % 16) % 16);
     B.ids = malloc(sizeof(int) * (size_t)(n > 0 ? n : 1));
     if (!B.ids) {
-        free(B.refs);
+        free(block);
         return -1;
     }
     int m = 0;
@@ -786,10 +817,10 @@ int bvh_build(Bvh *b, const Prim *prims, int n, PrimVariant v, int threads)
             b->order = order ? order : B.ids;
             B.ids = NULL;
             b->nprims = m;
-            rc = build_wide(b, B.nodes, B.nnodes, B.refs, sizeof(Ref) * (size_t)n);
+            rc = build_wide(b, B.nodes, B.nnodes, &block, size);
         }
     }
-    free(B.refs);
+    free(block);
     free(B.ids);
     free(B.nodes);
     if (rc != 0) {
@@ -842,6 +873,8 @@ int bvh_validate(const Bvh *b, char *err, size_t errlen)
 {
     if (b->nprims == 0)
         return b->nnodes == 0 ? 0 : (snprintf(err, errlen, "nodes without primitives"), -1);
+    if ((uintptr_t)b->nodes % 64 != 0 || (uintptr_t)b->leaves % 64 != 0)
+        return snprintf(err, errlen, "nodes or leaves not on cache lines (the traversal's aligned loads)"), -1;
     int *seen = calloc((size_t)b->nprims, sizeof(int));
     int *stack = malloc(sizeof(int) * (size_t)(BVH_WIDTH * b->nnodes + 1));
     float(*box)[2][3] = malloc(sizeof *box * (size_t)(BVH_WIDTH * b->nnodes + 1)); /* each entry's parent slot box */

@@ -492,6 +492,33 @@ static void test_mesh_leaves_agree_with_brute_force(void **state)
     free(p);
 }
 
+/* The tree is written into the block of the build's references: in
+ * place for a mesh, whose tree fits the room reserved with them, and after
+ * the block grows for primitives that are each a leaf. Either way the
+ * leaves start on the block's first cache line and the nodes follow them
+ * (bvh_validate checks the alignment). */
+static void test_tree_lies_in_the_refs_block(void **state)
+{
+    (void)state;
+    for (int costly = 0; costly <= 1; costly++) {
+        const int n = 5000;
+        Prim *p = costly ? random_prims(n) : random_triangles(n);
+        Bvh b;
+        build_ok(&b, p, n, 1);
+        ptrdiff_t at = (const char *)b.leaves - (const char *)b.mem;
+        assert_true(at >= 0 && at < 64);
+        assert_ptr_equal(b.nodes, (const void *)(b.leaves + b.nleaves));
+        assert_true(bvh_bytes(&b) > sizeof(BvhLeaf) * (size_t)b.nleaves + sizeof(BvhWideNode) * (size_t)b.nnodes);
+        if (!costly) /* the tree fits twice the refs' bytes */
+            assert_true(sizeof(BvhLeaf) * (size_t)b.nleaves + sizeof(BvhWideNode) * (size_t)b.nnodes <
+                        64 * (size_t)n);
+        else /* a leaf for each but the triangles (one in four): the block grew */
+            assert_true(b.nleaves >= 3 * n / 4);
+        bvh_free(&b);
+        free(p);
+    }
+}
+
 /* The grid of the closed-mesh tests' cube. */
 #define CUBE_G 8
 
@@ -706,6 +733,7 @@ int main(void)
         cmocka_unit_test(test_hits_just_before_tmax),
         cmocka_unit_test(test_rays_from_outside_touching_the_root_box),
         cmocka_unit_test(test_mesh_leaves_agree_with_brute_force),
+        cmocka_unit_test(test_tree_lies_in_the_refs_block),
         cmocka_unit_test(test_closed_mesh_has_no_leaks),
         cmocka_unit_test(test_packets_agree_with_single_rays),
         cmocka_unit_test(test_occluded_packets_agree_with_single_rays),

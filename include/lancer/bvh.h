@@ -83,6 +83,8 @@ typedef struct {
 } BvhLeaf;
 
 typedef struct {
+    void *mem;         /* one block: the leaves, the nodes, and the build's plan at its end */
+    size_t plan_bytes; /* (which bvh_bytes counts, as its pages stay in memory) */
     BvhWideNode *nodes;
     int nnodes;
     BvhLeaf *leaves;
