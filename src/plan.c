@@ -120,6 +120,50 @@ static int fail(char *err, size_t errlen, const char *msg)
     return -1;
 }
 
+/* POV-Ray's trace.cpp splits the index range [a, b] at its middle until
+ * neighbours remain, averaging the four corner samples of each cell; along
+ * one axis, each leaf pair shares the weight of its branch. */
+static void area_rec(int a, int b, float wt, float *w)
+{
+    if (b - a <= 1) {
+        w[a] += wt / 2;
+        w[b] += wt / 2;
+        return;
+    }
+    area_rec(a, (a + b) / 2, wt / 2, w);
+    area_rec((a + b + 1) / 2, b, wt / 2, w);
+}
+
+void plan_area_weights(int n, float *w)
+{
+    memset(w, 0, sizeof(float) * (size_t)n);
+    if (n == 1)
+        w[0] = 1.0f;
+    else
+        area_rec(0, n - 1, 1.0f, w);
+}
+
+/* The samples of area light l, once for every shadow ray that needs them. */
+static int area_table(const Light *l, PlanArea *a)
+{
+    int n1 = l->area_n1, n2 = l->area_n2;
+    a->point = malloc((sizeof(Vec3) + sizeof(float)) * (size_t)(n1 * n2));
+    if (!a->point)
+        return -1;
+    a->weight = (float *)(void *)(a->point + n1 * n2);
+    float w1[LIMIT_AREA_SAMPLES], w2[LIMIT_AREA_SAMPLES];
+    plan_area_weights(n1, w1);
+    plan_area_weights(n2, w2);
+    for (int j = 0; j < n2; j++)
+        for (int i = 0; i < n1; i++) {
+            float su = n1 > 1 ? (float)i / (float)(n1 - 1) - 0.5f : 0.0f;
+            float sv = n2 > 1 ? (float)j / (float)(n2 - 1) - 0.5f : 0.0f;
+            a->point[j * n1 + i] = vec_madd(vec_madd(l->pos, l->area_u, su), l->area_v, sv);
+            a->weight[j * n1 + i] = w1[i] * w2[j];
+        }
+    return 0;
+}
+
 int plan_build(RenderPlan *p, Scene *s, const PlanOptions *o, char *err, size_t errlen)
 {
     memset(p, 0, sizeof *p);
@@ -221,8 +265,16 @@ int plan_build(RenderPlan *p, Scene *s, const PlanOptions *o, char *err, size_t 
         plan_interiors_at(s, s->camera.eye, &p->camera_in);
     if (s->nlights > 0) {
         p->shadow = malloc(sizeof(PlanShadow) * (size_t)s->nlights);
-        if (!p->shadow)
+        p->area = calloc((size_t)s->nlights, sizeof(PlanArea));
+        for (int i = 0; p->area && i < s->nlights; i++)
+            if (s->lights[i].area_n1 * s->lights[i].area_n2 > 1 && area_table(&s->lights[i], &p->area[i]) != 0) {
+                plan_free(p);
+                return fail(err, errlen, "out of memory");
+            }
+        if (!p->shadow || !p->area) {
+            plan_free(p);
             return fail(err, errlen, "out of memory");
+        }
     }
     p->full = o->full;
     p->loop = o->accel == 2 || (o->accel == 0 && !o->full && s->nprims <= PLAN_LOOP_PRIMS);
@@ -287,6 +339,9 @@ int plan_notes(const RenderPlan *p, PlanNote *notes, int max)
 
 void plan_free(RenderPlan *p)
 {
+    for (int i = 0; p->area && i < p->scene->nlights; i++)
+        free(p->area[i].point);
+    free(p->area);
     free(p->shadow);
     memset(p, 0, sizeof *p);
 }

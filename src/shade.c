@@ -23,29 +23,6 @@ typedef struct {
     RayStats *st;
 } Ctx;
 
-/* POV-Ray's trace.cpp splits the index range [a, b] at its middle until
- * neighbours remain, averaging the four corner samples of each cell; along
- * one axis, each leaf pair shares the weight of its branch. */
-static void area_rec(int a, int b, float wt, float *w)
-{
-    if (b - a <= 1) {
-        w[a] += wt / 2;
-        w[b] += wt / 2;
-        return;
-    }
-    area_rec(a, (a + b) / 2, wt / 2, w);
-    area_rec((a + b + 1) / 2, b, wt / 2, w);
-}
-
-void shade_area_weights(int n, float *w)
-{
-    memset(w, 0, sizeof(float) * (size_t)n);
-    if (n == 1)
-        w[0] = 1.0f;
-    else
-        area_rec(0, n - 1, 1.0f, w);
-}
-
 /* Light attenuation: 2 / (1 + (d/fade_distance)^fade_power), or 1. */
 static float fade(const Light *l, float dist)
 {
@@ -117,24 +94,17 @@ typedef struct {
     const Surface *sf;
     Vec3 o[2]; /* sf's spawn origins (prim_spawn_origins) */
     const Light *l;
+    const Vec3 *point; /* its samples (PlanArea) */
     Vec3 lc; /* the light's colour at the point, faded by the centre's distance */
     Vec3 t[LIMIT_AREA_SAMPLES * LIMIT_AREA_SAMPLES];
     unsigned char traced[LIMIT_AREA_SAMPLES * LIMIT_AREA_SAMPLES];
 } AreaGrid;
 
-/* The point of sample (i, j) of light l: POV-Ray's grid, corners included. */
-static Vec3 area_point(const Light *l, int i, int j)
-{
-    float su = l->area_n1 > 1 ? (float)i / (float)(l->area_n1 - 1) - 0.5f : 0.0f;
-    float sv = l->area_n2 > 1 ? (float)j / (float)(l->area_n2 - 1) - 0.5f : 0.0f;
-    return vec_madd(vec_madd(l->pos, l->area_u, su), l->area_v, sv);
-}
-
 static Vec3 area_sample(AreaGrid *g, int i, int j)
 {
     int k = j * g->l->area_n1 + i;
     if (!g->traced[k]) {
-        Vec3 d, q = area_point(g->l, i, j);
+        Vec3 d, q = g->point[k];
         float qd = toward(g->sf->p, q, &d);
         g->t[k] = transmittance(g->c, g->mode, spawn_toward(g->sf, g->o, d), q, d, qd);
         g->traced[k] = 1;
@@ -183,23 +153,38 @@ static Vec3 light_visibility(const Ctx *c, int li, const Surface *sf, Vec3 L, fl
         return transmittance(c, mode, prim_spawn_origin(sf, L), l->pos, L, dist);
     if (l->adaptive > 0) {
         AreaGrid g;
-        g.c = c, g.mode = mode, g.sf = sf, g.l = l, g.lc = lc;
+        g.c = c, g.mode = mode, g.sf = sf, g.l = l, g.point = c->p->area[li].point, g.lc = lc;
         prim_spawn_origins(sf, g.o);
         memset(g.traced, 0, (size_t)(l->area_n1 * l->area_n2));
         return area_cell(&g, 0, 0, l->area_n1 - 1, l->area_n2 - 1, 0);
     }
-    float w1[LIMIT_AREA_SAMPLES], w2[LIMIT_AREA_SAMPLES];
-    shade_area_weights(l->area_n1, w1);
-    shade_area_weights(l->area_n2, w2);
+    const PlanArea *area = &c->p->area[li];
+    const int n = l->area_n1 * l->area_n2;
     Vec3 vis = vec3(0, 0, 0), o[2];
     prim_spawn_origins(sf, o);
-    for (int j = 0; j < l->area_n2; j++) {
-        for (int i = 0; i < l->area_n1; i++) {
-            Vec3 q = area_point(l, i, j);
-            Vec3 d;
-            float qd = toward(sf->p, q, &d);
-            vis = vec_madd(vis, transmittance(c, mode, spawn_toward(sf, o, d), q, d, qd), w1[i] * w2[j]);
+    if (mode == PLAN_SHADOW_OPAQUE) {
+        /* The samples' rays leave one point for one small patch: they go to
+         * accel_occluded_packet together, which answers as
+         * transmittance() would, and are summed in the same order. */
+        for (int k0 = 0; k0 < n; k0 += ACCEL_PACKET) {
+            Ray sr[ACCEL_PACKET];
+            int ns = n - k0 < ACCEL_PACKET ? n - k0 : ACCEL_PACKET;
+            for (int k = 0; k < ns; k++) {
+                Vec3 d;
+                float qd = toward(sf->p, area->point[k0 + k], &d);
+                sr[k] = ray_make(spawn_toward(sf, o, d), d, qd);
+            }
+            c->st->shadow += (unsigned long long)ns;
+            unsigned dark = accel_occluded_packet(c->a, sr, ns, c->st);
+            for (int k = 0; k < ns; k++)
+                vis = vec_madd(vis, dark >> k & 1 ? vec3(0, 0, 0) : vec3(1, 1, 1), area->weight[k0 + k]);
         }
+        return vis;
+    }
+    for (int k = 0; k < n; k++) {
+        Vec3 d, q = area->point[k];
+        float qd = toward(sf->p, q, &d);
+        vis = vec_madd(vis, transmittance(c, mode, spawn_toward(sf, o, d), q, d, qd), area->weight[k]);
     }
     return vis;
 }

@@ -99,6 +99,38 @@ static void test_settings(void **state)
     done(&s, &p);
 }
 
+/* Each area light's samples, in the plan's coordinates: POV-Ray's grid
+ * with its corners at the position plus or minus half of each axis, and
+ * the weights of the plain average (area_samples 3 2: 1/4, 1/2, 1/4
+ * times 1/2, 1/2). Point lights have none; --area-samples resizes them. */
+static void test_area_samples(void **state)
+{
+    (void)state;
+    Scene s;
+    RenderPlan p;
+    PlanOptions o = plan_options();
+    o.world = 1;
+    load_plan(&s, &p, "", &o);
+    assert_null(p.area[0].point);
+    assert_null(p.area[1].point);
+    const PlanArea *a = &p.area[2];
+    const float x[3] = {-0.5f, 0.0f, 0.5f}, z[2] = {9.0f - 0.5f, 9.0f + 0.5f}, wx[3] = {0.25f, 0.5f, 0.25f};
+    for (int j = 0; j < 2; j++)
+        for (int i = 0; i < 3; i++) {
+            Vec3 q = a->point[j * 3 + i];
+            assert_float_equal(q.x, x[i], 0);
+            assert_float_equal(q.y, 9.0f, 0);
+            assert_float_equal(q.z, z[j], 0);
+            assert_float_equal(a->weight[j * 3 + i], wx[i] * 0.5f, 0);
+        }
+    done(&s, &p);
+    o.area_samples = 5;
+    load_plan(&s, &p, "", &o);
+    assert_float_equal(p.area[2].point[24].x, 0.5f, 0);
+    assert_float_equal(p.area[2].weight[24], 0.125f * 0.125f, 0);
+    done(&s, &p);
+}
+
 static void test_errors(void **state)
 {
     (void)state;
@@ -363,6 +395,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_skips),
         cmocka_unit_test(test_settings),
+        cmocka_unit_test(test_area_samples),
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_coordinates),
         cmocka_unit_test(test_decisions),

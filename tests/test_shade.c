@@ -215,14 +215,14 @@ static void test_area_weights(void **state)
     const float w6[] = {0.125f, 0.25f, 0.125f, 0.125f, 0.25f, 0.125f};
     const float *want[] = {w3, w4, w5, w6};
     float w[LIMIT_AREA_SAMPLES];
-    shade_area_weights(1, w);
+    plan_area_weights(1, w);
     assert_float_equal(w[0], 1, 0);
     for (int n = 3; n <= 6; n++) {
-        shade_area_weights(n, w);
+        plan_area_weights(n, w);
         for (int i = 0; i < n; i++)
             assert_float_equal(w[i], want[n - 3][i], 0);
     }
-    shade_area_weights(LIMIT_AREA_SAMPLES, w);
+    plan_area_weights(LIMIT_AREA_SAMPLES, w);
     float sum = 0;
     for (int i = 0; i < LIMIT_AREA_SAMPLES; i++)
         sum += w[i];
@@ -239,6 +239,23 @@ static void test_area_light_penumbra(void **state)
     load(&s, "light { position 0 10 0 area_u 2 0 0 area_v 0 0 0 area_samples 3 1 }\n"
              "sphere { center 0.5 5 0 radius 0.1 material m }\n");
     float k = 0.1f + 0.75f * 0.6f;
+    assert_vec(trace(&s, EYE, DIR), 0.5f * k, 0.4f * k, 0.3f * k, 1e-6);
+    scene_free(&s);
+}
+
+static void test_area_light_in_packets(void **state)
+{
+    (void)state;
+    Scene s;
+    /* Nine samples at x = -4 .. 4 above the origin, traced eight at a time
+     * (then one): weights 1/16 at the ends, 1/8 between. A small sphere
+     * hides only the last sample, the ninth ray, alone in its packet. */
+    load(&s, "light { position 0 10 0 area_u 8 0 0 area_v 0 0 0 area_samples 9 1 }\n"
+             "sphere { center 2 5 0 radius 0.1 material m }\n");
+    float k = 0.1f + (15.0f / 16.0f) * 0.6f;
+    assert_vec(trace(&s, EYE, DIR), 0.5f * k, 0.4f * k, 0.3f * k, 1e-6);
+    /* moved to hide the first sample, the first ray of the first packet */
+    s.prims[1].g.sphere.c = vec3(-2, 5, 0);
     assert_vec(trace(&s, EYE, DIR), 0.5f * k, 0.4f * k, 0.3f * k, 1e-6);
     scene_free(&s);
 }
@@ -479,7 +496,8 @@ int main(void)
         cmocka_unit_test(test_phong_and_specular_peaks), cmocka_unit_test(test_reflection_bounce),
         cmocka_unit_test(test_miss_and_depth_limit), 
         cmocka_unit_test(test_light_behind_surface_adds_nothing), cmocka_unit_test(test_area_weights),
-        cmocka_unit_test(test_area_light_penumbra), cmocka_unit_test(test_transparent_surface),
+        cmocka_unit_test(test_area_light_penumbra), cmocka_unit_test(test_area_light_in_packets),
+        cmocka_unit_test(test_transparent_surface),
         cmocka_unit_test(test_shadow_through_glass), cmocka_unit_test(test_refraction_through_slab),
         cmocka_unit_test(test_total_internal_reflection), cmocka_unit_test(test_no_self_shadowing_on_spheres),
         cmocka_unit_test(test_traced_is_trace), cmocka_unit_test(test_adaptive_area_light),

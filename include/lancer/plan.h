@@ -84,6 +84,12 @@ typedef enum {
  * crossover). */
 #define PLAN_LOOP_PRIMS 3
 
+/* An area light's samples, sample (i, j) at j * area_n1 + i. */
+typedef struct {
+    Vec3 *point;   /* POV-Ray's grid, corners included */
+    float *weight; /* its weight in the plain (not adaptive) average, w1[i] * w2[j] of plan_area_weights */
+} PlanArea;
+
 typedef struct {
     const Scene *scene; /* the world, in the plan's coordinates */
     int width, height, spp, max_depth, threads;
@@ -100,6 +106,7 @@ typedef struct {
     float aa_threshold;    /* > 0: only pixels whose centre differs from a neighbour's by
                             * more get the spp x spp grid (render.h); 0: every pixel */
     PlanShadow *shadow;    /* per light, scene->lights[i] */
+    PlanArea *area;        /* per light: its samples, for an area light (NULL for a point light) */
 } RenderPlan;
 
 /* Options that keep every setting of the scene, on one thread. */
@@ -113,6 +120,11 @@ PlanOptions plan_options(void);
 int plan_build(RenderPlan *p, Scene *s, const PlanOptions *o, char *err, size_t errlen);
 
 void plan_free(RenderPlan *p);
+
+/* POV-Ray's area-light weights along one axis of n samples (n <= 64): the
+ * leaves of its recursive halving of the grid, which is a plain mean only
+ * when n is a power of two. Writes n weights summing to 1. */
+void plan_area_weights(int n, float *w);
 
 /* One decision of the plan, for a person (render --explain) and for
  * --stats: a part of the work, whether it is skipped, and why. */

@@ -45,9 +45,4 @@ Vec3 shade_traced(const RenderPlan *p, const Accel *a, const Ray *r, int i, cons
 void shade_traced_packet(const RenderPlan *p, const Accel *a, const Ray *r, int n, const int *best, const PrimHit *h,
                          RayStats *st, Vec3 *out);
 
-/* POV-Ray's area-light weights along one axis of n samples (n <= 64): the
- * leaves of its recursive halving of the grid, which is a plain mean only
- * when n is a power of two. Writes n weights summing to 1. */
-void shade_area_weights(int n, float *w);
-
 #endif
