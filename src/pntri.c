@@ -26,6 +26,14 @@
 
 #include "rounding.h"
 
+/* The split's averages four doubles at a time with AVX, when the
+ * processor has it (picked at run time: the rest of the file is built
+ * for the baseline); the same operations lane by lane as the loop. */
+#if defined(__GNUC__) && defined(__x86_64__) && !defined(LANCER_NO_SIMD)
+#define PN_AVX 1
+#include <immintrin.h>
+#endif
+
 /* Splits, at most: a domain side of 2^-PN_MAX_DEPTH is far below what a
  * float (u, v) resolves, and the stack of pn_hit stays small. */
 #define PN_MAX_DEPTH 40
@@ -261,6 +269,7 @@ typedef struct {
      * own[PN_ALL] every op, for all four children */
     int nown[5];
     unsigned char own[5][PN_POOL];
+    int avx; /* run the ops with AVX */
 } PnSplitProgram;
 #define PN_ALL 4
 
@@ -354,21 +363,74 @@ static void make_split_program(void)
     g->nown[PN_ALL] = g->nops;
     for (int n = 0; n < g->nops; n++)
         g->own[PN_ALL][n] = (unsigned char)n;
+#ifdef PN_AVX
+    g->avx = __builtin_cpu_supports("avx");
+#endif
 }
+
+int pn_split_avx(int allow)
+{
+    pthread_once(&split_once, make_split_program);
+#ifdef PN_AVX
+    int has = __builtin_cpu_supports("avx");
+    split_program.avx = allow && has;
+    return has;
+#else
+    (void)allow;
+    return 0;
+#endif
+}
+
+/* A pool of points, x, y, z and a 0, so that a point is one AVX register. */
+typedef double PnPool[PN_POOL][4];
+
+#ifdef PN_AVX
+/* split_pool's work: the parent's net into the pool, then the averages;
+ * returns the net's largest coordinate (MAXPD keeps the running one
+ * against a NaN, as the comparison does). */
+__attribute__((target("avx"))) static double pool_ops_avx(const PnSplitProgram *g, const PnNet *parent, PnPool pool,
+                                                          int which)
+{
+    const __m256d half = _mm256_set1_pd(0.5), sign = _mm256_set1_pd(-0.0);
+    __m256d m = _mm256_setzero_pd();
+    for (int i = 0; i < 10; i++) {
+        __m256d x = _mm256_setr_pd(parent->b[i][0], parent->b[i][1], parent->b[i][2], 0.0);
+        _mm256_storeu_pd(pool[i], x);
+        m = _mm256_max_pd(_mm256_andnot_pd(sign, x), m);
+    }
+    double ms[4];
+    _mm256_storeu_pd(ms, m);
+    for (int k = 0; k < g->nown[which]; k++) {
+        int n = g->own[which][k];
+        __m256d a = _mm256_loadu_pd(pool[g->op[n][0]]), b = _mm256_loadu_pd(pool[g->op[n][1]]);
+        _mm256_storeu_pd(pool[10 + n], _mm256_mul_pd(_mm256_add_pd(a, b), half));
+    }
+    double mx = ms[0] > ms[1] ? ms[0] : ms[1];
+    return ms[2] > mx ? ms[2] : mx;
+}
+#endif
 
 /* The split's pool: the parent's net, then the averages of own[which]
  * (made by then: pthread_once in the callers, once per net split or ray,
  * not once per split). Returns the children's error bound. */
-static double split_pool(const PnNet *parent, double pool[PN_POOL][3], int which)
+static double split_pool(const PnNet *parent, PnPool pool, int which)
 {
     const PnSplitProgram *g = &split_program;
     double m = 0.0;
-    for (int i = 0; i < 10; i++)
+#ifdef PN_AVX
+    if (g->avx) {
+        m = pool_ops_avx(g, parent, pool, which);
+        return parent->err + gamma_d(3) * m + 3.0 * 0x1p-1074;
+    }
+#endif
+    for (int i = 0; i < 10; i++) {
         for (int a = 0; a < 3; a++) {
             pool[i][a] = parent->b[i][a];
             double x = fabs(parent->b[i][a]);
             m = x > m ? x : m;
         }
+        pool[i][3] = 0.0;
+    }
     for (int k = 0; k < g->nown[which]; k++) {
         int n = g->own[which][k];
         const double *a = pool[g->op[n][0]], *b = pool[g->op[n][1]];
@@ -382,7 +444,7 @@ static double split_pool(const PnNet *parent, double pool[PN_POOL][3], int which
 
 /* Child c's net from the pool, and its domain from the parent's, dom (only
  * its u0, v0, s and flip are read). */
-static void split_child(const PnNet *dom, double pool[PN_POOL][3], double err, int c, PnNet *ch)
+static void split_child(const PnNet *dom, PnPool pool, double err, int c, PnNet *ch)
 {
     const unsigned char *idx = split_program.child[c];
     double h = 0.5 * dom->s, sg = dom->flip ? -h : h;
@@ -398,20 +460,20 @@ static void split_child(const PnNet *dom, double pool[PN_POOL][3], double err, i
 void pn_net_split(const PnNet *parent, PnNet child[4])
 {
     pthread_once(&split_once, make_split_program);
-    double pool[PN_POOL][3];
+    PnPool pool;
     double err = split_pool(parent, pool, PN_ALL);
     for (int c = 0; c < 4; c++)
         split_child(parent, pool, err, c, &child[c]);
 }
 
-/* The box of points idx[0..9] of pts (x, y, z each) grown by err, as
- * pn_net_box. */
-static void points_box(const double *pts, const unsigned char *idx, double err, double lo[3], double hi[3])
+/* The box of points idx[0..9] of pts (x, y, z each, `stride` doubles
+ * apart) grown by err, as pn_net_box. */
+static void points_box(const double *pts, int stride, const unsigned char *idx, double err, double lo[3], double hi[3])
 {
     for (int a = 0; a < 3; a++) {
-        double l = pts[3 * idx[0] + a], u = l;
+        double l = pts[stride * idx[0] + a], u = l;
         for (int i = 1; i < 10; i++) {
-            double x = pts[3 * idx[i] + a];
+            double x = pts[stride * idx[i] + a];
             l = x < l ? x : l;
             u = x > u ? x : u;
         }
@@ -422,10 +484,44 @@ static void points_box(const double *pts, const unsigned char *idx, double err, 
     }
 }
 
+#ifdef PN_AVX
+/* points_box on a pool, four lanes at once: the same operations, lane by
+ * lane (MAXPD and MINPD pick as the comparisons above do). */
+__attribute__((target("avx"))) static void pool_box_avx(PnPool pool, const unsigned char *idx, double err,
+                                                         double lo[3], double hi[3])
+{
+    __m256d l = _mm256_loadu_pd(pool[idx[0]]), u = l;
+    for (int i = 1; i < 10; i++) {
+        __m256d x = _mm256_loadu_pd(pool[idx[i]]);
+        l = _mm256_min_pd(x, l);
+        u = _mm256_max_pd(x, u);
+    }
+    __m256d big = _mm256_max_pd(_mm256_xor_pd(l, _mm256_set1_pd(-0.0)), u);
+    __m256d pad = _mm256_add_pd(_mm256_set1_pd(err), _mm256_mul_pd(_mm256_set1_pd(DBL_EPSILON), big));
+    double out[2][4];
+    _mm256_storeu_pd(out[0], _mm256_sub_pd(l, pad));
+    _mm256_storeu_pd(out[1], _mm256_add_pd(u, pad));
+    memcpy(lo, out[0], sizeof(double[3]));
+    memcpy(hi, out[1], sizeof(double[3]));
+}
+#endif
+
+/* The box of child c's points in pool. */
+static void pool_box(PnPool pool, int c, double err, double lo[3], double hi[3])
+{
+#ifdef PN_AVX
+    if (split_program.avx) {
+        pool_box_avx(pool, split_program.child[c], err, lo, hi);
+        return;
+    }
+#endif
+    points_box(&pool[0][0], 4, split_program.child[c], err, lo, hi);
+}
+
 void pn_net_box(const PnNet *net, double lo[3], double hi[3])
 {
     static const unsigned char all[10] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9};
-    points_box(&net->b[0][0], all, net->err, lo, hi);
+    points_box(&net->b[0][0], 3, all, net->err, lo, hi);
 }
 
 /* ---- intersection ---- */
@@ -749,7 +845,7 @@ int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h)
         return 0;
     top++;
     pthread_once(&split_once, make_split_program);
-    double pool[PN_POOL][3];
+    PnPool pool;
     int splits = 0;
     while (top > 0) {
         const PnNode *node = &stack[--top]; /* read before any push overwrites it */
@@ -817,7 +913,7 @@ int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h)
         double lo[4][3], hi[4][3], tn[4], tf[4];
         int order[4], n = 0;
         for (int c = only >= 0 ? only : 0; c < (only >= 0 ? only + 1 : 4); c++) {
-            points_box(&pool[0][0], split_program.child[c], err, lo[c], hi[c]);
+            pool_box(pool, c, err, lo[c], hi[c]);
             if (slab(lo[c], hi[c], r.o, r.d, r.inv, best, &tn[c], &tf[c])) {
                 int j = n++;
                 for (; j > 0 && tn[c] > tn[order[j - 1]]; j--)

@@ -518,6 +518,65 @@ static void test_exact_hits_within_their_bound(void **state)
     assert_true(n > 5000);
 }
 
+/* The split's AVX form (where the processor has it) and its plain loop
+ * give the same bits: the children's nets, their boxes, and every hit,
+ * for patches at scales and offsets, hit, missed and grazed, and for
+ * rays leaving the surface (which split deepest). */
+static void test_avx_split_is_the_loop(void **state)
+{
+    (void)state;
+    if (!pn_split_avx(1)) {
+        print_message("no AVX here: the split runs its loop alone\n");
+        return;
+    }
+    unsigned long long seed = 97;
+    int hits = 0;
+    for (int k = 0; k < 3000; k++) {
+        float sc = k % 3 == 0 ? 1.0f : k % 3 == 1 ? 1e-4f : 1e5f;
+        Vec3 c = vec_scale(test_rvec(&seed, -100, 100), sc);
+        PnPatch pn;
+        make_patch(&pn, c, vec_add(c, vec_scale(test_rvec(&seed, -1, 1), sc)),
+                   vec_add(c, vec_scale(test_rvec(&seed, -1, 1), sc)), unit(test_rvec(&seed, -1, 1)),
+                   unit(test_rvec(&seed, -1, 1)), unit(test_rvec(&seed, -1, 1)));
+        PnNet root, kids[2][4];
+        pn_net_root(&pn, &root);
+        double box[2][4][2][3];
+        for (int avx = 0; avx <= 1; avx++) {
+            pn_split_avx(avx);
+            pn_net_split(&root, kids[avx]);
+            for (int i = 0; i < 4; i++)
+                pn_net_box(&kids[avx][i], box[avx][i][0], box[avx][i][1]);
+        }
+        for (int i = 0; i < 4; i++) { /* field by field: not the padding */
+            assert_memory_equal(kids[0][i].b, kids[1][i].b, sizeof kids[0][i].b);
+            const double f0[4] = {kids[0][i].err, kids[0][i].u0, kids[0][i].v0, kids[0][i].s};
+            const double f1[4] = {kids[1][i].err, kids[1][i].u0, kids[1][i].v0, kids[1][i].s};
+            assert_memory_equal(f0, f1, sizeof f0);
+            assert_int_equal(kids[0][i].flip, kids[1][i].flip);
+        }
+        assert_memory_equal(box[0], box[1], sizeof box[0]);
+        /* a ray through a point of the patch, or leaving it */
+        double u = test_uniform(&seed, 0, 1), v = test_uniform(&seed, 0, 1), pt[3];
+        if (u + v > 1)
+            u = 1 - u, v = 1 - v;
+        pn_eval(&pn, u, v, pt, NULL, NULL);
+        Vec3 p = vec3((float)pt[0], (float)pt[1], (float)pt[2]), d = unit(test_rvec(&seed, -1, 1));
+        Ray r = ray_make(k % 2 ? p : vec_sub(p, vec_scale(d, 2.0f * sc)), d, INFINITY);
+        PnHit h[2];
+        int got[2];
+        for (int avx = 0; avx <= 1; avx++) {
+            memset(&h[avx], 0, sizeof h[avx]);
+            pn_split_avx(avx);
+            got[avx] = pn_hit(&pn, &r, PN_EXACT, &h[avx]);
+        }
+        assert_int_equal(got[0], got[1]);
+        assert_memory_equal(&h[0], &h[1], sizeof h[0]);
+        hits += got[0];
+    }
+    pn_split_avx(1);
+    assert_true(hits > 1000);
+}
+
 /* Rays that graze a flat patch, at cosines from 2^-3 down to 2^-20 with
  * its plane, aimed at points inside it, hit it as the watertight triangle
  * does, within the bounds: the thickened triangle culls without the cosine
@@ -726,6 +785,7 @@ int main(void)
         cmocka_unit_test(test_tessellation),
         cmocka_unit_test(test_exact_hits_within_their_bound),
         cmocka_unit_test(test_grazing_rays),
+        cmocka_unit_test(test_avx_split_is_the_loop),
         cmocka_unit_test(test_fast_mode),
         cmocka_unit_test(test_cgal_meshes_do_not_leak),
     };

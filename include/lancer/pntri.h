@@ -105,6 +105,12 @@ void pn_net_root(const PnPatch *pn, PnNet *net);
  * either end, so patches sharing an edge split it into the same points. */
 void pn_net_split(const PnNet *parent, PnNet child[4]);
 
+/* For tests: 0 makes the split run its plain loop where it would run AVX
+ * (the same bits, lane by lane), 1 lets it pick again. Returns 1 when the
+ * processor has AVX, which the split then uses. Not for use while another
+ * thread splits. */
+int pn_split_avx(int allow);
+
 /* The net's box grown by its error bound, in double. */
 void pn_net_box(const PnNet *net, double lo[3], double hi[3]);
 
