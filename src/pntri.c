@@ -21,7 +21,6 @@
 
 #include <float.h>
 #include <math.h>
-#include <pthread.h>
 #include <string.h>
 
 #include "rounding.h"
@@ -244,182 +243,139 @@ void pn_net_root(const PnPatch *pn, PnNet *net)
     net->flip = 0;
 }
 
-/* Blossom arguments: the parent's corners and its edges' midpoints, in
- * the order they are applied: corners (which only select) first. */
-enum { E1, E2, E3, M23, M31, M12 };
-
 /* ---- the split as a straight-line program ----
  *
  * A child's point b(C0^i, C1^j, C2^k) is the blossom of the parent's net:
- * three de Casteljau steps, one per argument, taken in the order above. A
- * corner selects a point; a midpoint averages two, (a + b) * 0.5, which
+ * three de Casteljau steps, one per argument, corners (which only select)
+ * before midpoints. A midpoint averages two points, (a + b) * 0.5, which
  * gives the same bits whichever comes first. Written out once, the
  * children's 40 points are averages of averages of the parent's 10: the
  * program below computes each distinct average once, into a pool whose
  * first 10 entries are the parent's net. A point on a parent's edge comes
  * from that edge's four points by the curve's own de Casteljau averages,
  * whichever patch computes it: patches sharing an edge split it into the
- * same bits. Every child point is at most three averages deep. */
-#define PN_POOL 128
-typedef struct {
-    int nops;
-    unsigned char op[PN_POOL][2]; /* pool[10 + n] = avg(pool[op[n][0]], pool[op[n][1]]) */
-    unsigned char child[4][10];   /* each child's net, as pool entries */
-    /* the ops to run, in order: own[c] those child c is made from, and
-     * own[PN_ALL] every op, for all four children */
-    int nown[5];
-    unsigned char own[5][PN_POOL];
-    int avx; /* run the ops with AVX */
-} PnSplitProgram;
-#define PN_ALL 4
+ * same bits. Every child point is at most three averages deep.
+ *
+ * The program is written out as constant tables, which lets the compiler
+ * unroll the split into straight-line code; test_pntri derives it again
+ * from the blossom and compares. Pool entry 10 + n is the average of
+ * entries op[n][0] and op[n][1]; child c (at P1, P2, P3, then the middle
+ * one, turned half round) is made of the entries child[c]; own[c] lists
+ * the ops that child's points need, in order. */
+#define PN_OPS 46
+#define PN_POOL (10 + PN_OPS)
+static const unsigned char split_op[PN_OPS][2] = {
+    {3, 6},   {4, 7},   {5, 8},   {1, 3},   {2, 4},   {0, 1},   {10, 13}, {11, 14}, {13, 15}, {16, 18},
+    {3, 7},   {4, 8},   {5, 9},   {1, 4},   {2, 5},   {0, 2},   {20, 23}, {21, 24}, {23, 25}, {26, 28},
+    {21, 23}, {22, 24}, {24, 25}, {30, 32}, {31, 32}, {6, 7},   {7, 8},   {3, 4},   {35, 36}, {8, 9},
+    {4, 5},   {1, 2},   {36, 39}, {37, 40}, {38, 42}, {35, 37}, {38, 43}, {36, 40}, {37, 41}, {45, 48},
+    {42, 43}, {39, 40}, {36, 37}, {40, 41}, {51, 53}, {52, 53},
+};
+static const unsigned char split_child[4][10] = {
+    {0, 15, 25, 18, 28, 32, 19, 29, 33, 34},
+    {19, 16, 49, 10, 45, 46, 6, 35, 38, 44},
+    {34, 54, 31, 50, 51, 22, 44, 42, 39, 9},
+    {44, 50, 46, 54, 55, 49, 34, 33, 29, 19},
+};
+static const int split_nown[4] = {20, 20, 20, 40};
+static const unsigned char split_own[4][40] = {
+    {0, 3, 5, 6, 8, 9, 10, 11, 12, 13, 14, 15, 16, 18, 19, 20, 21, 22, 23, 24},
+    {0, 3, 5, 6, 8, 9, 25, 26, 27, 28, 29, 30, 31, 32, 33, 34, 35, 36, 38, 39},
+    {12, 14, 15, 21, 22, 24, 25, 26, 27, 28, 29, 30, 31, 32, 33, 34, 40, 41, 43, 44},
+    {0,  3,  5,  6,  8,  9,  10, 11, 12, 13, 14, 15, 16, 18, 19, 20, 21, 22, 23, 24,
+     25, 26, 27, 28, 29, 30, 31, 32, 33, 34, 35, 36, 38, 39, 40, 41, 42, 43, 44, 45},
+};
+#define PN_ALL 4 /* every op, for all four children */
 
-static PnSplitProgram split_program;
-static pthread_once_t split_once = PTHREAD_ONCE_INIT;
-
-/* The pool entry averaging a and b, made once. */
-static int prog_avg(PnSplitProgram *g, int a, int b)
+void pn_split_program(PnSplitProgram *g)
 {
-    if (a > b) {
-        int t = a;
-        a = b;
-        b = t;
-    }
-    for (int n = 0; n < g->nops; n++)
-        if (g->op[n][0] == a && g->op[n][1] == b)
-            return 10 + n;
-    g->op[g->nops][0] = (unsigned char)a;
-    g->op[g->nops][1] = (unsigned char)b;
-    return 10 + g->nops++;
-}
-
-/* One de Casteljau step with argument x on a net of pool entries of
- * degree d (points at (d - i)(d - i + 1)/2 + k), to degree d - 1. */
-static void prog_step(PnSplitProgram *g, const int *in, int d, int x, int *out)
-{
-    for (int i = 0; i <= d - 1; i++)
-        for (int k = 0; k <= d - 1 - i; k++) {
-            int r = d - 1 - i, rin = d - i;
-            int p1 = in[(rin - 1) * rin / 2 + k], p2 = in[rin * (rin + 1) / 2 + k], p3 = in[rin * (rin + 1) / 2 + k + 1];
-            int *o = &out[r * (r + 1) / 2 + k];
-            switch (x) {
-            case E1: *o = p1; break;
-            case E2: *o = p2; break;
-            case E3: *o = p3; break;
-            case M23: *o = prog_avg(g, p2, p3); break;
-            case M31: *o = prog_avg(g, p3, p1); break;
-            default: *o = prog_avg(g, p1, p2); break;
-            }
-        }
-}
-
-static void make_split_program(void)
-{
-    static const int corners[4][3] = {
-        {E1, M12, M31},  /* at P1 */
-        {M12, E2, M23},  /* at P2 */
-        {M31, M23, E3},  /* at P3 */
-        {M23, M31, M12}, /* the middle one, turned half round */
-    };
-    PnSplitProgram *g = &split_program;
-    int root[10];
-    for (int i = 0; i < 10; i++)
-        root[i] = i;
-    for (int c = 0; c < 4; c++)
-        for (int i = 0; i <= 3; i++)
-            for (int k = 0; k <= 3 - i; k++) {
-                int args[3], n = 0;
-                for (int t = 0; t < i; t++)
-                    args[n++] = corners[c][0];
-                for (int t = 0; t < 3 - i - k; t++)
-                    args[n++] = corners[c][1];
-                for (int t = 0; t < k; t++)
-                    args[n++] = corners[c][2];
-                for (int u = 1; u < 3; u++) /* the order of application */
-                    for (int w = u; w > 0 && args[w] < args[w - 1]; w--) {
-                        int t = args[w];
-                        args[w] = args[w - 1];
-                        args[w - 1] = t;
-                    }
-                int q2[6], q1[3], q0[1];
-                prog_step(g, root, 3, args[0], q2);
-                prog_step(g, q2, 2, args[1], q1);
-                prog_step(g, q1, 1, args[2], q0);
-                g->child[c][PN_AT(i, k)] = (unsigned char)q0[0];
-            }
-    /* each child's own ops: those its points are made from (an op only
-     * reads entries made before it) */
+    g->nops = PN_OPS;
+    memcpy(g->op, split_op, sizeof split_op);
+    memcpy(g->child, split_child, sizeof split_child);
     for (int c = 0; c < 4; c++) {
-        unsigned char need[10 + PN_POOL] = {0};
-        for (int i = 0; i < 10; i++)
-            need[g->child[c][i]] = 1;
-        for (int n = g->nops - 1; n >= 0; n--)
-            if (need[10 + n])
-                need[g->op[n][0]] = need[g->op[n][1]] = 1;
-        g->nown[c] = 0;
-        for (int n = 0; n < g->nops; n++)
-            if (need[10 + n])
-                g->own[c][g->nown[c]++] = (unsigned char)n;
+        g->nown[c] = split_nown[c];
+        memcpy(g->own[c], split_own[c], sizeof split_own[c]);
     }
-    g->nown[PN_ALL] = g->nops;
-    for (int n = 0; n < g->nops; n++)
-        g->own[PN_ALL][n] = (unsigned char)n;
-#ifdef PN_AVX
-    g->avx = __builtin_cpu_supports("avx");
-#endif
-}
-
-int pn_split_avx(int allow)
-{
-    pthread_once(&split_once, make_split_program);
-#ifdef PN_AVX
-    int has = __builtin_cpu_supports("avx");
-    split_program.avx = allow && has;
-    return has;
-#else
-    (void)allow;
-    return 0;
-#endif
 }
 
 /* A pool of points, x, y, z and a 0, so that a point is one AVX register. */
 typedef double PnPool[PN_POOL][4];
 
+/* Set by a test to keep the split off AVX (pn_split_avx). */
+static int split_no_avx;
+
+int pn_split_avx(int allow)
+{
+    split_no_avx = !allow;
 #ifdef PN_AVX
+    return __builtin_cpu_supports("avx");
+#else
+    return 0;
+#endif
+}
+
+/* 1 when the split runs with AVX: the processor has it, and no test
+ * turned it off. */
+static int split_avx(void)
+{
+#ifdef PN_AVX
+    return !split_no_avx && __builtin_cpu_supports("avx");
+#else
+    return 0;
+#endif
+}
+
+#ifdef PN_AVX
+/* The ops of list (every op, in order, for NULL) on the pool, four lanes
+ * at once: with constant arguments, straight-line code. */
+__attribute__((target("avx"), always_inline)) static inline void ops_avx(PnPool pool, const unsigned char *list,
+                                                                         int n)
+{
+    const __m256d half = _mm256_set1_pd(0.5);
+#pragma GCC unroll 48
+    for (int k = 0; k < n; k++) {
+        int o = list ? list[k] : k;
+        __m256d a = _mm256_loadu_pd(pool[split_op[o][0]]), b = _mm256_loadu_pd(pool[split_op[o][1]]);
+        _mm256_storeu_pd(pool[10 + o], _mm256_mul_pd(_mm256_add_pd(a, b), half));
+    }
+}
+
 /* split_pool's work: the parent's net into the pool, then the averages;
  * returns the net's largest coordinate (MAXPD keeps the running one
  * against a NaN, as the comparison does). */
-__attribute__((target("avx"))) static double pool_ops_avx(const PnSplitProgram *g, const PnNet *parent, PnPool pool,
-                                                          int which)
+__attribute__((target("avx"))) static double pool_ops_avx(const PnNet *parent, PnPool pool, int which)
 {
-    const __m256d half = _mm256_set1_pd(0.5), sign = _mm256_set1_pd(-0.0);
+    const __m256d sign = _mm256_set1_pd(-0.0);
     __m256d m = _mm256_setzero_pd();
     for (int i = 0; i < 10; i++) {
         __m256d x = _mm256_setr_pd(parent->b[i][0], parent->b[i][1], parent->b[i][2], 0.0);
         _mm256_storeu_pd(pool[i], x);
         m = _mm256_max_pd(_mm256_andnot_pd(sign, x), m);
     }
+    switch (which) {
+    case 0: ops_avx(pool, split_own[0], split_nown[0]); break;
+    case 1: ops_avx(pool, split_own[1], split_nown[1]); break;
+    case 2: ops_avx(pool, split_own[2], split_nown[2]); break;
+    case 3: ops_avx(pool, split_own[3], split_nown[3]); break;
+    default: ops_avx(pool, NULL, PN_OPS); break;
+    }
     double ms[4];
     _mm256_storeu_pd(ms, m);
-    for (int k = 0; k < g->nown[which]; k++) {
-        int n = g->own[which][k];
-        __m256d a = _mm256_loadu_pd(pool[g->op[n][0]]), b = _mm256_loadu_pd(pool[g->op[n][1]]);
-        _mm256_storeu_pd(pool[10 + n], _mm256_mul_pd(_mm256_add_pd(a, b), half));
-    }
     double mx = ms[0] > ms[1] ? ms[0] : ms[1];
     return ms[2] > mx ? ms[2] : mx;
 }
 #endif
 
 /* The split's pool: the parent's net, then the averages of own[which]
- * (made by then: pthread_once in the callers, once per net split or ray,
- * not once per split). Returns the children's error bound. */
-static double split_pool(const PnNet *parent, PnPool pool, int which)
+ * (which is PN_ALL for all four children), with AVX when avx is 1.
+ * Returns the children's error bound. */
+static double split_pool(const PnNet *parent, PnPool pool, int which, int avx)
 {
-    const PnSplitProgram *g = &split_program;
     double m = 0.0;
+    (void)avx;
 #ifdef PN_AVX
-    if (g->avx) {
-        m = pool_ops_avx(g, parent, pool, which);
+    if (avx) {
+        m = pool_ops_avx(parent, pool, which);
         return parent->err + gamma_d(3) * m + 3.0 * 0x1p-1074;
     }
 #endif
@@ -431,12 +387,13 @@ static double split_pool(const PnNet *parent, PnPool pool, int which)
         }
         pool[i][3] = 0.0;
     }
-    for (int k = 0; k < g->nown[which]; k++) {
-        int n = g->own[which][k];
-        const double *a = pool[g->op[n][0]], *b = pool[g->op[n][1]];
-        pool[10 + n][0] = (a[0] + b[0]) * 0.5;
-        pool[10 + n][1] = (a[1] + b[1]) * 0.5;
-        pool[10 + n][2] = (a[2] + b[2]) * 0.5;
+    int n = which == PN_ALL ? PN_OPS : split_nown[which];
+    for (int k = 0; k < n; k++) {
+        int o = which == PN_ALL ? k : split_own[which][k];
+        const double *a = pool[split_op[o][0]], *b = pool[split_op[o][1]];
+        pool[10 + o][0] = (a[0] + b[0]) * 0.5;
+        pool[10 + o][1] = (a[1] + b[1]) * 0.5;
+        pool[10 + o][2] = (a[2] + b[2]) * 0.5;
     }
     /* three averages a point; halving a subnormal rounds, absolutely */
     return parent->err + gamma_d(3) * m + 3.0 * 0x1p-1074;
@@ -444,9 +401,9 @@ static double split_pool(const PnNet *parent, PnPool pool, int which)
 
 /* Child c's net from the pool, and its domain from the parent's, dom (only
  * its u0, v0, s and flip are read). */
-static void split_child(const PnNet *dom, PnPool pool, double err, int c, PnNet *ch)
+static void split_child_net(const PnNet *dom, PnPool pool, double err, int c, PnNet *ch)
 {
-    const unsigned char *idx = split_program.child[c];
+    const unsigned char *idx = split_child[c];
     double h = 0.5 * dom->s, sg = dom->flip ? -h : h;
     ch->u0 = dom->u0 + (c == 1 || c == 3 ? sg : 0.0);
     ch->v0 = dom->v0 + (c == 2 || c == 3 ? sg : 0.0);
@@ -459,11 +416,10 @@ static void split_child(const PnNet *dom, PnPool pool, double err, int c, PnNet 
 
 void pn_net_split(const PnNet *parent, PnNet child[4])
 {
-    pthread_once(&split_once, make_split_program);
     PnPool pool;
-    double err = split_pool(parent, pool, PN_ALL);
+    double err = split_pool(parent, pool, PN_ALL, split_avx());
     for (int c = 0; c < 4; c++)
-        split_child(parent, pool, err, c, &child[c]);
+        split_child_net(parent, pool, err, c, &child[c]);
 }
 
 /* The box of points idx[0..9] of pts (x, y, z each, `stride` doubles
@@ -487,8 +443,8 @@ static void points_box(const double *pts, int stride, const unsigned char *idx, 
 #ifdef PN_AVX
 /* points_box on a pool, four lanes at once: the same operations, lane by
  * lane (MAXPD and MINPD pick as the comparisons above do). */
-__attribute__((target("avx"))) static void pool_box_avx(PnPool pool, const unsigned char *idx, double err,
-                                                         double lo[3], double hi[3])
+__attribute__((target("avx"), always_inline)) static inline void box_avx(PnPool pool, const unsigned char *idx,
+                                                                         double err, double lo[3], double hi[3])
 {
     __m256d l = _mm256_loadu_pd(pool[idx[0]]), u = l;
     for (int i = 1; i < 10; i++) {
@@ -504,18 +460,30 @@ __attribute__((target("avx"))) static void pool_box_avx(PnPool pool, const unsig
     memcpy(lo, out[0], sizeof(double[3]));
     memcpy(hi, out[1], sizeof(double[3]));
 }
+
+/* Child c's box, its points' places in the pool constants. */
+__attribute__((target("avx"))) static void pool_box_avx(PnPool pool, int c, double err, double lo[3], double hi[3])
+{
+    switch (c) {
+    case 0: box_avx(pool, split_child[0], err, lo, hi); break;
+    case 1: box_avx(pool, split_child[1], err, lo, hi); break;
+    case 2: box_avx(pool, split_child[2], err, lo, hi); break;
+    default: box_avx(pool, split_child[3], err, lo, hi); break;
+    }
+}
 #endif
 
-/* The box of child c's points in pool. */
-static void pool_box(PnPool pool, int c, double err, double lo[3], double hi[3])
+/* The box of child c's points in pool, with AVX when avx is 1. */
+static void pool_box(PnPool pool, int c, double err, double lo[3], double hi[3], int avx)
 {
+    (void)avx;
 #ifdef PN_AVX
-    if (split_program.avx) {
-        pool_box_avx(pool, split_program.child[c], err, lo, hi);
+    if (avx) {
+        pool_box_avx(pool, c, err, lo, hi);
         return;
     }
 #endif
-    points_box(&pool[0][0], 4, split_program.child[c], err, lo, hi);
+    points_box(&pool[0][0], 4, split_child[c], err, lo, hi);
 }
 
 void pn_net_box(const PnNet *net, double lo[3], double hi[3])
@@ -631,7 +599,7 @@ static void nearest_on_triangle(const double q[3], const double e1[3], const dou
  * box's largest coordinate) and the ray meets it, with the hit's t, its
  * bound and the domain point; -1 otherwise (split on), and for every ray
  * that meets T's plane at a cosine below 1/4 and is not culled. */
-static int flat_piece(const PnNet *net, const double o[3], const double d[3], double tmax, double m, double *t,
+static int flat_piece(const PnNet *net, const double o[3], const double d[3], double dd, double tmax, double m, double *t,
                       double *terr, double *u, double *v, int *only)
 {
     *only = -1;
@@ -669,7 +637,6 @@ static int flat_piece(const PnNet *net, const double o[3], const double d[3], do
     n[1] = e1[2] * e2[0] - e1[0] * e2[2];
     n[2] = e1[0] * e2[1] - e1[1] * e2[0];
     double nn2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2], nn = sqrt(nn2);
-    double dd = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
     double nd = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
     if (!(nn > 0.0))
         return -1;
@@ -832,6 +799,8 @@ int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h)
     for (int a = 0; a < 3; a++)
         r.inv[a] = 1.0 / r.d[a];
     r.tmax = ray->tmax;
+    double dd = sqrt(r.d[0] * r.d[0] + r.d[1] * r.d[1] + r.d[2] * r.d[2]);
+    int avx = split_avx();
     /* a depth-first stack: each split pushes at most four children */
     PnNode stack[3 * PN_MAX_DEPTH + 4];
     int top = 0;
@@ -844,7 +813,6 @@ int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h)
     if (!slab(root->lo, root->hi, r.o, r.d, r.inv, best, &root->tn, &root->tf))
         return 0;
     top++;
-    pthread_once(&split_once, make_split_program);
     PnPool pool;
     int splits = 0;
     while (top > 0) {
@@ -856,7 +824,7 @@ int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h)
         int only;
         { /* culls a piece the ray misses before Newton's steps are spent on it */
             double t, e, u, v;
-            int f = flat_piece(net, r.o, r.d, best, m, &t, &e, &u, &v, &only);
+            int f = flat_piece(net, r.o, r.d, dd, best, m, &t, &e, &u, &v, &only);
             if (f == 0)
                 continue;
             if (f == 1) {
@@ -909,11 +877,11 @@ int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h)
          * enters are written out, the farthest first, so that the nearest
          * comes off the stack first. */
         splits++;
-        double err = split_pool(net, pool, only >= 0 ? only : PN_ALL);
+        double err = split_pool(net, pool, only >= 0 ? only : PN_ALL, avx);
         double lo[4][3], hi[4][3], tn[4], tf[4];
         int order[4], n = 0;
         for (int c = only >= 0 ? only : 0; c < (only >= 0 ? only + 1 : 4); c++) {
-            pool_box(pool, c, err, lo[c], hi[c]);
+            pool_box(pool, c, err, lo[c], hi[c], avx);
             if (slab(lo[c], hi[c], r.o, r.d, r.inv, best, &tn[c], &tf[c])) {
                 int j = n++;
                 for (; j > 0 && tn[c] > tn[order[j - 1]]; j--)
@@ -931,7 +899,7 @@ int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h)
         for (int i = 0; i < n; i++) {
             int c = order[i];
             PnNode *k = &stack[top++];
-            split_child(&dom, pool, err, c, &k->net);
+            split_child_net(&dom, pool, err, c, &k->net);
             memcpy(k->lo, lo[c], sizeof k->lo);
             memcpy(k->hi, hi[c], sizeof k->hi);
             k->tn = tn[c];

@@ -186,6 +186,106 @@ static void test_subdivision(void **state)
     check_net(&pn, &root, 3);
 }
 
+/* The split's program, derived from the blossom: a child's point
+ * b(C0^i, C1^j, C2^k) is three de Casteljau steps on the parent's net, one
+ * per argument, corners (which only select) before midpoints; each
+ * distinct average of two pool entries is made once. pntri.c's tables
+ * must be this program, op for op. */
+enum { E1, E2, E3, M23, M31, M12 };
+
+static int prog_avg(PnSplitProgram *g, int a, int b)
+{
+    if (a > b) {
+        int t = a;
+        a = b;
+        b = t;
+    }
+    for (int n = 0; n < g->nops; n++)
+        if (g->op[n][0] == a && g->op[n][1] == b)
+            return 10 + n;
+    g->op[g->nops][0] = (unsigned char)a;
+    g->op[g->nops][1] = (unsigned char)b;
+    return 10 + g->nops++;
+}
+
+/* One de Casteljau step with argument x on a net of pool entries of
+ * degree d (points at (d - i)(d - i + 1)/2 + k), to degree d - 1. */
+static void prog_step(PnSplitProgram *g, const int *in, int d, int x, int *out)
+{
+    for (int i = 0; i <= d - 1; i++)
+        for (int k = 0; k <= d - 1 - i; k++) {
+            int r = d - 1 - i, rin = d - i;
+            int p1 = in[(rin - 1) * rin / 2 + k], p2 = in[rin * (rin + 1) / 2 + k], p3 = in[rin * (rin + 1) / 2 + k + 1];
+            int *o = &out[r * (r + 1) / 2 + k];
+            switch (x) {
+            case E1: *o = p1; break;
+            case E2: *o = p2; break;
+            case E3: *o = p3; break;
+            case M23: *o = prog_avg(g, p2, p3); break;
+            case M31: *o = prog_avg(g, p3, p1); break;
+            default: *o = prog_avg(g, p1, p2); break;
+            }
+        }
+}
+
+static void test_split_program_is_the_blossoms(void **state)
+{
+    (void)state;
+    static const int corners[4][3] = {
+        {E1, M12, M31},  /* at P1 */
+        {M12, E2, M23},  /* at P2 */
+        {M31, M23, E3},  /* at P3 */
+        {M23, M31, M12}, /* the middle one, turned half round */
+    };
+    PnSplitProgram want, got;
+    memset(&want, 0, sizeof want);
+    memset(&got, 0, sizeof got);
+    int root[10];
+    for (int i = 0; i < 10; i++)
+        root[i] = i;
+    for (int c = 0; c < 4; c++)
+        for (int i = 0; i <= 3; i++)
+            for (int k = 0; k <= 3 - i; k++) {
+                int args[3], n = 0;
+                for (int t = 0; t < i; t++)
+                    args[n++] = corners[c][0];
+                for (int t = 0; t < 3 - i - k; t++)
+                    args[n++] = corners[c][1];
+                for (int t = 0; t < k; t++)
+                    args[n++] = corners[c][2];
+                for (int u = 1; u < 3; u++) /* the order of application */
+                    for (int w = u; w > 0 && args[w] < args[w - 1]; w--) {
+                        int t = args[w];
+                        args[w] = args[w - 1];
+                        args[w - 1] = t;
+                    }
+                int q2[6], q1[3], q0[1];
+                prog_step(&want, root, 3, args[0], q2);
+                prog_step(&want, q2, 2, args[1], q1);
+                prog_step(&want, q1, 1, args[2], q0);
+                want.child[c][PN_AT(i, k)] = (unsigned char)q0[0];
+            }
+    /* each child's own ops: those its points are made from (an op only
+     * reads entries made before it) */
+    for (int c = 0; c < 4; c++) {
+        unsigned char need[10 + 64] = {0};
+        for (int i = 0; i < 10; i++)
+            need[want.child[c][i]] = 1;
+        for (int n = want.nops - 1; n >= 0; n--)
+            if (need[10 + n])
+                need[want.op[n][0]] = need[want.op[n][1]] = 1;
+        for (int n = 0; n < want.nops; n++)
+            if (need[10 + n])
+                want.own[c][want.nown[c]++] = (unsigned char)n;
+    }
+    pn_split_program(&got);
+    assert_int_equal(got.nops, want.nops);
+    assert_memory_equal(got.op, want.op, sizeof want.op);
+    assert_memory_equal(got.child, want.child, sizeof want.child);
+    assert_memory_equal(got.nown, want.nown, sizeof want.nown);
+    assert_memory_equal(got.own, want.own, sizeof want.own);
+}
+
 /* Every point of a sub-patch lies in its net's box, grown by its error
  * bound: sampled densely, at depth 6, on a patch far from the origin. */
 static void test_boxes_hold_their_patch(void **state)
@@ -777,6 +877,7 @@ int main(void)
         cmocka_unit_test(test_control_net),
         cmocka_unit_test(test_derivatives),
         cmocka_unit_test(test_subdivision),
+        cmocka_unit_test(test_split_program_is_the_blossoms),
         cmocka_unit_test(test_boxes_hold_their_patch),
         cmocka_unit_test(test_shared_edges_bit_for_bit),
         cmocka_unit_test(test_flat_patch_is_the_triangle),

@@ -111,6 +111,17 @@ void pn_net_split(const PnNet *parent, PnNet child[4]);
  * thread splits. */
 int pn_split_avx(int allow);
 
+/* For tests: the split's program, as pntri.c describes it (test_pntri
+ * derives it again from the blossom). */
+typedef struct {
+    int nops;
+    unsigned char op[64][2];
+    unsigned char child[4][10];
+    int nown[4];
+    unsigned char own[4][64];
+} PnSplitProgram;
+void pn_split_program(PnSplitProgram *g);
+
 /* The net's box grown by its error bound, in double. */
 void pn_net_box(const PnNet *net, double lo[3], double hi[3]);
 
