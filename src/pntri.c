@@ -261,7 +261,7 @@ void pn_net_root(const PnPatch *pn, PnNet *net)
  * from the blossom and compares. Pool entry 10 + n is the average of
  * entries op[n][0] and op[n][1]; child c (at P1, P2, P3, then the middle
  * one, turned half round) is made of the entries child[c]; own[c] lists
- * the ops that child's points need, in order. */
+ * the ops that child's points need, in order, and own[PN_ALL] every op. */
 #define PN_OPS 46
 #define PN_POOL (10 + PN_OPS)
 static const unsigned char split_op[PN_OPS][2] = {
@@ -277,15 +277,17 @@ static const unsigned char split_child[4][10] = {
     {34, 54, 31, 50, 51, 22, 44, 42, 39, 9},
     {44, 50, 46, 54, 55, 49, 34, 33, 29, 19},
 };
-static const int split_nown[4] = {20, 20, 20, 40};
-static const unsigned char split_own[4][40] = {
+#define PN_ALL 4 /* every op, in order, for all four children */
+static const int split_nown[5] = {20, 20, 20, 40, PN_OPS};
+static const unsigned char split_own[5][PN_OPS] = {
     {0, 3, 5, 6, 8, 9, 10, 11, 12, 13, 14, 15, 16, 18, 19, 20, 21, 22, 23, 24},
     {0, 3, 5, 6, 8, 9, 25, 26, 27, 28, 29, 30, 31, 32, 33, 34, 35, 36, 38, 39},
     {12, 14, 15, 21, 22, 24, 25, 26, 27, 28, 29, 30, 31, 32, 33, 34, 40, 41, 43, 44},
     {0,  3,  5,  6,  8,  9,  10, 11, 12, 13, 14, 15, 16, 18, 19, 20, 21, 22, 23, 24,
      25, 26, 27, 28, 29, 30, 31, 32, 33, 34, 35, 36, 38, 39, 40, 41, 42, 43, 44, 45},
+    {0,  1,  2,  3,  4,  5,  6,  7,  8,  9,  10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 22,
+     23, 24, 25, 26, 27, 28, 29, 30, 31, 32, 33, 34, 35, 36, 37, 38, 39, 40, 41, 42, 43, 44, 45},
 };
-#define PN_ALL 4 /* every op, for all four children */
 
 void pn_split_program(PnSplitProgram *g)
 {
@@ -294,7 +296,7 @@ void pn_split_program(PnSplitProgram *g)
     memcpy(g->child, split_child, sizeof split_child);
     for (int c = 0; c < 4; c++) {
         g->nown[c] = split_nown[c];
-        memcpy(g->own[c], split_own[c], sizeof split_own[c]);
+        memcpy(g->own[c], split_own[c], (size_t)split_nown[c]);
     }
 }
 
@@ -326,15 +328,15 @@ static int split_avx(void)
 }
 
 #ifdef PN_AVX
-/* The ops of list (every op, in order, for NULL) on the pool, four lanes
- * at once: with constant arguments, straight-line code. */
+/* The ops list[0..n-1] on the pool, four lanes at once: with constant
+ * arguments, straight-line code. */
 __attribute__((target("avx"), always_inline)) static inline void ops_avx(PnPool pool, const unsigned char *list,
                                                                          int n)
 {
     const __m256d half = _mm256_set1_pd(0.5);
 #pragma GCC unroll 48
     for (int k = 0; k < n; k++) {
-        int o = list ? list[k] : k;
+        int o = list[k];
         __m256d a = _mm256_loadu_pd(pool[split_op[o][0]]), b = _mm256_loadu_pd(pool[split_op[o][1]]);
         _mm256_storeu_pd(pool[10 + o], _mm256_mul_pd(_mm256_add_pd(a, b), half));
     }
@@ -352,12 +354,12 @@ __attribute__((target("avx"))) static double pool_ops_avx(const PnNet *parent, P
         _mm256_storeu_pd(pool[i], x);
         m = _mm256_max_pd(_mm256_andnot_pd(sign, x), m);
     }
-    switch (which) {
+    switch (which) { /* each case's list a constant */
     case 0: ops_avx(pool, split_own[0], split_nown[0]); break;
     case 1: ops_avx(pool, split_own[1], split_nown[1]); break;
     case 2: ops_avx(pool, split_own[2], split_nown[2]); break;
     case 3: ops_avx(pool, split_own[3], split_nown[3]); break;
-    default: ops_avx(pool, NULL, PN_OPS); break;
+    default: ops_avx(pool, split_own[PN_ALL], split_nown[PN_ALL]); break;
     }
     double ms[4];
     _mm256_storeu_pd(ms, m);
@@ -387,9 +389,8 @@ static double split_pool(const PnNet *parent, PnPool pool, int which, int avx)
         }
         pool[i][3] = 0.0;
     }
-    int n = which == PN_ALL ? PN_OPS : split_nown[which];
-    for (int k = 0; k < n; k++) {
-        int o = which == PN_ALL ? k : split_own[which][k];
+    for (int k = 0; k < split_nown[which]; k++) {
+        int o = split_own[which][k];
         const double *a = pool[split_op[o][0]], *b = pool[split_op[o][1]];
         pool[10 + o][0] = (a[0] + b[0]) * 0.5;
         pool[10 + o][1] = (a[1] + b[1]) * 0.5;
@@ -598,9 +599,10 @@ static void nearest_on_triangle(const double q[3], const double e1[3], const dou
  * piece is flat to float precision (dev within a float spacing of m, its
  * box's largest coordinate) and the ray meets it, with the hit's t, its
  * bound and the domain point; -1 otherwise (split on), and for every ray
- * that meets T's plane at a cosine below 1/4 and is not culled. */
-static int flat_piece(const PnNet *net, const double o[3], const double d[3], double dd, double tmax, double m, double *t,
-                      double *terr, double *u, double *v, int *only)
+ * that meets T's plane at a cosine below 1/4 and is not culled. dd is
+ * |d|, computed once a ray. */
+static int flat_piece(const PnNet *net, const double o[3], const double d[3], double dd, double tmax, double m,
+                      double *t, double *terr, double *u, double *v, int *only)
 {
     *only = -1;
     const double *A = net->b[PN_AT(3, 0)], *B = net->b[PN_AT(0, 0)], *C = net->b[PN_AT(0, 3)];
