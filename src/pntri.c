@@ -144,21 +144,24 @@ void pn_patch_init(PnPatch *pn, const Vec3 p[3], const Vec3 n[3])
  * dB/dv = 3 (r_v - r_w). */
 void pn_eval(const PnPatch *pn, double u, double v, double pt[3], double du[3], double dv[3])
 {
-    double w = 1.0 - u - v;
+    double w = 1.0 - u - v, b[10][3];
+    for (int i = 0; i < 10; i++) {
+        b[i][0] = pn->b[i].x;
+        b[i][1] = pn->b[i].y;
+        b[i][2] = pn->b[i].z;
+    }
     for (int a = 0; a < 3; a++) {
-        double b[10];
-        for (int i = 0; i < 10; i++)
-            b[i] = a == 0 ? pn->b[i].x : a == 1 ? pn->b[i].y : pn->b[i].z;
-        double q[6]; /* degree 2, at PN_AT-like index (2-i)(3-i)/2 + k */
-        for (int i = 0; i <= 2; i++)
-            for (int k = 0; k <= 2 - i; k++) {
-                int r = 2 - i, at = r * (r + 1) / 2 + k;
-                q[at] = w * b[PN_AT(i + 1, k)] + u * b[PN_AT(i, k)] + v * b[PN_AT(i, k + 1)];
-            }
-        /* degree 1: r_w = (1,0,0) at 0, r_u = (0,1,0) at 1, r_v = (0,0,1) at 2 */
-        double rw = w * q[0] + u * q[1] + v * q[2];
-        double ru = w * q[1] + u * q[3] + v * q[4];
-        double rv = w * q[2] + u * q[4] + v * q[5];
+        /* degree 2, at PN_AT-like index (2-i)(3-i)/2 + k */
+        double q0 = w * b[0][a] + u * b[1][a] + v * b[2][a];
+        double q1 = w * b[1][a] + u * b[3][a] + v * b[4][a];
+        double q2 = w * b[2][a] + u * b[4][a] + v * b[5][a];
+        double q3 = w * b[3][a] + u * b[6][a] + v * b[7][a];
+        double q4 = w * b[4][a] + u * b[7][a] + v * b[8][a];
+        double q5 = w * b[5][a] + u * b[8][a] + v * b[9][a];
+        /* degree 1: r_w = (1,0,0), r_u = (0,1,0), r_v = (0,0,1) */
+        double rw = w * q0 + u * q1 + v * q2;
+        double ru = w * q1 + u * q3 + v * q4;
+        double rv = w * q2 + u * q4 + v * q5;
         if (pt)
             pt[a] = w * rw + u * ru + v * rv;
         if (du)
