@@ -721,6 +721,7 @@ typedef struct {
     double lo[3], hi[3]; /* pn_net_box of net */
     double tn, tf;       /* the ray's interval in that box */
     int depth;
+    int tried;
 } PnNode;
 
 typedef struct {
@@ -730,9 +731,9 @@ typedef struct {
 
 /* Newton's method on F(u, v) = (a . (B - o), b . (B - o)) = 0, a and b two
  * unit vectors normal to the ray and to each other, from the node's
- * domain centre. Returns 1 with the hit when it converges inside the
- * node's domain (grown by a margin) and the patch's. */
-static int newton(const PnPatch *pn, const PnRay *r, const PnNet *net, double *t, double *uo, double *vo)
+ * domain centre. Returns 1 when it converges, with (u, v). */
+static int newton_uv(const PnPatch *pn, const PnRay *r, const PnNet *net, double lu0, double lv0, double *uo,
+                     double *vo)
 {
     double ax[3], bx[3];
     const double *d = r->d;
@@ -751,7 +752,7 @@ static int newton(const PnPatch *pn, const PnRay *r, const PnNet *net, double *t
     for (int c = 0; c < 3; c++)
         bx[c] /= lb;
     double sg = net->flip ? -net->s : net->s;
-    double u = net->u0 + sg / 3.0, v = net->v0 + sg / 3.0;
+    double u = net->u0 + sg * lu0, v = net->v0 + sg * lv0;
     for (int it = 0; it < PN_NEWTON_STEPS; it++) {
         double p[3], du[3], dv[3];
         pn_eval(pn, u, v, p, du, dv);
@@ -771,32 +772,183 @@ static int newton(const PnPatch *pn, const PnRay *r, const PnNet *net, double *t
         if (!isfinite(u) || !isfinite(v))
             return 0;
         if (fabs(su) + fabs(sv) <= 1e-7 * net->s) {
-            /* inside the node's domain, with a margin, and the patch's */
-            double lu = (u - net->u0) / sg, lv = (v - net->v0) / sg;
-            const double margin = 1e-3;
-            if (lu < -margin || lv < -margin || lu + lv > 1.0 + margin || u < 0.0 || v < 0.0 || u + v > 1.0)
-                return 0;
-            pn_eval(pn, u, v, p, du, dv);
-            double dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-            /* A ray that meets the surface at a grazing angle may meet it
-             * twice in one node, and Newton may have found the far one:
-             * subdivide there instead. */
-            double g[3] = {du[1] * dv[2] - du[2] * dv[1], du[2] * dv[0] - du[0] * dv[2], du[0] * dv[1] - du[1] * dv[0]};
-            double gd = g[0] * d[0] + g[1] * d[1] + g[2] * d[2], gg = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
-            if (gd * gd < PN_NEWTON_GRAZING * PN_NEWTON_GRAZING * gg * dd)
-                return 0;
-            *t = ((p[0] - r->o[0]) * d[0] + (p[1] - r->o[1]) * d[1] + (p[2] - r->o[2]) * d[2]) / dd;
             *uo = u;
             *vo = v;
-            return *t > 0.0 && *t < r->tmax;
+            return 1;
         }
     }
     return 0;
 }
 
+/* Newton's method as newton_uv. Returns 1 with the hit when it converges
+ * inside the node's domain (grown by a margin) and the patch's. */
+static int newton(const PnPatch *pn, const PnRay *r, const PnNet *net, double *t, double *uo, double *vo)
+{
+    double u, v, p[3], du[3], dv[3];
+    if (!newton_uv(pn, r, net, 1.0 / 3.0, 1.0 / 3.0, &u, &v))
+        return 0;
+    /* inside the node's domain, with a margin, and the patch's */
+    double sg = net->flip ? -net->s : net->s;
+    double lu = (u - net->u0) / sg, lv = (v - net->v0) / sg;
+    const double margin = 1e-3;
+    if (lu < -margin || lv < -margin || lu + lv > 1.0 + margin || u < 0.0 || v < 0.0 || u + v > 1.0)
+        return 0;
+    pn_eval(pn, u, v, p, du, dv);
+    const double *d = r->d;
+    double dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    /* A ray that meets the surface at a grazing angle may meet it twice in
+     * one node, and Newton may have found the far one: subdivide there
+     * instead. */
+    double g[3] = {du[1] * dv[2] - du[2] * dv[1], du[2] * dv[0] - du[0] * dv[2], du[0] * dv[1] - du[1] * dv[0]};
+    double gd = g[0] * d[0] + g[1] * d[1] + g[2] * d[2], gg = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
+    if (gd * gd < PN_NEWTON_GRAZING * PN_NEWTON_GRAZING * gg * dd)
+        return 0;
+    *t = ((p[0] - r->o[0]) * d[0] + (p[1] - r->o[1]) * d[1] + (p[2] - r->o[2]) * d[2]) / dd;
+    *uo = u;
+    *vo = v;
+    return *t > 0.0 && *t < r->tmax;
+}
+
+/* What pn_certify proved of a piece. */
+enum { PN_UNSURE = 0, PN_CERT_HIT, PN_CERT_MISS, PN_UNSURE_OUTSIDE };
+
+/* A proof of where the ray meets the piece, when one is found: its only
+ * crossing, at t within terr (PN_CERT_HIT, with the domain point (u, v)),
+ * or none in (0, tmax) (PN_CERT_MISS). PN_UNSURE_OUTSIDE when Newton's
+ * point lies outside the piece's domain (so outside its children's too).
+ *
+ * Write the piece as T + D, T(s, t) = A + s e1 + t e2 the plane of its
+ * corners A, B, C (e1 = B - A, e2 = C - A) over its local coordinates. Its
+ * partial derivatives are e1 + D_s and e2 + D_t, D_s and D_t quadratic
+ * Bezier triangles whose control vectors are 3 (b_i,j+1,k - b_i+1,j,k) - e1
+ * and 3 (b_i,j,k+1 - b_i+1,j,k) - e2. Mn and Mp bound the parts of
+ * D_s w1 + D_t w2 along T's unit normal n and in T's plane, over |w|, the
+ * exact net's offsets of up to err included. With sigma at most the least
+ * singular value of [e1 e2] and kappa = sigma - Mp > 0, a segment w of the
+ * convex domain moves the point's projection onto T's plane by at least
+ * kappa |w| and its height over the plane by at most Mn |w|: the piece is
+ * the graph of a function of slope at most L = Mn / kappa over the plane,
+ * one to one. A ray steeper than that, rate = |n.d| - L |n x d| > 0, has a
+ * height over the graph (extended to the whole plane at the same slope)
+ * that changes monotonically, at least at that rate: it crosses the piece
+ * at most once. Newton's point S of the patch in the piece, at distance
+ * rho from the ray's point R at t_S, bounds that crossing: the height at
+ * t_S is within (1 + L) rho of 0, so the crossing is within
+ * w = (1 + L) rho / rate of t_S. It is on the piece when its projection
+ * lies within kappa times S's domain point's distance to the domain's
+ * edges of S's projection (the projection of the domain's disc around that
+ * point covers the disc kappa times as wide around S's projection): when
+ * |n x d| w + rho is below that.
+ *
+ * mroot bounds the patch's coordinates; every rounding here is far below
+ * PN_SLACK of the magnitudes it involves, but for the local coordinates'
+ * (lu - its rounding is a float spacing of u, over the side s). */
+static int pn_certify(const PnPatch *pn, const PnRay *r, const PnNet *net, double dd, double tmax, double mroot,
+                      double *t, double *terr, double *u, double *v)
+{
+    const double *A = net->b[PN_AT(3, 0)], *B = net->b[PN_AT(0, 0)], *C = net->b[PN_AT(0, 3)];
+    const double *o = r->o, *d = r->d;
+    double e1[3], e2[3];
+    for (int a = 0; a < 3; a++) {
+        e1[a] = B[a] - A[a];
+        e2[a] = C[a] - A[a];
+    }
+    /* sigma^2, the Gram matrix's least eigenvalue, 2 det / (tr + sqrt(tr^2 -
+     * 4 det)); the square root grown over the roundings of tr^2 - 4 det */
+    double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+    double det = n[0] * n[0] + n[1] * n[1] + n[2] * n[2], nn = sqrt(det);
+    double l1 = e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2], l2 = e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2];
+    double tr = l1 + l2, root = sqrt(max2(0.0, tr * tr - 4.0 * det) + 0x1p-48 * tr * tr);
+    /* n's rounding tilts it from T's true normal by at most |e1| |e2| 2^-48
+     * / |n|, which moves a step E w by tilt |w| out of T's plane */
+    double tilt = 0x1p-48 * sqrt(l1 * l2) / nn * sqrt(tr);
+    double sigma = sqrt(2.0 * det / (tr + root)) * (1.0 - PN_SLACK) - tilt - 16.0 * PN_SLACK * mroot;
+    /* where the ray meets T's plane, Newton's start below */
+    double q[3] = {o[0] - A[0], o[1] - A[1], o[2] - A[2]};
+    double nd = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
+    double tp = -(n[0] * q[0] + n[1] * q[1] + n[2] * q[2]) / nd;
+    for (int a = 0; a < 3; a++)
+        q[a] += tp * d[a];
+    double c2[3] = {q[1] * e2[2] - q[2] * e2[1], q[2] * e2[0] - q[0] * e2[2], q[0] * e2[1] - q[1] * e2[0]};
+    double c1[3] = {e1[1] * q[2] - e1[2] * q[1], e1[2] * q[0] - e1[0] * q[2], e1[0] * q[1] - e1[1] * q[0]};
+    double lu0 = (c2[0] * n[0] + c2[1] * n[1] + c2[2] * n[2]) / det;
+    double lv0 = (c1[0] * n[0] + c1[1] * n[1] + c1[2] * n[2]) / det;
+    if (!(lu0 > -0.5 && lv0 > -0.5 && lu0 + lv0 < 1.5)) /* far from the piece: Newton would leave it */
+        return PN_UNSURE;
+    /* the control vectors' parts along n and in T's plane; the exact net's
+     * offsets (err on each axis, eight of them in a control vector) and
+     * n's own rounding grow both */
+    double grow = 8.0 * 1.7320508075688774 * net->err + 16.0 * PN_SLACK * mroot;
+    double ns_ = 0.0, nt_ = 0.0, ps_ = 0.0, pt_ = 0.0;
+    for (int i = 0; i <= 2; i++)
+        for (int k = 0; k <= 2 - i; k++) {
+            const double *p = net->b[PN_AT(i + 1, k)], *ps = net->b[PN_AT(i, k)], *pt = net->b[PN_AT(i, k + 1)];
+            double ys[3], yt[3];
+            for (int a = 0; a < 3; a++) {
+                ys[a] = 3.0 * (ps[a] - p[a]) - e1[a];
+                yt[a] = 3.0 * (pt[a] - p[a]) - e2[a];
+            }
+            double cs[3] = {n[1] * ys[2] - n[2] * ys[1], n[2] * ys[0] - n[0] * ys[2], n[0] * ys[1] - n[1] * ys[0]};
+            double ct[3] = {n[1] * yt[2] - n[2] * yt[1], n[2] * yt[0] - n[0] * yt[2], n[0] * yt[1] - n[1] * yt[0]};
+            ns_ = max2(ns_, fabs(n[0] * ys[0] + n[1] * ys[1] + n[2] * ys[2]));
+            nt_ = max2(nt_, fabs(n[0] * yt[0] + n[1] * yt[1] + n[2] * yt[2]));
+            ps_ = max2(ps_, cs[0] * cs[0] + cs[1] * cs[1] + cs[2] * cs[2]);
+            pt_ = max2(pt_, ct[0] * ct[0] + ct[1] * ct[1] + ct[2] * ct[2]);
+        }
+    ns_ = ns_ / nn * (1.0 + PN_SLACK) + grow;
+    nt_ = nt_ / nn * (1.0 + PN_SLACK) + grow;
+    ps_ = sqrt(ps_) / nn * (1.0 + PN_SLACK) + grow;
+    pt_ = sqrt(pt_) / nn * (1.0 + PN_SLACK) + grow;
+    double Mn = sqrt(ns_ * ns_ + nt_ * nt_) * (1.0 + PN_SLACK) + tilt;
+    double Mp = sqrt(ps_ * ps_ + pt_ * pt_) * (1.0 + PN_SLACK);
+    double kappa = sigma - Mp;
+    if (!(kappa > 0.0))
+        return PN_UNSURE;
+    double L = Mn / kappa * (1.0 + PN_SLACK);
+    double nxd[3] = {n[1] * d[2] - n[2] * d[1], n[2] * d[0] - n[0] * d[2], n[0] * d[1] - n[1] * d[0]};
+    double dxi = sqrt(nxd[0] * nxd[0] + nxd[1] * nxd[1] + nxd[2] * nxd[2]) / nn * (1.0 + PN_SLACK) + PN_SLACK * dd;
+    double rate = fabs(nd) / nn - L * dxi - PN_SLACK * dd * (1.0 + L);
+    if (!(rate > 0.0))
+        return PN_UNSURE;
+    double nu, nv;
+    if (!newton_uv(pn, r, net, lu0, lv0, &nu, &nv))
+        return PN_UNSURE;
+    double sg = net->flip ? -net->s : net->s;
+    double lu = (nu - net->u0) / sg, lv = (nv - net->v0) / sg;
+    /* S's domain point's distance to the domain's edges */
+    double edge = lu < lv ? lu : lv, far = (1.0 - lu - lv) * 0.7071067811865476;
+    edge = (far < edge ? far : edge) - 4.0 * DBL_EPSILON / net->s - PN_SLACK;
+    if (!(edge > 0.0))
+        return PN_UNSURE_OUTSIDE;
+    double S[3];
+    pn_eval(pn, nu, nv, S, NULL, NULL);
+    double ts = ((S[0] - o[0]) * d[0] + (S[1] - o[1]) * d[1] + (S[2] - o[2]) * d[2]) / (dd * dd), rho = 0.0;
+    for (int a = 0; a < 3; a++) {
+        double x = o[a] + ts * d[a] - S[a];
+        rho += x * x;
+    }
+    /* S's roundings (pn_eval's) and R's */
+    rho = sqrt(rho) * (1.0 + PN_SLACK) + 1.7320508075688774 * PN_SLACK * (mroot + maxabs3(o) + fabs(ts) * dd);
+    double w = (1.0 + L) * rho / rate * (1.0 + PN_SLACK);
+    if (ts + w < 0.0 || ts - w > tmax)
+        return PN_CERT_MISS;
+    /* a hit, with t to float precision, when the crossing is on the piece */
+    if (!(ts - w > 0.0 && ts + w < tmax && w <= ts * (0.5 * (double)FLT_EPSILON) &&
+          dxi * w + rho < kappa * edge * (1.0 - PN_SLACK)))
+        return PN_UNSURE;
+    *t = ts;
+    *terr = w;
+    *u = nu;
+    *v = nv;
+    return PN_CERT_HIT;
+}
+
 /* Visits the sub-patches whose box the ray enters, nearest first, and
  * keeps the nearest hit. */
-int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h)
+
+int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h) { return pn_hit_with(pn, ray, mode, 1, h, NULL); }
+
+int pn_hit_with(const PnPatch *pn, const Ray *ray, PnMode mode, int proofs, PnHit *h, long *proven)
 {
     PnRay r;
     to_d(ray->o, r.o);
@@ -814,10 +966,12 @@ int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h)
     PnNode *root = &stack[top];
     pn_net_root(pn, &root->net);
     root->depth = 0;
+    root->tried = 0;
     pn_net_box(&root->net, root->lo, root->hi);
     if (!slab(root->lo, root->hi, r.o, r.d, r.inv, best, &root->tn, &root->tf))
         return 0;
     top++;
+    double mroot = max2(maxabs3(root->lo), maxabs3(root->hi));
     PnPool pool;
     int splits = 0;
     while (top > 0) {
@@ -842,6 +996,28 @@ int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h)
                 }
                 continue;
             }
+        }
+        /* A proof of the piece's only crossing, in exact mode, and of none
+         * ahead for a ray leaving the surface (an origin in the box), in
+         * both modes (fast mode's Newton below waits for the origin to
+         * leave the box) */
+        int tried = node->tried;
+        if (!tried && proofs && (mode == PN_EXACT || node->tn <= 0.0)) {
+            double t, e, u, v;
+            int c = pn_certify(pn, &r, net, dd, best, mroot, &t, &e, &u, &v);
+            if (c == PN_CERT_MISS || (c == PN_CERT_HIT && mode == PN_EXACT)) {
+                if (proven)
+                    ++*proven;
+                if (c == PN_CERT_MISS)
+                    continue;
+                best = t;
+                berr = e;
+                bu = u;
+                bv = v;
+                found = 1;
+                continue;
+            }
+            tried = c == PN_UNSURE_OUTSIDE;
         }
         /* Newton's method, from outside the patch's box: a ray that starts
          * in it (a spawned ray, leaving the surface) needs the split that
@@ -910,6 +1086,7 @@ int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h)
             k->tn = tn[c];
             k->tf = tf[c];
             k->depth = depth;
+            k->tried = tried;
         }
     }
     if (!found)

@@ -734,6 +734,119 @@ static void test_fast_mode(void **state)
     assert_true(both > 1000);
 }
 
+/* closest over pn[0 .. n-1] in exact mode, with proofs or by subdivision
+ * alone, adding the pieces proofs settled to *proven. */
+static int closest_with(const PnPatch *pn, int n, const Ray *r, int proofs, PnHit *best, long *proven)
+{
+    int found = 0;
+    Ray q = *r;
+    for (int f = 0; f < n; f++) {
+        PnHit h;
+        if (pn_hit_with(&pn[f], &q, PN_EXACT, proofs, &h, proven)) {
+            *best = h;
+            q.tmax = h.t;
+            found = 1;
+        }
+    }
+    return found;
+}
+
+/* Exact mode with the proofs of a piece's only crossing and by
+ * subdivision alone agree, on the PN icosahedron at three scales and far
+ * from the origin: rays from outside aimed inside it and past it, and rays
+ * leaving the surface from points a few float spacings above it, outwards
+ * (which the convex surface never stops: proofs settle their own spot)
+ * and inwards (which cross it at once); then random bent patches. */
+static void test_proofs_agree_with_subdivision(void **state)
+{
+    (void)state;
+    const float scales[3] = {1.0f, 1e-3f, 1e4f};
+    unsigned long long seed = 77;
+    int hits = 0, left = 0;
+    long proven = 0, proven_leaving = 0, unused = 0;
+    for (int s = 0; s < 3; s++)
+        for (int far = 0; far < 2; far++) {
+            float R = scales[s];
+            Vec3 c = far ? vec3(40 * R, -25 * R, 10 * R) : vec3(0, 0, 0);
+            PnPatch pn[20];
+            ico_patches(pn, R, c);
+            for (int i = 0; i < 600; i++) {
+                Ray r;
+                if (i % 3 != 2) { /* from outside, at a point inside or past the sphere */
+                    Vec3 o = vec_add(c, vec_scale(unit(test_rvec(&seed, -1, 1)), 3 * R));
+                    Vec3 to = vec_add(c, vec_scale(test_rvec(&seed, -1, 1), i % 3 ? 1.3f * R : 0.9f * R));
+                    r = ray_make(o, vec_sub(to, o), INFINITY);
+                } else { /* from a point just above the surface */
+                    int f = (int)test_uniform(&seed, 0, 19.99f);
+                    double u = test_uniform(&seed, 0, 1), v = test_uniform(&seed, 0, 1), p[3], du[3], dv[3];
+                    if (u + v > 1) {
+                        u = 1 - u;
+                        v = 1 - v;
+                    }
+                    pn_eval(&pn[f], u, v, p, du, dv);
+                    Vec3 ng = unit(vec_cross(vec3((float)du[0], (float)du[1], (float)du[2]),
+                                             vec3((float)dv[0], (float)dv[1], (float)dv[2])));
+                    Vec3 at = vec3((float)p[0], (float)p[1], (float)p[2]);
+                    Vec3 o = vec_add(at, vec_scale(ng, 48 * FLT_EPSILON * vec_max_abs(at)));
+                    Vec3 d = unit(test_rvec(&seed, -1, 1));
+                    float dn = vec_dot(d, ng);
+                    if (fabsf(dn) < 0.1f)
+                        continue;
+                    r = ray_make(o, d, INFINITY);
+                    if (dn > 0) { /* outwards: a convex surface stops none */
+                        PnHit h;
+                        int sub = closest_with(pn, 20, &r, 0, &h, &unused);
+                        if (sub || closest_with(pn, 20, &r, 1, &h, &proven_leaving))
+                            fail_msg("scale %g: a ray leaving patch %d at (%g, %g) hit the surface (%s)", (double)R,
+                                     f, u, v, sub ? "subdivision" : "proof");
+                        left++;
+                        continue;
+                    }
+                }
+                PnHit hs = {0}, hp = {0}; /* (set by closest_with when it returns 1: -O3 cannot tell) */
+                int sub = closest_with(pn, 20, &r, 0, &hs, &unused), prf = closest_with(pn, 20, &r, 1, &hp, &proven);
+                if (sub != prf)
+                    fail_msg("scale %g ray %d: subdivision %s, proof %s", (double)R, i, sub ? "hits" : "misses",
+                             prf ? "hits" : "misses");
+                if (!sub)
+                    continue;
+                hits++;
+                if (fabs((double)hs.t - hp.t) > (double)hs.terr + hp.terr + 4.0 * FLT_EPSILON * hs.t)
+                    fail_msg("scale %g ray %d: t %.9g against %.9g (terr %g, %g)", (double)R, i, (double)hs.t,
+                             (double)hp.t, (double)hs.terr, (double)hp.terr);
+            }
+        }
+    /* random bent patches, aimed at their points and beside them */
+    for (int k = 0; k < 300; k++) {
+        Vec3 a = test_rvec(&seed, -1, 1), b = test_rvec(&seed, -1, 1), c = test_rvec(&seed, -1, 1);
+        Vec3 n = unit(vec_cross(vec_sub(b, a), vec_sub(c, a)));
+        PnPatch pn;
+        make_patch(&pn, a, b, c, vec_add(n, test_rvec(&seed, -0.8f, 0.8f)), vec_add(n, test_rvec(&seed, -0.8f, 0.8f)),
+                   vec_add(n, test_rvec(&seed, -0.8f, 0.8f)));
+        for (int i = 0; i < 20; i++) {
+            double p[3];
+            pn_eval(&pn, test_uniform(&seed, -0.1f, 0.6f), test_uniform(&seed, -0.1f, 0.6f), p, NULL, NULL);
+            Vec3 to = vec3((float)p[0], (float)p[1], (float)p[2]);
+            Vec3 o = vec_add(to, vec_scale(unit(test_rvec(&seed, -1, 1)), 3.0f));
+            Ray r = ray_make(o, vec_sub(to, o), INFINITY);
+            PnHit hs = {0}, hp = {0};
+            int sub = pn_hit_with(&pn, &r, PN_EXACT, 0, &hs, &unused);
+            int prf = pn_hit_with(&pn, &r, PN_EXACT, 1, &hp, &proven);
+            if (sub != prf)
+                fail_msg("patch %d ray %d: subdivision %s, proof %s", k, i, sub ? "hits" : "misses",
+                         prf ? "hits" : "misses");
+            hits += sub;
+            if (sub && fabs((double)hs.t - hp.t) > (double)hs.terr + hp.terr + 4.0 * FLT_EPSILON * hs.t)
+                fail_msg("patch %d ray %d: t %.9g against %.9g (terr %g, %g)", k, i, (double)hs.t, (double)hp.t,
+                         (double)hs.terr, (double)hp.terr);
+        }
+    }
+    assert_int_equal(unused, 0); /* subdivision alone proves nothing */
+    assert_true(hits > 4000 && left > 200);
+    /* the proofs ran: most hits, and most leaving rays' own spots */
+    assert_true(proven > hits / 2 && proven_leaving > left / 2);
+}
+
 /* ---- CGAL's closed meshes as PN surfaces ---- */
 
 static const char *const closed_meshes[] = {"eight.off", "anchor.off", "hand.off", "couplingdown.off"};
@@ -888,6 +1001,7 @@ int main(void)
         cmocka_unit_test(test_grazing_rays),
         cmocka_unit_test(test_avx_split_is_the_loop),
         cmocka_unit_test(test_fast_mode),
+        cmocka_unit_test(test_proofs_agree_with_subdivision),
         cmocka_unit_test(test_cgal_meshes_do_not_leak),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -129,9 +129,15 @@ void pn_net_box(const PnNet *net, double lo[3], double hi[3]);
 
 /* The nearest hit with 0 < t < ray->tmax: (h->u, h->v) is the domain point,
  * h->terr bounds t's error. PN_EXACT subdivides, nearest sub-patch first,
- * until a piece is flat, or its box small, to float precision; PN_FAST solves by Newton's
- * method from the patch's centre, falling back to subdivision where Newton
- * fails. */
+ * until a piece is flat, or its box small, to float precision, or is
+ * proven to be crossed once at a point Newton's method pins down (or not
+ * at all ahead of the origin); PN_FAST solves by Newton's method from the
+ * patch's centre, falling back to subdivision where Newton fails. */
 int pn_hit(const PnPatch *pn, const Ray *r, PnMode mode, PnHit *h);
+
+/* For tests: pn_hit with its proofs of a piece's only crossing (proofs 1)
+ * or by subdivision alone (0), adding to *proven (when not NULL) how many
+ * pieces a proof settled. */
+int pn_hit_with(const PnPatch *pn, const Ray *r, PnMode mode, int proofs, PnHit *h, long *proven);
 
 #endif
