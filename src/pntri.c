@@ -888,17 +888,19 @@ static int pn_certify(const PnPatch *pn, const PnRay *r, const PnNet *net, doubl
                 ys[a] = 3.0 * (ps[a] - p[a]) - e1[a];
                 yt[a] = 3.0 * (pt[a] - p[a]) - e2[a];
             }
-            double cs[3] = {n[1] * ys[2] - n[2] * ys[1], n[2] * ys[0] - n[0] * ys[2], n[0] * ys[1] - n[1] * ys[0]};
-            double ct[3] = {n[1] * yt[2] - n[2] * yt[1], n[2] * yt[0] - n[0] * yt[2], n[0] * yt[1] - n[1] * yt[0]};
-            ns_ = max2(ns_, fabs(n[0] * ys[0] + n[1] * ys[1] + n[2] * ys[2]));
-            nt_ = max2(nt_, fabs(n[0] * yt[0] + n[1] * yt[1] + n[2] * yt[2]));
-            ps_ = max2(ps_, cs[0] * cs[0] + cs[1] * cs[1] + cs[2] * cs[2]);
-            pt_ = max2(pt_, ct[0] * ct[0] + ct[1] * ct[1] + ct[2] * ct[2]);
+            /* the part in T's plane from |y|^2 - (n.y)^2 / |n|^2, grown over
+             * its cancellation below */
+            double ns = n[0] * ys[0] + n[1] * ys[1] + n[2] * ys[2], nt = n[0] * yt[0] + n[1] * yt[1] + n[2] * yt[2];
+            double ss = ys[0] * ys[0] + ys[1] * ys[1] + ys[2] * ys[2], tt = yt[0] * yt[0] + yt[1] * yt[1] + yt[2] * yt[2];
+            ns_ = max2(ns_, fabs(ns));
+            nt_ = max2(nt_, fabs(nt));
+            ps_ = max2(ps_, ss * (1.0 + 0x1p-46) - ns * ns / det);
+            pt_ = max2(pt_, tt * (1.0 + 0x1p-46) - nt * nt / det);
         }
     ns_ = ns_ / nn * (1.0 + PN_SLACK) + grow;
     nt_ = nt_ / nn * (1.0 + PN_SLACK) + grow;
-    ps_ = sqrt(ps_) / nn * (1.0 + PN_SLACK) + grow;
-    pt_ = sqrt(pt_) / nn * (1.0 + PN_SLACK) + grow;
+    ps_ = sqrt(ps_) * (1.0 + PN_SLACK) + grow;
+    pt_ = sqrt(pt_) * (1.0 + PN_SLACK) + grow;
     double Mn = sqrt(ns_ * ns_ + nt_ * nt_) * (1.0 + PN_SLACK) + tilt;
     double Mp = sqrt(ps_ * ps_ + pt_ * pt_) * (1.0 + PN_SLACK);
     double kappa = sigma - Mp;
