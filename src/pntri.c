@@ -891,7 +891,8 @@ static int pn_certify(const PnPatch *pn, const PnRay *r, const PnNet *net, doubl
             /* the part in T's plane from |y|^2 - (n.y)^2 / |n|^2, grown over
              * its cancellation below */
             double ns = n[0] * ys[0] + n[1] * ys[1] + n[2] * ys[2], nt = n[0] * yt[0] + n[1] * yt[1] + n[2] * yt[2];
-            double ss = ys[0] * ys[0] + ys[1] * ys[1] + ys[2] * ys[2], tt = yt[0] * yt[0] + yt[1] * yt[1] + yt[2] * yt[2];
+            double ss = ys[0] * ys[0] + ys[1] * ys[1] + ys[2] * ys[2];
+            double tt = yt[0] * yt[0] + yt[1] * yt[1] + yt[2] * yt[2];
             ns_ = max2(ns_, fabs(ns));
             nt_ = max2(nt_, fabs(nt));
             ps_ = max2(ps_, ss * (1.0 + 0x1p-46) - ns * ns / det);
