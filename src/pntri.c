@@ -721,7 +721,7 @@ typedef struct {
     double lo[3], hi[3]; /* pn_net_box of net */
     double tn, tf;       /* the ray's interval in that box */
     int depth;
-    int tried;
+    int tried; /* a proof's Newton point fell outside an ancestor: none is tried here */
 } PnNode;
 
 typedef struct {
@@ -946,6 +946,22 @@ static int pn_certify(const PnPatch *pn, const PnRay *r, const PnNet *net, doubl
     return PN_CERT_HIT;
 }
 
+/* The nearest hit so far: t (the ray's tmax while there is none), its
+ * bound and its domain point. */
+typedef struct {
+    double t, err, u, v;
+} PnBest;
+
+static void best_keep(PnBest *b, double t, double err, double u, double v)
+{
+    if (t < b->t) {
+        b->t = t;
+        b->err = err;
+        b->u = u;
+        b->v = v;
+    }
+}
+
 /* Visits the sub-patches whose box the ray enters, nearest first, and
  * keeps the nearest hit. */
 
@@ -964,14 +980,13 @@ int pn_hit_with(const PnPatch *pn, const Ray *ray, PnMode mode, int proofs, PnHi
     /* a depth-first stack: each split pushes at most four children */
     PnNode stack[3 * PN_MAX_DEPTH + 4];
     int top = 0;
-    double best = r.tmax, bu = 0.0, bv = 0.0, berr = 0.0;
-    int found = 0;
+    PnBest best = {r.tmax, 0.0, 0.0, 0.0};
     PnNode *root = &stack[top];
     pn_net_root(pn, &root->net);
     root->depth = 0;
     root->tried = 0;
     pn_net_box(&root->net, root->lo, root->hi);
-    if (!slab(root->lo, root->hi, r.o, r.d, r.inv, best, &root->tn, &root->tf))
+    if (!slab(root->lo, root->hi, r.o, r.d, r.inv, best.t, &root->tn, &root->tf))
         return 0;
     top++;
     double mroot = max2(maxabs3(root->lo), maxabs3(root->hi));
@@ -979,26 +994,18 @@ int pn_hit_with(const PnPatch *pn, const Ray *ray, PnMode mode, int proofs, PnHi
     int splits = 0;
     while (top > 0) {
         const PnNode *node = &stack[--top]; /* read before any push overwrites it */
-        if (node->tn >= best)
+        if (node->tn >= best.t)
             continue;
         const PnNet *net = &node->net;
         double m = max2(maxabs3(node->lo), maxabs3(node->hi)); /* the box's largest coordinate */
         int only;
         { /* culls a piece the ray misses before Newton's steps are spent on it */
             double t, e, u, v;
-            int f = flat_piece(net, r.o, r.d, dd, best, m, &t, &e, &u, &v, &only);
-            if (f == 0)
+            int f = flat_piece(net, r.o, r.d, dd, best.t, m, &t, &e, &u, &v, &only);
+            if (f == 1) /* (its interval starts before best, its midpoint may not) */
+                best_keep(&best, t, e, u, v);
+            if (f >= 0)
                 continue;
-            if (f == 1) {
-                if (t < best) { /* its interval starts before best, its midpoint may not */
-                    best = t;
-                    berr = e;
-                    bu = u;
-                    bv = v;
-                    found = 1;
-                }
-                continue;
-            }
         }
         /* A proof of the piece's only crossing, in exact mode, and of none
          * ahead for a ray leaving the surface (an origin in the box), in
@@ -1007,17 +1014,12 @@ int pn_hit_with(const PnPatch *pn, const Ray *ray, PnMode mode, int proofs, PnHi
         int tried = node->tried;
         if (!tried && proofs && (mode == PN_EXACT || node->tn <= 0.0)) {
             double t, e, u, v;
-            int c = pn_certify(pn, &r, net, dd, best, mroot, &t, &e, &u, &v);
+            int c = pn_certify(pn, &r, net, dd, best.t, mroot, &t, &e, &u, &v);
             if (c == PN_CERT_MISS || (c == PN_CERT_HIT && mode == PN_EXACT)) {
                 if (proven)
                     ++*proven;
-                if (c == PN_CERT_MISS)
-                    continue;
-                best = t;
-                berr = e;
-                bu = u;
-                bv = v;
-                found = 1;
+                if (c == PN_CERT_HIT)
+                    best_keep(&best, t, e, u, v);
                 continue;
             }
             tried = c == PN_UNSURE_OUTSIDE;
@@ -1028,13 +1030,7 @@ int pn_hit_with(const PnPatch *pn, const Ray *ray, PnMode mode, int proofs, PnHi
         if (mode == PN_FAST && node->depth == PN_FAST_DEPTH && node->tn > 0.0) {
             double t, u, v;
             if (newton(pn, &r, net, &t, &u, &v)) {
-                if (t < best) {
-                    best = t;
-                    bu = u;
-                    bv = v;
-                    berr = 0.0;
-                    found = 1;
-                }
+                best_keep(&best, t, 0.0, u, v);
                 continue;
             }
             /* Newton failed here: subdivide as exact mode does */
@@ -1045,15 +1041,9 @@ int pn_hit_with(const PnPatch *pn, const Ray *ray, PnMode mode, int proofs, PnHi
              * (an origin inside the box is on the surface to float
              * precision: a spawned ray, which does not hit its own spot). */
             if (node->tn > 0.0) {
-                double t = 0.5 * (node->tn + node->tf), e = 0.5 * (node->tf - node->tn);
-                if (t < best) {
-                    best = t;
-                    berr = e;
-                    double sg = net->flip ? -net->s : net->s;
-                    bu = net->u0 + sg / 3.0;
-                    bv = net->v0 + sg / 3.0;
-                    found = 1;
-                }
+                double sg = net->flip ? -net->s : net->s;
+                best_keep(&best, 0.5 * (node->tn + node->tf), 0.5 * (node->tf - node->tn), net->u0 + sg / 3.0,
+                          net->v0 + sg / 3.0);
             }
             continue;
         }
@@ -1066,7 +1056,7 @@ int pn_hit_with(const PnPatch *pn, const Ray *ray, PnMode mode, int proofs, PnHi
         int order[4], n = 0;
         for (int c = only >= 0 ? only : 0; c < (only >= 0 ? only + 1 : 4); c++) {
             pool_box(pool, c, err, lo[c], hi[c], avx);
-            if (slab(lo[c], hi[c], r.o, r.d, r.inv, best, &tn[c], &tf[c])) {
+            if (slab(lo[c], hi[c], r.o, r.d, r.inv, best.t, &tn[c], &tf[c])) {
                 int j = n++;
                 for (; j > 0 && tn[c] > tn[order[j - 1]]; j--)
                     order[j] = order[j - 1];
@@ -1092,13 +1082,13 @@ int pn_hit_with(const PnPatch *pn, const Ray *ray, PnMode mode, int proofs, PnHi
             k->tried = tried;
         }
     }
-    if (!found)
+    if (!(best.t < r.tmax)) /* none found */
         return 0;
-    h->t = (float)best;
+    h->t = (float)best.t;
     if (!(h->t < ray->tmax) || !(h->t > 0.0f))
         return 0;
-    h->terr = berr > 0.0 ? float_up(berr + fabs(best - (double)h->t)) : 0.0f;
-    h->u = (float)bu;
-    h->v = (float)bv;
+    h->terr = best.err > 0.0 ? float_up(best.err + fabs(best.t - (double)h->t)) : 0.0f;
+    h->u = (float)best.u;
+    h->v = (float)best.v;
     return 1;
 }
