@@ -591,6 +591,30 @@ static void nearest_on_triangle(const double q[3], const double e1[3], const dou
     }
 }
 
+/* A piece's corner triangle T = A, B, C against the ray: its edges, its
+ * normal n = e1 x e2 (|n|^2 = nn2), the origin from A and n.d. The flat
+ * test and the proof both start from it. */
+typedef struct {
+    const double *A;
+    double e1[3], e2[3], q[3], n[3], nn2, nd;
+} PnFrame;
+
+static void piece_frame(const PnNet *net, const double o[3], const double d[3], PnFrame *f)
+{
+    const double *A = net->b[PN_AT(3, 0)], *B = net->b[PN_AT(0, 0)], *C = net->b[PN_AT(0, 3)];
+    f->A = A;
+    for (int a = 0; a < 3; a++) {
+        f->e1[a] = B[a] - A[a];
+        f->e2[a] = C[a] - A[a];
+        f->q[a] = o[a] - A[a];
+    }
+    f->n[0] = f->e1[1] * f->e2[2] - f->e1[2] * f->e2[1];
+    f->n[1] = f->e1[2] * f->e2[0] - f->e1[0] * f->e2[2];
+    f->n[2] = f->e1[0] * f->e2[1] - f->e1[1] * f->e2[0];
+    f->nn2 = f->n[0] * f->n[0] + f->n[1] * f->n[1] + f->n[2] * f->n[2];
+    f->nd = f->n[0] * d[0] + f->n[1] * d[1] + f->n[2] * d[2];
+}
+
 /* A piece's exact surface lies within dev, on every axis, of the triangle
  * T of its corners: the net's points are within dev of those of T raised
  * to degree 3, and the difference of two Bezier triangles lies in the
@@ -604,16 +628,16 @@ static void nearest_on_triangle(const double q[3], const double e1[3], const dou
  * bound and the domain point; -1 otherwise (split on), and for every ray
  * that meets T's plane at a cosine below 1/4 and is not culled. dd is
  * |d|, computed once a ray. */
-static int flat_piece(const PnNet *net, const double o[3], const double d[3], double dd, double tmax, double m,
+static int flat_piece(const PnNet *net, const PnFrame *f, const double d[3], double dd, double tmax, double m,
                       double *t, double *terr, double *u, double *v, int *only)
 {
     *only = -1;
-    const double *A = net->b[PN_AT(3, 0)], *B = net->b[PN_AT(0, 0)], *C = net->b[PN_AT(0, 3)];
+    const double *A = f->A, *e1 = f->e1, *e2 = f->e2, *q = f->q, *n = f->n;
     /* T raised to degree 3: A + j (B - A) / 3 + k (C - A) / 3 at b_ijk */
     double sb[3], sc[3], dev = 0.0;
     for (int a = 0; a < 3; a++) {
-        sb[a] = (B[a] - A[a]) * (1.0 / 3.0);
-        sc[a] = (C[a] - A[a]) * (1.0 / 3.0);
+        sb[a] = e1[a] * (1.0 / 3.0);
+        sc[a] = e2[a] * (1.0 / 3.0);
     }
     /* the seven points off the corners (which lie on T exactly), b_ijk
      * against A + j sb + k sc */
@@ -625,24 +649,14 @@ static int flat_piece(const PnNet *net, const double o[3], const double d[3], do
         double x[7] = {b210[a] - s1,           b201[a] - (A[a] + sc[a]), b120[a] - s2,
                        b111[a] - (s1 + sc[a]), b102[a] - (A[a] + 2.0 * sc[a]), b021[a] - (s2 + sc[a]),
                        b012[a] - (s1 + 2.0 * sc[a])};
-        for (int n = 0; n < 7; n++) {
-            double y = fabs(x[n]);
+        for (int k = 0; k < 7; k++) {
+            double y = fabs(x[k]);
             dev = y > dev ? y : dev;
         }
     }
     dev += net->err + PN_SLACK * m;
     int flat = dev <= m * (double)FLT_EPSILON;
-    double e1[3], e2[3], q[3], n[3];
-    for (int a = 0; a < 3; a++) {
-        e1[a] = B[a] - A[a];
-        e2[a] = C[a] - A[a];
-        q[a] = o[a] - A[a];
-    }
-    n[0] = e1[1] * e2[2] - e1[2] * e2[1];
-    n[1] = e1[2] * e2[0] - e1[0] * e2[2];
-    n[2] = e1[0] * e2[1] - e1[1] * e2[0];
-    double nn2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2], nn = sqrt(nn2);
-    double nd = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
+    double nn2 = f->nn2, nn = sqrt(nn2), nd = f->nd;
     if (!(nn > 0.0))
         return -1;
     /* A ray that meets T's plane at a cosine below 1/4 is only culled
@@ -843,20 +857,13 @@ enum { PN_UNSURE = 0, PN_CERT_HIT, PN_CERT_MISS, PN_UNSURE_OUTSIDE };
  * mroot bounds the patch's coordinates; every rounding here is far below
  * PN_SLACK of the magnitudes it involves, but for the local coordinates'
  * (lu - its rounding is a float spacing of u, over the side s). */
-static int pn_certify(const PnPatch *pn, const PnRay *r, const PnNet *net, double dd, double tmax, double mroot,
-                      double *t, double *terr, double *u, double *v)
+static int pn_certify(const PnPatch *pn, const PnRay *r, const PnNet *net, const PnFrame *f, double dd, double tmax,
+                      double mroot, double *t, double *terr, double *u, double *v)
 {
-    const double *A = net->b[PN_AT(3, 0)], *B = net->b[PN_AT(0, 0)], *C = net->b[PN_AT(0, 3)];
-    const double *o = r->o, *d = r->d;
-    double e1[3], e2[3];
-    for (int a = 0; a < 3; a++) {
-        e1[a] = B[a] - A[a];
-        e2[a] = C[a] - A[a];
-    }
+    const double *o = r->o, *d = r->d, *e1 = f->e1, *e2 = f->e2, *n = f->n;
     /* sigma^2, the Gram matrix's least eigenvalue, 2 det / (tr + sqrt(tr^2 -
      * 4 det)); the square root grown over the roundings of tr^2 - 4 det */
-    double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
-    double det = n[0] * n[0] + n[1] * n[1] + n[2] * n[2], nn = sqrt(det);
+    double det = f->nn2, nn = sqrt(det);
     double l1 = e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2], l2 = e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2];
     double tr = l1 + l2, root = sqrt(max2(0.0, tr * tr - 4.0 * det) + 0x1p-48 * tr * tr);
     /* n's rounding tilts it from T's true normal by at most |e1| |e2| 2^-48
@@ -864,11 +871,9 @@ static int pn_certify(const PnPatch *pn, const PnRay *r, const PnNet *net, doubl
     double tilt = 0x1p-48 * sqrt(l1 * l2) / nn * sqrt(tr);
     double sigma = sqrt(2.0 * det / (tr + root)) * (1.0 - PN_SLACK) - tilt - 16.0 * PN_SLACK * mroot;
     /* where the ray meets T's plane, Newton's start below */
-    double q[3] = {o[0] - A[0], o[1] - A[1], o[2] - A[2]};
-    double nd = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
-    double tp = -(n[0] * q[0] + n[1] * q[1] + n[2] * q[2]) / nd;
+    double nd = f->nd, tp = -(n[0] * f->q[0] + n[1] * f->q[1] + n[2] * f->q[2]) / nd, q[3];
     for (int a = 0; a < 3; a++)
-        q[a] += tp * d[a];
+        q[a] = f->q[a] + tp * d[a];
     double c2[3] = {q[1] * e2[2] - q[2] * e2[1], q[2] * e2[0] - q[0] * e2[2], q[0] * e2[1] - q[1] * e2[0]};
     double c1[3] = {e1[1] * q[2] - e1[2] * q[1], e1[2] * q[0] - e1[0] * q[2], e1[0] * q[1] - e1[1] * q[0]};
     double lu0 = (c2[0] * n[0] + c2[1] * n[1] + c2[2] * n[2]) / det;
@@ -999,9 +1004,11 @@ int pn_hit_with(const PnPatch *pn, const Ray *ray, PnMode mode, int proofs, PnHi
         const PnNet *net = &node->net;
         double m = max2(maxabs3(node->lo), maxabs3(node->hi)); /* the box's largest coordinate */
         int only;
+        PnFrame frame;
+        piece_frame(net, r.o, r.d, &frame);
         { /* culls a piece the ray misses before Newton's steps are spent on it */
             double t, e, u, v;
-            int f = flat_piece(net, r.o, r.d, dd, best.t, m, &t, &e, &u, &v, &only);
+            int f = flat_piece(net, &frame, r.d, dd, best.t, m, &t, &e, &u, &v, &only);
             if (f == 1) /* (its interval starts before best, its midpoint may not) */
                 best_keep(&best, t, e, u, v);
             if (f >= 0)
@@ -1014,7 +1021,7 @@ int pn_hit_with(const PnPatch *pn, const Ray *ray, PnMode mode, int proofs, PnHi
         int tried = node->tried;
         if (!tried && proofs && (mode == PN_EXACT || node->tn <= 0.0)) {
             double t, e, u, v;
-            int c = pn_certify(pn, &r, net, dd, best.t, mroot, &t, &e, &u, &v);
+            int c = pn_certify(pn, &r, net, &frame, dd, best.t, mroot, &t, &e, &u, &v);
             if (c == PN_CERT_MISS || (c == PN_CERT_HIT && mode == PN_EXACT)) {
                 if (proven)
                     ++*proven;
