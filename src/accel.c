@@ -5,12 +5,16 @@
 #include "lancer/accel.h"
 
 #include <stdlib.h>
+#include <string.h>
 
 #include "lancer/bvh.h"
+#include "lancer/pntri.h"
 
 #if ACCEL_PACKET != BVH_PACKET
 #error "accel.h's packet must be the BVH's"
 #endif
+
+typedef struct Piece Piece;
 
 struct Accel {
     const Prim *prims;   /* the scene's, indexed by the answers */
@@ -18,7 +22,123 @@ struct Accel {
     Bvh bvh;
     int *unbounded; /* scene indices of the planes (of every primitive, for a loop) */
     int nunbounded;
+    int nscene;     /* the scene's primitives: the BVH's first ones */
+    Prim *own;      /* NULL, or the BVH's primitives: the scene's, then pieces of PN patches */
+    int *owner;     /* own[nscene + k] is a piece of scene primitive owner[k] */
+    struct Piece *pieces; /* the split patches' pieces */
+    int nown, npieces;
 };
+
+/* The BVH's answer as a scene index. */
+static inline int scene_index(const Accel *a, int i) { return i >= a->nscene ? a->owner[i - a->nscene] : i; }
+
+/* PN patches split ahead of rays. A patch traced in exact mode is split,
+ * for every ray that meets it, until its pieces can be proven crossed
+ * once (pntri.c); the pieces of the first splits are the same for every
+ * ray, so they are made once here and put in the BVH in the patch's
+ * place, which then culls them as it culls triangles. A ray starts from
+ * the pieces it meets and finds the same hits. Pieces whose slope is above
+ * ACCEL_PN_SLOPE are split, up to ACCEL_PN_DEPTH times, a whole level of
+ * them at a time and only while the pieces added stay within
+ * ACCEL_PN_PIECES: a scene of many gently curved patches (a scanned mesh)
+ * gains little from it and would pay its memory. */
+#define ACCEL_PN_SLOPE 0.1
+#define ACCEL_PN_DEPTH 4
+#define ACCEL_PN_PIECES 16384
+
+struct Piece {
+    PnNet net;
+    double slope;
+    int owner; /* the scene's primitive */
+    int depth;
+};
+
+static int splits_ahead(const Prim *p, PrimVariant v)
+{
+    return v == PRIM_ROBUST && p->kind == PRIM_PN && p->g.pn.mode == PN_EXACT;
+}
+
+static int too_steep(double slope) { return !(slope <= ACCEL_PN_SLOPE); }
+
+/* Fills a->own, a->owner and a->pieces when a patch is split. Returns the
+ * BVH's primitives (the scene's when none is), or -1 when memory runs out. */
+static int split_ahead(Accel *a, const Scene *s, PrimVariant v)
+{
+    int n = 0;
+    for (int i = 0; i < s->nprims && n <= ACCEL_PN_PIECES / 3; i++)
+        if (splits_ahead(&s->prims[i], v)) {
+            PnNet root;
+            pn_net_root(s->prims[i].g.pn.patch, &root);
+            n += too_steep(pn_net_slope(s->prims[i].g.pn.patch, &root));
+        }
+    if (n == 0 || n > ACCEL_PN_PIECES / 3)
+        return s->nprims;
+    int cap = n + ACCEL_PN_PIECES, np = 0;
+    Piece *pc = malloc(sizeof *pc * (size_t)cap);
+    int *split = calloc((size_t)s->nprims, sizeof *split); /* pieces of each primitive so far */
+    if (!pc || !split) {
+        free(pc);
+        free(split);
+        return -1;
+    }
+    for (int i = 0; i < s->nprims; i++)
+        if (splits_ahead(&s->prims[i], v)) {
+            Piece *q = &pc[np];
+            pn_net_root(s->prims[i].g.pn.patch, &q->net);
+            q->slope = pn_net_slope(s->prims[i].g.pn.patch, &q->net);
+            q->owner = i;
+            q->depth = 0;
+            np += too_steep(q->slope);
+        }
+    for (int depth = 0; depth < ACCEL_PN_DEPTH; depth++) {
+        int nc = 0, end = np;
+        for (int k = 0; k < np; k++)
+            nc += pc[k].depth == depth && too_steep(pc[k].slope);
+        if (nc == 0 || np + 3 * nc > cap)
+            break;
+        for (int k = 0; k < end; k++) {
+            if (pc[k].depth != depth || !too_steep(pc[k].slope))
+                continue;
+            const PnPatch *pn = s->prims[pc[k].owner].g.pn.patch;
+            PnNet child[4];
+            pn_net_split(&pc[k].net, child);
+            for (int j = 0; j < 4; j++) {
+                Piece *o = j == 0 ? &pc[k] : &pc[np++];
+                o->net = child[j];
+                o->slope = pn_net_slope(pn, &o->net);
+                o->owner = pc[k].owner;
+                o->depth = depth + 1;
+            }
+        }
+    }
+    /* the first piece of a patch takes its place, the rest follow the scene's */
+    int m = s->nprims + np - n;
+    a->own = malloc(sizeof *a->own * (size_t)m);
+    a->owner = malloc(sizeof *a->owner * (size_t)(np - n));
+    if (!a->own || !a->owner) {
+        free(pc);
+        free(split);
+        return -1;
+    }
+    memcpy(a->own, s->prims, sizeof *a->own * (size_t)s->nprims);
+    m = s->nprims;
+    for (int k = 0; k < np; k++) {
+        int i = pc[k].owner;
+        Prim *p = &a->own[i];
+        if (split[i]++) {
+            p = &a->own[m];
+            *p = s->prims[i];
+            a->owner[m++ - s->nprims] = i;
+        }
+        p->g.pn.piece = &pc[k].net;
+        p->g.pn.depth = pc[k].depth;
+    }
+    free(split);
+    a->pieces = pc;
+    a->npieces = np;
+    a->nown = m;
+    return m;
+}
 
 Accel *accel_build(const Scene *s, PrimVariant v, int threads) { return accel_build_as(s, v, threads, 0); }
 
@@ -29,15 +149,20 @@ Accel *accel_build_as(const Scene *s, PrimVariant v, int threads, int loop)
         return NULL;
     a->prims = s->prims;
     a->variant = v;
+    a->nscene = s->nprims;
+    int nb = loop ? 0 : split_ahead(a, s, v);
+    if (nb < 0) {
+        accel_free(a);
+        return NULL;
+    }
     a->unbounded = malloc(sizeof(int) * (size_t)(s->nprims > 0 ? s->nprims : 1));
     float lo[3], hi[3];
     for (int i = 0; a->unbounded && i < s->nprims; i++)
         if (loop || !bvh_prim_bounds(&s->prims[i], lo, hi))
             a->unbounded[a->nunbounded++] = i;
     /* the loop answers as the tree does: the nearest hit, ties to the lowest index */
-    if (!a->unbounded || bvh_build(&a->bvh, s->prims, loop ? 0 : s->nprims, v, threads) != 0) {
-        free(a->unbounded);
-        free(a);
+    if (!a->unbounded || bvh_build(&a->bvh, a->own ? a->own : s->prims, nb, v, threads) != 0) {
+        accel_free(a);
         return NULL;
     }
     return a;
@@ -49,6 +174,9 @@ void accel_free(Accel *a)
         return;
     bvh_free(&a->bvh);
     free(a->unbounded);
+    free(a->own);
+    free(a->owner);
+    free(a->pieces);
     free(a);
 }
 
@@ -63,7 +191,12 @@ int accel_bounds(const Accel *a, Vec3 *lo, Vec3 *hi)
     return 0;
 }
 
-size_t accel_bytes(const Accel *a) { return bvh_bytes(&a->bvh) + sizeof(int) * (size_t)a->nunbounded; }
+size_t accel_bytes(const Accel *a)
+{
+    size_t own = sizeof(Prim) * (size_t)a->nown + sizeof(int) * (size_t)(a->nown - a->nscene) +
+                 sizeof(struct Piece) * (size_t)a->npieces;
+    return bvh_bytes(&a->bvh) + sizeof(int) * (size_t)a->nunbounded + (a->own ? own : 0);
+}
 
 /* The planes after the BVH's answer best (h): a plane hit nearer, or as
  * near with a lower index, replaces it. */
@@ -92,21 +225,24 @@ __attribute__((noinline)) /* so that accel_closest stays a test and a jump */
 #endif
 static int closest_with_planes(const Accel *a, const Ray *r, PrimHit *h, RayStats *st)
 {
-    return closest_unbounded(a, r, bvh_closest(&a->bvh, r, h, &st->isect_tests), h, st);
+    int i = bvh_closest(&a->bvh, r, h, &st->isect_tests);
+    return closest_unbounded(a, r, i < 0 ? i : scene_index(a, i), h, st);
 }
 
 int accel_closest(const Accel *a, const Ray *r, PrimHit *h, RayStats *st)
 {
     /* Without planes, a tail call: a call that returned here to test for
      * planes would keep a frame for every ray. */
-    return a->nunbounded ? closest_with_planes(a, r, h, st) : bvh_closest(&a->bvh, r, h, &st->isect_tests);
+    if (a->nunbounded || a->own)
+        return closest_with_planes(a, r, h, st);
+    return bvh_closest(&a->bvh, r, h, &st->isect_tests);
 }
 
 void accel_closest_packet(const Accel *a, const Ray *r, int n, PrimHit *h, int *best, RayStats *st)
 {
     bvh_closest_packet(&a->bvh, r, n, h, best, &st->isect_tests);
     for (int k = 0; k < n; k++)
-        best[k] = closest_unbounded(a, &r[k], best[k], &h[k], st);
+        best[k] = closest_unbounded(a, &r[k], best[k] < 0 ? best[k] : scene_index(a, best[k]), &h[k], st);
 }
 
 /* 1 when a plane blocks r (any hit will do). */

@@ -25,6 +25,13 @@
 
 #include "rounding.h"
 
+/* Inline where the hit loop uses it, though other callers share it. */
+#ifdef __GNUC__
+#define PN_INLINE static inline __attribute__((always_inline))
+#else
+#define PN_INLINE static inline
+#endif
+
 /* The split's averages four doubles at a time with AVX, when the
  * processor has it (picked at run time: the rest of the file is built
  * for the baseline); the same operations lane by lane as the loop. */
@@ -599,7 +606,7 @@ typedef struct {
     double e1[3], e2[3], q[3], n[3], nn2, nd;
 } PnFrame;
 
-static void piece_frame(const PnNet *net, const double o[3], const double d[3], PnFrame *f)
+PN_INLINE void piece_frame(const PnNet *net, const double o[3], const double d[3], PnFrame *f)
 {
     const double *A = net->b[PN_AT(3, 0)], *B = net->b[PN_AT(0, 0)], *C = net->b[PN_AT(0, 3)];
     f->A = A;
@@ -823,6 +830,79 @@ static int newton(const PnPatch *pn, const PnRay *r, const PnNet *net, double *t
     return *t > 0.0 && *t < r->tmax;
 }
 
+/* The largest coordinate of the patch's net, which bounds the patch's. */
+static double patch_mag(const PnPatch *pn)
+{
+    double m = 0.0;
+    for (int i = 0; i < 10; i++)
+        m = max2(m, max2(fabs(pn->b[i].x), max2(fabs(pn->b[i].y), fabs(pn->b[i].z))));
+    return m;
+}
+
+/* The piece as the graph of a function over its corner triangle's plane
+ * (pn_certify): kappa, the least a domain step of length |w| moves its
+ * point's projection onto that plane, over |w|, and L, the graph's slope;
+ * kappa <= 0 when the bounds below do not make it a graph. mroot bounds
+ * the patch's coordinates. */
+typedef struct {
+    double kappa, L;
+} PnSlope;
+
+PN_INLINE PnSlope piece_slope(const PnNet *net, const PnFrame *f, double mroot)
+{
+    const double *e1 = f->e1, *e2 = f->e2, *n = f->n;
+    /* sigma^2, the Gram matrix's least eigenvalue, 2 det / (tr + sqrt(tr^2 -
+     * 4 det)); the square root grown over the roundings of tr^2 - 4 det */
+    double det = f->nn2, nn = sqrt(det);
+    double l1 = e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2], l2 = e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2];
+    double tr = l1 + l2, root = sqrt(max2(0.0, tr * tr - 4.0 * det) + 0x1p-48 * tr * tr);
+    /* n's rounding tilts it from T's true normal by at most |e1| |e2| 2^-48
+     * / |n|, which moves a step E w by tilt |w| out of T's plane */
+    double tilt = 0x1p-48 * sqrt(l1 * l2) / nn * sqrt(tr);
+    double sigma = sqrt(2.0 * det / (tr + root)) * (1.0 - PN_SLACK) - tilt - 16.0 * PN_SLACK * mroot;
+    /* the control vectors' parts along n and in T's plane; the exact net's
+     * offsets (err on each axis, eight of them in a control vector) and
+     * n's own rounding grow both */
+    double grow = 8.0 * 1.7320508075688774 * net->err + 16.0 * PN_SLACK * mroot;
+    double ns_ = 0.0, nt_ = 0.0, ps_ = 0.0, pt_ = 0.0;
+    for (int i = 0; i <= 2; i++)
+        for (int k = 0; k <= 2 - i; k++) {
+            const double *p = net->b[PN_AT(i + 1, k)], *ps = net->b[PN_AT(i, k)], *pt = net->b[PN_AT(i, k + 1)];
+            double ys[3], yt[3];
+            for (int a = 0; a < 3; a++) {
+                ys[a] = 3.0 * (ps[a] - p[a]) - e1[a];
+                yt[a] = 3.0 * (pt[a] - p[a]) - e2[a];
+            }
+            /* the part in T's plane from |y|^2 - (n.y)^2 / |n|^2, grown over
+             * its cancellation below */
+            double ns = n[0] * ys[0] + n[1] * ys[1] + n[2] * ys[2], nt = n[0] * yt[0] + n[1] * yt[1] + n[2] * yt[2];
+            double ss = ys[0] * ys[0] + ys[1] * ys[1] + ys[2] * ys[2];
+            double tt = yt[0] * yt[0] + yt[1] * yt[1] + yt[2] * yt[2];
+            ns_ = max2(ns_, fabs(ns));
+            nt_ = max2(nt_, fabs(nt));
+            ps_ = max2(ps_, ss * (1.0 + 0x1p-46) - ns * ns / det);
+            pt_ = max2(pt_, tt * (1.0 + 0x1p-46) - nt * nt / det);
+        }
+    ns_ = ns_ / nn * (1.0 + PN_SLACK) + grow;
+    nt_ = nt_ / nn * (1.0 + PN_SLACK) + grow;
+    ps_ = sqrt(ps_) * (1.0 + PN_SLACK) + grow;
+    pt_ = sqrt(pt_) * (1.0 + PN_SLACK) + grow;
+    double Mn = sqrt(ns_ * ns_ + nt_ * nt_) * (1.0 + PN_SLACK) + tilt;
+    double Mp = sqrt(ps_ * ps_ + pt_ * pt_) * (1.0 + PN_SLACK);
+    PnSlope sl = {sigma - Mp, 0.0};
+    sl.L = Mn / sl.kappa * (1.0 + PN_SLACK);
+    return sl;
+}
+
+double pn_net_slope(const PnPatch *pn, const PnNet *net)
+{
+    const double zero[3] = {0.0, 0.0, 0.0};
+    PnFrame f;
+    piece_frame(net, zero, zero, &f);
+    PnSlope sl = piece_slope(net, &f, patch_mag(pn));
+    return sl.kappa > 0.0 ? sl.L : INFINITY;
+}
+
 /* What pn_certify proved of a piece. */
 enum { PN_UNSURE = 0, PN_CERT_HIT, PN_CERT_MISS, PN_UNSURE_OUTSIDE };
 
@@ -861,15 +941,7 @@ static int pn_certify(const PnPatch *pn, const PnRay *r, const PnNet *net, const
                       double mroot, double *t, double *terr, double *u, double *v)
 {
     const double *o = r->o, *d = r->d, *e1 = f->e1, *e2 = f->e2, *n = f->n;
-    /* sigma^2, the Gram matrix's least eigenvalue, 2 det / (tr + sqrt(tr^2 -
-     * 4 det)); the square root grown over the roundings of tr^2 - 4 det */
     double det = f->nn2, nn = sqrt(det);
-    double l1 = e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2], l2 = e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2];
-    double tr = l1 + l2, root = sqrt(max2(0.0, tr * tr - 4.0 * det) + 0x1p-48 * tr * tr);
-    /* n's rounding tilts it from T's true normal by at most |e1| |e2| 2^-48
-     * / |n|, which moves a step E w by tilt |w| out of T's plane */
-    double tilt = 0x1p-48 * sqrt(l1 * l2) / nn * sqrt(tr);
-    double sigma = sqrt(2.0 * det / (tr + root)) * (1.0 - PN_SLACK) - tilt - 16.0 * PN_SLACK * mroot;
     /* where the ray meets T's plane, Newton's start below */
     double nd = f->nd, tp = -(n[0] * f->q[0] + n[1] * f->q[1] + n[2] * f->q[2]) / nd, q[3];
     for (int a = 0; a < 3; a++)
@@ -880,39 +952,10 @@ static int pn_certify(const PnPatch *pn, const PnRay *r, const PnNet *net, const
     double lv0 = (c1[0] * n[0] + c1[1] * n[1] + c1[2] * n[2]) / det;
     if (!(lu0 > -0.5 && lv0 > -0.5 && lu0 + lv0 < 1.5)) /* far from the piece: Newton would leave it */
         return PN_UNSURE;
-    /* the control vectors' parts along n and in T's plane; the exact net's
-     * offsets (err on each axis, eight of them in a control vector) and
-     * n's own rounding grow both */
-    double grow = 8.0 * 1.7320508075688774 * net->err + 16.0 * PN_SLACK * mroot;
-    double ns_ = 0.0, nt_ = 0.0, ps_ = 0.0, pt_ = 0.0;
-    for (int i = 0; i <= 2; i++)
-        for (int k = 0; k <= 2 - i; k++) {
-            const double *p = net->b[PN_AT(i + 1, k)], *ps = net->b[PN_AT(i, k)], *pt = net->b[PN_AT(i, k + 1)];
-            double ys[3], yt[3];
-            for (int a = 0; a < 3; a++) {
-                ys[a] = 3.0 * (ps[a] - p[a]) - e1[a];
-                yt[a] = 3.0 * (pt[a] - p[a]) - e2[a];
-            }
-            /* the part in T's plane from |y|^2 - (n.y)^2 / |n|^2, grown over
-             * its cancellation below */
-            double ns = n[0] * ys[0] + n[1] * ys[1] + n[2] * ys[2], nt = n[0] * yt[0] + n[1] * yt[1] + n[2] * yt[2];
-            double ss = ys[0] * ys[0] + ys[1] * ys[1] + ys[2] * ys[2];
-            double tt = yt[0] * yt[0] + yt[1] * yt[1] + yt[2] * yt[2];
-            ns_ = max2(ns_, fabs(ns));
-            nt_ = max2(nt_, fabs(nt));
-            ps_ = max2(ps_, ss * (1.0 + 0x1p-46) - ns * ns / det);
-            pt_ = max2(pt_, tt * (1.0 + 0x1p-46) - nt * nt / det);
-        }
-    ns_ = ns_ / nn * (1.0 + PN_SLACK) + grow;
-    nt_ = nt_ / nn * (1.0 + PN_SLACK) + grow;
-    ps_ = sqrt(ps_) * (1.0 + PN_SLACK) + grow;
-    pt_ = sqrt(pt_) * (1.0 + PN_SLACK) + grow;
-    double Mn = sqrt(ns_ * ns_ + nt_ * nt_) * (1.0 + PN_SLACK) + tilt;
-    double Mp = sqrt(ps_ * ps_ + pt_ * pt_) * (1.0 + PN_SLACK);
-    double kappa = sigma - Mp;
-    if (!(kappa > 0.0))
+    PnSlope sl = piece_slope(net, f, mroot);
+    if (!(sl.kappa > 0.0))
         return PN_UNSURE;
-    double L = Mn / kappa * (1.0 + PN_SLACK);
+    double L = sl.L, kappa = sl.kappa;
     double nxd[3] = {n[1] * d[2] - n[2] * d[1], n[2] * d[0] - n[0] * d[2], n[0] * d[1] - n[1] * d[0]};
     double dxi = sqrt(nxd[0] * nxd[0] + nxd[1] * nxd[1] + nxd[2] * nxd[2]) / nn * (1.0 + PN_SLACK) + PN_SLACK * dd;
     double rate = fabs(nd) / nn - L * dxi - PN_SLACK * dd * (1.0 + L);
@@ -970,9 +1013,24 @@ static void best_keep(PnBest *b, double t, double err, double u, double v)
 /* Visits the sub-patches whose box the ray enters, nearest first, and
  * keeps the nearest hit. */
 
-int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h) { return pn_hit_with(pn, ray, mode, 1, h, NULL); }
+static int trace(const PnPatch *pn, const PnNet *start, int depth0, const Ray *ray, PnMode mode, int proofs, PnHit *h,
+                 long *proven);
+
+int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h) { return trace(pn, NULL, 0, ray, mode, 1, h, NULL); }
 
 int pn_hit_with(const PnPatch *pn, const Ray *ray, PnMode mode, int proofs, PnHit *h, long *proven)
+{
+    return trace(pn, NULL, 0, ray, mode, proofs, h, proven);
+}
+
+int pn_hit_piece(const PnPatch *pn, const PnNet *piece, int depth, const Ray *ray, PnMode mode, PnHit *h)
+{
+    return trace(pn, piece, depth, ray, mode, 1, h, NULL);
+}
+
+/* From the whole patch (start NULL) or from a piece of it at depth0. */
+static int trace(const PnPatch *pn, const PnNet *start, int depth0, const Ray *ray, PnMode mode, int proofs, PnHit *h,
+                 long *proven)
 {
     PnRay r;
     to_d(ray->o, r.o);
@@ -987,14 +1045,17 @@ int pn_hit_with(const PnPatch *pn, const Ray *ray, PnMode mode, int proofs, PnHi
     int top = 0;
     PnBest best = {r.tmax, 0.0, 0.0, 0.0};
     PnNode *root = &stack[top];
-    pn_net_root(pn, &root->net);
-    root->depth = 0;
+    if (start)
+        root->net = *start;
+    else
+        pn_net_root(pn, &root->net);
+    root->depth = depth0;
     root->tried = 0;
     pn_net_box(&root->net, root->lo, root->hi);
     if (!slab(root->lo, root->hi, r.o, r.d, r.inv, best.t, &root->tn, &root->tf))
         return 0;
     top++;
-    double mroot = max2(maxabs3(root->lo), maxabs3(root->hi));
+    double mroot = start ? patch_mag(pn) : max2(maxabs3(root->lo), maxabs3(root->hi));
     PnPool pool;
     int splits = 0;
     while (top > 0) {

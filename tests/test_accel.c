@@ -15,6 +15,7 @@
 
 #include "lancer/accel.h"
 #include "lancer/bvh.h"
+#include "lancer/pntri.h"
 
 /* A scene of n primitives: spheres, triangles, boxes scattered in
  * [-4, 4]^3, and every hundredth a plane at 4 to 6 from the origin. */
@@ -326,6 +327,80 @@ static void test_loop_answers_as_the_bvh(void **state)
     }
 }
 
+
+/* Exact-mode PN patches are split ahead of rays into pieces in the BVH
+ * (accel.c): the tree answers as the loop over the whole patches, for rays
+ * from outside and rays leaving the surface. An octahedron whose vertex
+ * normals point out from its centre: eight steep patches, and spheres
+ * beside it. */
+static void test_split_patches_answer_as_whole_ones(void **state)
+{
+    (void)state;
+    static const float V[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    static const int F[8][3] = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4}, {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
+    PnPatch patches[8];
+    Scene s;
+    memset(&s, 0, sizeof s);
+    s.nprims = 12;
+    s.prims = calloc((size_t)s.nprims, sizeof(Prim));
+    assert_non_null(s.prims);
+    unsigned long long g = 5;
+    for (int f = 0; f < 8; f++) {
+        Vec3 p[3], n[3];
+        for (int k = 0; k < 3; k++) {
+            p[k] = vec3(V[F[f][k]][0] * 1.5f, V[F[f][k]][1] * 1.5f, V[F[f][k]][2] * 1.5f);
+            n[k] = vec_normalize(p[k]);
+        }
+        pn_patch_init(&patches[f], p, n);
+        s.prims[2 * f % 12].kind = PRIM_PN; /* spread among the spheres: indices matter for ties */
+    }
+    for (int i = 0, f = 0; i < s.nprims; i++) {
+        Prim *q = &s.prims[i];
+        if (q->kind == PRIM_PN) {
+            q->g.pn.patch = &patches[f++];
+            q->g.pn.mode = PN_EXACT;
+        } else {
+            q->kind = PRIM_SPHERE;
+            q->g.sphere.c = test_rvec(&g, -3, 3);
+            q->g.sphere.r = 0.4f;
+        }
+    }
+    Accel *tree = accel_build_as(&s, PRIM_ROBUST, 1, 0), *loop = accel_build_as(&s, PRIM_ROBUST, 1, 1);
+    assert_non_null(tree);
+    assert_non_null(loop);
+    /* the patches were split: at least four nets each beyond the loop's */
+    assert_true(accel_bytes(tree) > accel_bytes(loop) + 8 * 4 * sizeof(PnNet));
+    RayStats st = {0, 0, 0, 0, 0, 0, 0};
+    int hits = 0;
+    for (int k = 0; k < 6000; k++) {
+        Vec3 o = test_rvec(&g, -5, 5);
+        Ray r = ray_make(o, vec_normalize(vec_sub(test_rvec(&g, -1, 1), o)), INFINITY);
+        PrimHit a, b;
+        int ia = accel_closest(tree, &r, &a, &st), ib = accel_closest(loop, &r, &b, &st);
+        assert_int_equal(ia, ib);
+        assert_int_equal(accel_occluded(tree, &r, &st), accel_occluded(loop, &r, &st));
+        if (ia < 0 || s.prims[ia].kind != PRIM_PN)
+            continue;
+        hits++;
+        /* the same crossing, each t within its bound */
+        assert_true(fabsf(a.t - b.t) <= a.terr + b.terr);
+        /* a ray leaving the patch at that point, outwards and inwards */
+        Vec3 x = vec_add(r.o, vec_scale(r.d, a.t));
+        for (int side = 0; side < 2; side++) {
+            Vec3 d = vec_normalize(vec_add(side ? vec_neg(x) : x, test_rvec(&g, -0.5f, 0.5f)));
+            Ray q = ray_make(x, d, INFINITY);
+            int ja = accel_closest(tree, &q, &a, &st), jb = accel_closest(loop, &q, &b, &st);
+            assert_int_equal(ja, jb);
+            if (ja >= 0)
+                assert_true(fabsf(a.t - b.t) <= a.terr + b.terr);
+        }
+    }
+    assert_true(hits > 500);
+    accel_free(tree);
+    accel_free(loop);
+    free(s.prims);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -335,6 +410,7 @@ int main(void)
         cmocka_unit_test(test_occluded_packet_is_occluded),
         cmocka_unit_test(test_accessors),
         cmocka_unit_test(test_loop_answers_as_the_bvh),
+        cmocka_unit_test(test_split_patches_answer_as_whole_ones),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -898,6 +898,56 @@ static int outside_nets(const Scene *pn, Vec3 q)
  * points near them (at 2^-4 to 2^-24 of the patch's size), at three scales
  * and far from the origin: a ray from inside a closed surface must leave
  * it, so every one must hit. */
+/* pn_net_slope: a flat patch is a graph of slope 0, to roundings; a bent
+ * one is steeper, and its pieces flatten as they shrink, below 0.1 in four
+ * splits (as accel.c expects of the patches it splits ahead of rays); a
+ * ray starting from a piece finds the hit of the whole patch there. */
+static void test_slope_and_pieces(void **state)
+{
+    (void)state;
+    PnPatch flat, bent;
+    Vec3 a = vec3(0, 0, 0), b = vec3(2, 0, 0), c = vec3(0, 2, 0), z = vec3(0, 0, 1);
+    make_patch(&flat, a, b, c, z, z, z);
+    make_patch(&bent, a, b, c, vec3(-0.5f, -0.5f, 1), vec3(0.7f, 0, 1), vec3(0, 0.7f, 1));
+    PnNet net;
+    pn_net_root(&flat, &net);
+    assert_true(pn_net_slope(&flat, &net) < 1e-9);
+    pn_net_root(&bent, &net);
+    double top = pn_net_slope(&bent, &net);
+    assert_true(top > 0.1);
+    PnNet level[256], next[256];
+    int n = 1;
+    level[0] = net;
+    for (int d = 1; d <= 4; d++) {
+        double worst = 0.0;
+        for (int k = 0; k < n; k++)
+            pn_net_split(&level[k], &next[4 * k]);
+        n *= 4;
+        for (int k = 0; k < n; k++) {
+            level[k] = next[k];
+            double sl = pn_net_slope(&bent, &level[k]);
+            worst = sl > worst ? sl : worst;
+        }
+        assert_true(worst < top);
+        top = worst;
+    }
+    assert_true(top < 0.1);
+    /* rays down onto the patch: the nearest of the pieces' hits is the patch's */
+    unsigned long long g = 3;
+    for (int k = 0; k < 2000; k++) {
+        Vec3 o = vec3(test_uniform(&g, -0.2f, 1.6f), test_uniform(&g, -0.2f, 1.6f), 3);
+        Ray r = ray_make(o, vec_normalize(vec3(test_uniform(&g, -0.3f, 0.3f), test_uniform(&g, -0.3f, 0.3f), -1)), INFINITY);
+        PnHit whole, h, best = {INFINITY, 0, 0, 0};
+        int got = pn_hit(&bent, &r, PN_EXACT, &whole), any = 0;
+        for (int i = 0; i < n; i++)
+            if (pn_hit_piece(&bent, &level[i], 4, &r, PN_EXACT, &h) && h.t < best.t)
+                best = h, any = 1;
+        assert_int_equal(got, any);
+        if (got)
+            assert_true(fabsf(best.t - whole.t) <= best.terr + whole.terr);
+    }
+}
+
 static void test_cgal_meshes_do_not_leak(void **state)
 {
     (void)state;
@@ -1002,6 +1052,7 @@ int main(void)
         cmocka_unit_test(test_avx_split_is_the_loop),
         cmocka_unit_test(test_fast_mode),
         cmocka_unit_test(test_proofs_agree_with_subdivision),
+        cmocka_unit_test(test_slope_and_pieces),
         cmocka_unit_test(test_cgal_meshes_do_not_leak),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -88,7 +88,7 @@ void pn_tessellate(const PnPatch *pn, int n, Vec3 *pts, Vec3 *nrm, int (*faces)[
  * and (u0, v0 + s) (or, flipped, with -s), its net computed by de
  * Casteljau steps from its parent's. err bounds, on every axis, how far
  * each computed control point may lie from the exact sub-patch's. */
-typedef struct {
+typedef struct PnNet {
     double b[10][3];
     double err;
     double u0, v0, s;
@@ -134,6 +134,16 @@ void pn_net_box(const PnNet *net, double lo[3], double hi[3]);
  * at all ahead of the origin); PN_FAST solves by Newton's method from the
  * patch's centre, falling back to subdivision where Newton fails. */
 int pn_hit(const PnPatch *pn, const Ray *r, PnMode mode, PnHit *h);
+
+/* The slope L of the piece as a graph over the plane of its corners, which
+ * bounds its proofs (pntri.c, pn_certify): rays at an angle to that plane's
+ * normal whose tangent is below 1 / L can be settled on it at once.
+ * INFINITY when the piece is too curved to be shown a graph. */
+double pn_net_slope(const PnPatch *pn, const PnNet *net);
+
+/* pn_hit on one piece of the patch, a sub-patch at depth splits from it
+ * (pn_net_split), which a BVH holds in its place: the piece's own hits. */
+int pn_hit_piece(const PnPatch *pn, const PnNet *piece, int depth, const Ray *ray, PnMode mode, PnHit *h);
 
 /* For tests: pn_hit with its proofs of a piece's only crossing (proofs 1)
  * or by subdivision alone (0), adding to *proven (when not NULL) how many
