@@ -32,16 +32,17 @@ struct Accel {
 /* The BVH's answer as a scene index. */
 static inline int scene_index(const Accel *a, int i) { return i >= a->nscene ? a->owner[i - a->nscene] : i; }
 
-/* PN patches split ahead of rays. A patch traced in exact mode is split,
- * for every ray that meets it, until its pieces can be proven crossed
- * once (pntri.c); the pieces of the first splits are the same for every
- * ray, so they are made once here and put in the BVH in the patch's
- * place, which then culls them as it culls triangles. A ray starts from
- * the pieces it meets and finds the same hits. Pieces whose slope is above
- * ACCEL_PN_SLOPE are split, up to ACCEL_PN_DEPTH times, a whole level of
- * them at a time and only while the pieces added stay within
- * ACCEL_PN_PIECES: a scene of many gently curved patches (a scanned mesh)
- * gains little from it and would pay its memory. */
+/* PN patches split ahead of rays. Exact mode splits a patch, for every
+ * ray that meets it, until its pieces can be proven crossed once
+ * (pntri.c); the pieces of the first splits are the same for every ray,
+ * so they are made once here and put in the BVH in the patch's place,
+ * which then culls them as it culls triangles. A ray starts from the
+ * pieces it meets and finds the same hits; fast mode's Newton steps start
+ * there too, nearer the hit. Pieces whose slope is above ACCEL_PN_SLOPE
+ * are split, up to ACCEL_PN_DEPTH times, a whole level of them at a time
+ * and only while the pieces added stay within ACCEL_PN_PIECES: a scene of
+ * many gently curved patches (a scanned mesh) gains little from it and
+ * would pay its memory. The classic variant traces patches whole. */
 #define ACCEL_PN_SLOPE 0.1
 #define ACCEL_PN_DEPTH 4
 #define ACCEL_PN_PIECES 16384
@@ -55,7 +56,7 @@ struct Piece {
 
 static int splits_ahead(const Prim *p, PrimVariant v)
 {
-    return v == PRIM_ROBUST && p->kind == PRIM_PN && p->g.pn.mode == PN_EXACT;
+    return v == PRIM_ROBUST && p->kind == PRIM_PN;
 }
 
 static int too_steep(double slope) { return !(slope <= ACCEL_PN_SLOPE); }

@@ -48,10 +48,9 @@
  * separates from the ray, and they would double each level; past this
  * budget the pieces left become leaves, their boxes' intervals the hits. */
 #define PN_MAX_SPLITS 16384
-/* PN_FAST: the depth at which Newton's method takes over, and its steps.
- * From the root, Newton's method converges for most rays, and a deeper
- * start only costs splits (docs/performance.md). */
-#define PN_FAST_DEPTH 0
+/* PN_FAST: Newton's steps. Newton's method takes over at the top, the
+ * patch or a piece split ahead of rays: from there it converges for most
+ * rays, and a deeper start only costs splits (docs/performance.md). */
 #define PN_NEWTON_STEPS 8
 /* Newton's hits whose ray meets the surface at an angle's cosine below
  * this are handed to subdivision (see newton). */
@@ -801,18 +800,16 @@ static int newton_uv(const PnPatch *pn, const PnRay *r, const PnNet *net, double
     return 0;
 }
 
-/* Newton's method as newton_uv. Returns 1 with the hit when it converges
- * inside the node's domain (grown by a margin) and the patch's. */
+/* Newton's method as newton_uv, from the centre of the node's domain.
+ * Returns 1 with the hit when it converges inside the patch's domain:
+ * a root of the patch, though it may lie outside the node (a piece split
+ * ahead of rays, whose neighbour the ray crosses). */
 static int newton(const PnPatch *pn, const PnRay *r, const PnNet *net, double *t, double *uo, double *vo)
 {
     double u, v, p[3], du[3], dv[3];
     if (!newton_uv(pn, r, net, 1.0 / 3.0, 1.0 / 3.0, &u, &v))
         return 0;
-    /* inside the node's domain, with a margin, and the patch's */
-    double sg = net->flip ? -net->s : net->s;
-    double lu = (u - net->u0) / sg, lv = (v - net->v0) / sg;
-    const double margin = 1e-3;
-    if (lu < -margin || lv < -margin || lu + lv > 1.0 + margin || u < 0.0 || v < 0.0 || u + v > 1.0)
+    if (u < 0.0 || v < 0.0 || u + v > 1.0)
         return 0;
     pn_eval(pn, u, v, p, du, dv);
     const double *d = r->d;
@@ -1095,7 +1092,7 @@ static int trace(const PnPatch *pn, const PnNet *start, int depth0, const Ray *r
         /* Newton's method, from outside the patch's box: a ray that starts
          * in it (a spawned ray, leaving the surface) needs the split that
          * culls its own spot, and Newton's steps would be spent first */
-        if (mode == PN_FAST && node->depth == PN_FAST_DEPTH && node->tn > 0.0) {
+        if (mode == PN_FAST && node->depth == depth0 && node->tn > 0.0) {
             double t, u, v;
             if (newton(pn, &r, net, &t, &u, &v)) {
                 best_keep(&best, t, 0.0, u, v);

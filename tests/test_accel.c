@@ -328,14 +328,15 @@ static void test_loop_answers_as_the_bvh(void **state)
 }
 
 
-/* Exact-mode PN patches are split ahead of rays into pieces in the BVH
- * (accel.c): the tree answers as the loop over the whole patches, for rays
- * from outside and rays leaving the surface. An octahedron whose vertex
- * normals point out from its centre: eight steep patches, and spheres
- * beside it. */
-static void test_split_patches_answer_as_whole_ones(void **state)
+/* PN patches are split ahead of rays into pieces in the BVH (accel.c):
+ * the tree answers as the loop over the whole patches, for rays from
+ * outside and rays leaving the surface both ways, in both modes (exact:
+ * t within both bounds; fast, which claims no bound: not before the
+ * exact crossing, nor after the whole patch's, by 10^-4). An
+ * octahedron whose vertex normals point out from its centre: eight steep
+ * patches, among spheres. */
+static void check_split_patches(PnMode mode)
 {
-    (void)state;
     static const float V[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
     static const int F[8][3] = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4}, {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
     PnPatch patches[8];
@@ -352,13 +353,13 @@ static void test_split_patches_answer_as_whole_ones(void **state)
             n[k] = vec_normalize(p[k]);
         }
         pn_patch_init(&patches[f], p, n);
-        s.prims[2 * f % 12].kind = PRIM_PN; /* spread among the spheres: indices matter for ties */
+        s.prims[3 * f / 2].kind = PRIM_PN; /* among the spheres: indices matter for ties */
     }
     for (int i = 0, f = 0; i < s.nprims; i++) {
         Prim *q = &s.prims[i];
         if (q->kind == PRIM_PN) {
             q->g.pn.patch = &patches[f++];
-            q->g.pn.mode = PN_EXACT;
+            q->g.pn.mode = (int)mode;
         } else {
             q->kind = PRIM_SPHERE;
             q->g.sphere.c = test_rvec(&g, -3, 3);
@@ -371,34 +372,48 @@ static void test_split_patches_answer_as_whole_ones(void **state)
     /* the patches were split: at least four nets each beyond the loop's */
     assert_true(accel_bytes(tree) > accel_bytes(loop) + 8 * 4 * sizeof(PnNet));
     RayStats st = {0, 0, 0, 0, 0, 0, 0};
-    int hits = 0;
+    int hits = 0, near = 0;
     for (int k = 0; k < 6000; k++) {
         Vec3 o = test_rvec(&g, -5, 5);
         Ray r = ray_make(o, vec_normalize(vec_sub(test_rvec(&g, -1, 1), o)), INFINITY);
-        PrimHit a, b;
-        int ia = accel_closest(tree, &r, &a, &st), ib = accel_closest(loop, &r, &b, &st);
-        assert_int_equal(ia, ib);
-        assert_int_equal(accel_occluded(tree, &r, &st), accel_occluded(loop, &r, &st));
-        if (ia < 0 || s.prims[ia].kind != PRIM_PN)
-            continue;
-        hits++;
-        /* the same crossing, each t within its bound */
-        assert_true(fabsf(a.t - b.t) <= a.terr + b.terr);
-        /* a ray leaving the patch at that point, outwards and inwards */
-        Vec3 x = vec_add(r.o, vec_scale(r.d, a.t));
-        for (int side = 0; side < 2; side++) {
-            Vec3 d = vec_normalize(vec_add(side ? vec_neg(x) : x, test_rvec(&g, -0.5f, 0.5f)));
-            Ray q = ray_make(x, d, INFINITY);
-            int ja = accel_closest(tree, &q, &a, &st), jb = accel_closest(loop, &q, &b, &st);
-            assert_int_equal(ja, jb);
-            if (ja >= 0)
+        for (int leave = 0; leave < 3; leave++) {
+            PrimHit a, b;
+            int ia = accel_closest(tree, &r, &a, &st), ib = accel_closest(loop, &r, &b, &st);
+            assert_int_equal(ia, ib);
+            assert_int_equal(accel_occluded(tree, &r, &st), accel_occluded(loop, &r, &st));
+            if (ia < 0 || s.prims[ia].kind != PRIM_PN)
+                break;
+            if (mode == PN_EXACT)
                 assert_true(fabsf(a.t - b.t) <= a.terr + b.terr);
+            else { /* fast: the whole patch's Newton may take a far crossing, a piece's the nearer */
+                PnHit e;
+                assert_true(pn_hit(s.prims[ia].g.pn.patch, &r, PN_EXACT, &e));
+                assert_true(a.t <= b.t * (1.0f + 1e-4f));
+                assert_true(a.t >= e.t * (1.0f - 1e-4f));
+                near += a.t < b.t * (1.0f - 1e-4f);
+            }
+            hits += leave == 0;
+            if (leave == 2)
+                break;
+            /* leave from there, outwards then inwards, from an origin off the surface */
+            Vec3 x = vec_add(r.o, vec_scale(r.d, a.t)), out = vec_normalize(x);
+            Vec3 side = leave ? vec_neg(out) : out;
+            r = ray_make(vec_add(x, vec_scale(side, 1e-4f)), vec_normalize(vec_add(side, test_rvec(&g, -0.5f, 0.5f))),
+                         INFINITY);
         }
     }
     assert_true(hits > 500);
+    assert_true(near <= hits / 100); /* a far crossing is rare */
     accel_free(tree);
     accel_free(loop);
     free(s.prims);
+}
+
+static void test_split_patches_answer_as_whole_ones(void **state)
+{
+    (void)state;
+    check_split_patches(PN_EXACT);
+    check_split_patches(PN_FAST);
 }
 
 int main(void)

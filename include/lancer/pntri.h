@@ -141,8 +141,10 @@ int pn_hit(const PnPatch *pn, const Ray *r, PnMode mode, PnHit *h);
  * INFINITY when the piece is too curved to be shown a graph. */
 double pn_net_slope(const PnPatch *pn, const PnNet *net);
 
-/* pn_hit on one piece of the patch, a sub-patch at depth splits from it
- * (pn_net_split), which a BVH holds in its place: the piece's own hits. */
+/* pn_hit on one piece of the patch, a sub-patch depth splits down
+ * (pn_net_split), which a BVH holds in the patch's place: the hits of the
+ * piece (in PN_FAST, Newton's method starts from its centre and keeps any
+ * root on the patch). */
 int pn_hit_piece(const PnPatch *pn, const PnNet *piece, int depth, const Ray *ray, PnMode mode, PnHit *h);
 
 /* For tests: pn_hit with its proofs of a piece's only crossing (proofs 1)
