@@ -48,10 +48,9 @@ static inline int scene_index(const Accel *a, int i) { return i >= a->nscene ? a
 #define ACCEL_PN_PIECES 16384
 
 struct Piece {
-    PnNet net;
+    PnPiece pc;
     double slope;
     int owner; /* the scene's primitive */
-    int depth;
 };
 
 static int splits_ahead(const Prim *p, PrimVariant v)
@@ -85,30 +84,30 @@ static int split_ahead(Accel *a, const Scene *s, PrimVariant v)
     for (int i = 0; i < s->nprims; i++)
         if (splits_ahead(&s->prims[i], v)) {
             Piece *q = &pc[np];
-            pn_net_root(s->prims[i].g.pn.patch, &q->net);
-            q->slope = pn_net_slope(s->prims[i].g.pn.patch, &q->net);
+            pn_net_root(s->prims[i].g.pn.patch, &q->pc.net);
+            q->slope = pn_net_slope(s->prims[i].g.pn.patch, &q->pc.net);
             q->owner = i;
-            q->depth = 0;
+            q->pc.depth = 0;
             np += too_steep(q->slope);
         }
     for (int depth = 0; depth < ACCEL_PN_DEPTH; depth++) {
         int nc = 0, end = np;
         for (int k = 0; k < np; k++)
-            nc += pc[k].depth == depth && too_steep(pc[k].slope);
+            nc += pc[k].pc.depth == depth && too_steep(pc[k].slope);
         if (nc == 0 || np + 3 * nc > cap)
             break;
         for (int k = 0; k < end; k++) {
-            if (pc[k].depth != depth || !too_steep(pc[k].slope))
+            if (pc[k].pc.depth != depth || !too_steep(pc[k].slope))
                 continue;
             const PnPatch *pn = s->prims[pc[k].owner].g.pn.patch;
             PnNet child[4];
-            pn_net_split(&pc[k].net, child);
+            pn_net_split(&pc[k].pc.net, child);
             for (int j = 0; j < 4; j++) {
                 Piece *o = j == 0 ? &pc[k] : &pc[np++];
-                o->net = child[j];
-                o->slope = pn_net_slope(pn, &o->net);
+                o->pc.net = child[j];
+                o->pc.depth = depth + 1;
+                o->slope = pn_net_slope(pn, &o->pc.net);
                 o->owner = pc[k].owner;
-                o->depth = depth + 1;
             }
         }
     }
@@ -131,8 +130,8 @@ static int split_ahead(Accel *a, const Scene *s, PrimVariant v)
             *p = s->prims[i];
             a->owner[m++ - s->nprims] = i;
         }
-        p->g.pn.piece = &pc[k].net;
-        p->g.pn.depth = pc[k].depth;
+        pn_piece_init(&pc[k].pc, s->prims[i].g.pn.patch);
+        p->g.pn.piece = &pc[k].pc;
     }
     free(split);
     a->pieces = pc;

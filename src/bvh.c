@@ -186,9 +186,8 @@ int bvh_prim_bounds(const Prim *p, float lo[3], float hi[3])
         return 1;
     }
     case PRIM_PN: { /* the box of its control net, the net's own floats */
-        if (p->g.pn.piece) { /* a piece's net, in double, rounded outwards */
-            double dl[3], dh[3];
-            pn_net_box(p->g.pn.piece, dl, dh);
+        if (p->g.pn.piece) { /* a piece's box, in double, rounded outwards */
+            const double *dl = p->g.pn.piece->lo, *dh = p->g.pn.piece->hi;
             for (int k = 0; k < 3; k++) {
                 lo[k] = (float)dl[k];
                 hi[k] = (float)dh[k];

@@ -1010,23 +1010,29 @@ static void best_keep(PnBest *b, double t, double err, double u, double v)
 /* Visits the sub-patches whose box the ray enters, nearest first, and
  * keeps the nearest hit. */
 
-static int trace(const PnPatch *pn, const PnNet *start, int depth0, const Ray *ray, PnMode mode, int proofs, PnHit *h,
+static int trace(const PnPatch *pn, const PnPiece *start, const Ray *ray, PnMode mode, int proofs, PnHit *h,
                  long *proven);
 
-int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h) { return trace(pn, NULL, 0, ray, mode, 1, h, NULL); }
+int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h) { return trace(pn, NULL, ray, mode, 1, h, NULL); }
 
 int pn_hit_with(const PnPatch *pn, const Ray *ray, PnMode mode, int proofs, PnHit *h, long *proven)
 {
-    return trace(pn, NULL, 0, ray, mode, proofs, h, proven);
+    return trace(pn, NULL, ray, mode, proofs, h, proven);
 }
 
-int pn_hit_piece(const PnPatch *pn, const PnNet *piece, int depth, const Ray *ray, PnMode mode, PnHit *h)
+void pn_piece_init(PnPiece *pc, const PnPatch *pn)
 {
-    return trace(pn, piece, depth, ray, mode, 1, h, NULL);
+    pn_net_box(&pc->net, pc->lo, pc->hi);
+    pc->mag = patch_mag(pn);
 }
 
-/* From the whole patch (start NULL) or from a piece of it at depth0. */
-static int trace(const PnPatch *pn, const PnNet *start, int depth0, const Ray *ray, PnMode mode, int proofs, PnHit *h,
+int pn_hit_piece(const PnPatch *pn, const PnPiece *piece, const Ray *ray, PnMode mode, PnHit *h)
+{
+    return trace(pn, piece, ray, mode, 1, h, NULL);
+}
+
+/* From the whole patch (start NULL) or from a piece of it. */
+static int trace(const PnPatch *pn, const PnPiece *start, const Ray *ray, PnMode mode, int proofs, PnHit *h,
                  long *proven)
 {
     PnRay r;
@@ -1042,17 +1048,25 @@ static int trace(const PnPatch *pn, const PnNet *start, int depth0, const Ray *r
     int top = 0;
     PnBest best = {r.tmax, 0.0, 0.0, 0.0};
     PnNode *root = &stack[top];
-    if (start)
-        root->net = *start;
-    else
+    double mroot; /* the patch's largest coordinate */
+    int depth0 = start ? start->depth : 0;
+    if (start) { /* its box first: the net is copied only for a ray that enters it */
+        if (!slab(start->lo, start->hi, r.o, r.d, r.inv, best.t, &root->tn, &root->tf))
+            return 0;
+        root->net = start->net;
+        memcpy(root->lo, start->lo, sizeof root->lo);
+        memcpy(root->hi, start->hi, sizeof root->hi);
+        mroot = start->mag;
+    } else {
         pn_net_root(pn, &root->net);
+        pn_net_box(&root->net, root->lo, root->hi);
+        if (!slab(root->lo, root->hi, r.o, r.d, r.inv, best.t, &root->tn, &root->tf))
+            return 0;
+        mroot = max2(maxabs3(root->lo), maxabs3(root->hi));
+    }
     root->depth = depth0;
     root->tried = 0;
-    pn_net_box(&root->net, root->lo, root->hi);
-    if (!slab(root->lo, root->hi, r.o, r.d, r.inv, best.t, &root->tn, &root->tf))
-        return 0;
     top++;
-    double mroot = start ? patch_mag(pn) : max2(maxabs3(root->lo), maxabs3(root->hi));
     PnPool pool;
     int splits = 0;
     while (top > 0) {

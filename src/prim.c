@@ -642,7 +642,7 @@ int prim_intersect(const Prim *p, const Ray *r, PrimVariant v, PrimHit *h)
     case PRIM_PN: { /* the classic variant traces patches fast */
         PnHit ph;
         PnMode mode = robust ? (PnMode)p->g.pn.mode : PN_FAST;
-        if (!(p->g.pn.piece ? pn_hit_piece(p->g.pn.patch, p->g.pn.piece, p->g.pn.depth, r, mode, &ph)
+        if (!(p->g.pn.piece ? pn_hit_piece(p->g.pn.patch, p->g.pn.piece, r, mode, &ph)
                             : pn_hit(p->g.pn.patch, r, mode, &ph)))
             return 0;
         *h = (PrimHit){ph.t, ph.terr, ph.u, ph.v, 0};

@@ -939,9 +939,14 @@ static void test_slope_and_pieces(void **state)
         Ray r = ray_make(o, vec_normalize(vec3(test_uniform(&g, -0.3f, 0.3f), test_uniform(&g, -0.3f, 0.3f), -1)), INFINITY);
         PnHit whole, h, best = {INFINITY, 0, 0, 0};
         int got = pn_hit(&bent, &r, PN_EXACT, &whole), any = 0;
-        for (int i = 0; i < n; i++)
-            if (pn_hit_piece(&bent, &level[i], 4, &r, PN_EXACT, &h) && h.t < best.t)
+        for (int i = 0; i < n; i++) {
+            PnPiece pc;
+            pc.net = level[i];
+            pc.depth = 4;
+            pn_piece_init(&pc, &bent);
+            if (pn_hit_piece(&bent, &pc, &r, PN_EXACT, &h) && h.t < best.t)
                 best = h, any = 1;
+        }
         assert_int_equal(got, any);
         if (got)
             assert_true(fabsf(best.t - whole.t) <= best.terr + whole.terr);

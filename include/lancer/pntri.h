@@ -141,11 +141,21 @@ int pn_hit(const PnPatch *pn, const Ray *r, PnMode mode, PnHit *h);
  * INFINITY when the piece is too curved to be shown a graph. */
 double pn_net_slope(const PnPatch *pn, const PnNet *net);
 
-/* pn_hit on one piece of the patch, a sub-patch depth splits down
- * (pn_net_split), which a BVH holds in the patch's place: the hits of the
- * piece (in PN_FAST, Newton's method starts from its centre and keeps any
- * root on the patch). */
-int pn_hit_piece(const PnPatch *pn, const PnNet *piece, int depth, const Ray *ray, PnMode mode, PnHit *h);
+/* A piece of a patch, a sub-patch depth splits down (pn_net_split), which
+ * a BVH holds in the patch's place, with what every ray would compute of
+ * it again: its net's box and the patch's largest coordinate. */
+typedef struct PnPiece {
+    PnNet net;
+    double lo[3], hi[3]; /* pn_net_box */
+    double mag;
+    int depth;
+} PnPiece;
+/* Fills in the box and the magnitude of a piece of pn whose net is set. */
+void pn_piece_init(PnPiece *pc, const PnPatch *pn);
+
+/* pn_hit on one piece of the patch: the piece's hits (in PN_FAST, Newton's
+ * method starts from its centre and keeps any root on the patch). */
+int pn_hit_piece(const PnPatch *pn, const PnPiece *piece, const Ray *ray, PnMode mode, PnHit *h);
 
 /* For tests: pn_hit with its proofs of a piece's only crossing (proofs 1)
  * or by subdivision alone (0), adding to *proven (when not NULL) how many

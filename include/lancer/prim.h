@@ -93,13 +93,12 @@ typedef enum {
  * other primitive: patch points into the scene's array of patches (at
  * index), and mode is its PnMode. */
 struct PnPatch;
-struct PnNet;
+struct PnPiece;
 typedef struct {
     const struct PnPatch *patch;
     int index;
     int mode;
-    int depth;                 /* piece's: how many splits from the patch */
-    const struct PnNet *piece; /* NULL: the whole patch; else one piece of it (accel.c) */
+    const struct PnPiece *piece; /* NULL: the whole patch; else one piece of it (accel.c) */
 } PnRef;
 
 /* An ellipsoid, kept out of line like a PN patch: e points into the
