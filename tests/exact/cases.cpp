@@ -1543,7 +1543,7 @@ std::vector<int> case_routines(int cs)
     case 4: return {R_BOX, R_BOX_ROB, R_OBOX, R_OBOX_ROB};
     case 6: return {R_SPHERE, R_SPHERE_ROB};
     case 9: return {R_PN_BOX};
-    case 10: return {R_PN_EXACT, R_PN_FAST};
+    case 10: return {R_PN_EXACT, R_PN_FAST, R_PN_PIECES};
     case 11: return {R_ELL, R_ELL_ROB};
     default: {
         std::vector<int> all;

@@ -67,6 +67,7 @@ const Routine ROUTINES[N_ROUTINES] = {
     {"pn_net_box", K_PN, true},                 {"pn_hit_exact", K_PN, true},
     {"pn_hit_fast", K_PN, false},
     {"prim_ellipsoid_hit", K_ELL, false},       {"prim_ellipsoid_hit_robust", K_ELL, true},
+    {"pn_hit_piece", K_PN, true},
 };
 
 int call_routine(int rid, const Prim &p, const Ray &r, PrimHit &h)

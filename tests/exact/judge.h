@@ -88,6 +88,7 @@ enum {
     R_PN_FAST,
     R_ELL,
     R_ELL_ROB,
+    R_PN_PIECES, // last: the others' seeds stay as they were
     N_ROUTINES
 };
 extern const Routine ROUTINES[N_ROUTINES];

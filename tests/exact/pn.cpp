@@ -13,7 +13,8 @@
 // convex hull of its control points, so a box that holds them holds the
 // exact sub-patch.
 //
-// Case 10, the rays: pn_hit in each mode against the exact patch. The exact
+// Case 10, the rays: pn_hit in each mode, and exact mode through pieces
+// split ahead of rays (pn_hit_piece), against the exact patch. The exact
 // side subdivides down to boxes half the band wide (the band, beta, is one
 // float spacing of the patch's largest coordinate), keeping the sub-patches
 // whose box, grown by 8 beta, the ray meets. It certifies a hit
@@ -560,6 +561,30 @@ void pn_box_ray(int rid, Rng &g, Stats &st, uint64_t ray, bool verbose)
         std::printf("  pn patch scale=%g offset=%g depth=%d: %s\n", s, off, depth, ok ? "every box holds its sub-patch" : "a box fails");
 }
 
+// pn_hit_piece as the BVH uses it: the patch split twice ahead of rays, as
+// accel.c splits a steep one, and the nearest of the sixteen pieces' hits.
+static int hit_by_pieces(const PnPatch &pn, const Ray &r, PnHit &fh)
+{
+    PnNet root, one[4], two[16];
+    pn_net_root(&pn, &root);
+    pn_net_split(&root, one);
+    for (int k = 0; k < 4; k++)
+        pn_net_split(&one[k], &two[4 * k]);
+    int got = 0;
+    for (int i = 0; i < 16; i++) {
+        PnPiece pc;
+        pc.net = two[i];
+        pc.depth = 2;
+        pn_piece_init(&pc, &pn);
+        PnHit h;
+        if (pn_hit_piece(&pn, &pc, &r, PN_EXACT, &h) && (!got || h.t < fh.t)) {
+            fh = h;
+            got = 1;
+        }
+    }
+    return got;
+}
+
 void pn_ray(int rid, Rng &g, Stats &st, uint64_t ray, bool verbose)
 {
     PnPatch pn;
@@ -638,7 +663,7 @@ void pn_ray(int rid, Rng &g, Stats &st, uint64_t ray, bool verbose)
     }
 
     PnHit fh;
-    int got = pn_hit(&pn, &r, rid == R_PN_FAST ? PN_FAST : PN_EXACT, &fh);
+    int got = rid == R_PN_PIECES ? hit_by_pieces(pn, r, fh) : pn_hit(&pn, &r, rid == R_PN_FAST ? PN_FAST : PN_EXACT, &fh);
     mpq_class beta = q_of(beta_d), grow = q_of(grow_d), keep;
     if (got)
         keep = q_of((double)fh.t) + q_of((double)fh.terr);
