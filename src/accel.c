@@ -17,10 +17,10 @@
 typedef struct Piece Piece;
 
 struct Accel {
-    const Prim *prims;   /* the scene's, indexed by the answers */
+    const Prim *prims;   /* the BVH's and the loop's: the scene's, or own */
     PrimVariant variant; /* which intersection routines answer */
     Bvh bvh;
-    int *unbounded; /* scene indices of the planes (of every primitive, for a loop) */
+    int *unbounded; /* indices into prims of the planes (of every primitive, for a loop) */
     int nunbounded;
     int nscene;     /* the scene's primitives: the BVH's first ones */
     Prim *own;      /* NULL, or the BVH's primitives: the scene's, then pieces of PN patches */
@@ -29,7 +29,7 @@ struct Accel {
     int nown, npieces;
 };
 
-/* The BVH's answer as a scene index. */
+/* An index into prims as the scene's. */
 static inline int scene_index(const Accel *a, int i) { return i >= a->nscene ? a->owner[i - a->nscene] : i; }
 
 /* PN patches split ahead of rays. Exact mode splits a patch, for every
@@ -147,21 +147,22 @@ Accel *accel_build_as(const Scene *s, PrimVariant v, int threads, int loop)
     Accel *a = calloc(1, sizeof *a);
     if (!a)
         return NULL;
-    a->prims = s->prims;
     a->variant = v;
     a->nscene = s->nprims;
-    int nb = loop ? 0 : split_ahead(a, s, v);
+    /* the loop splits patches too, so that it answers as the tree does */
+    int nb = split_ahead(a, s, v);
     if (nb < 0) {
         accel_free(a);
         return NULL;
     }
-    a->unbounded = malloc(sizeof(int) * (size_t)(s->nprims > 0 ? s->nprims : 1));
+    a->prims = a->own ? a->own : s->prims;
+    a->unbounded = malloc(sizeof(int) * (size_t)(nb > 0 ? nb : 1));
     float lo[3], hi[3];
-    for (int i = 0; a->unbounded && i < s->nprims; i++)
-        if (loop || !bvh_prim_bounds(&s->prims[i], lo, hi))
+    for (int i = 0; a->unbounded && i < nb; i++)
+        if (loop || !bvh_prim_bounds(&a->prims[i], lo, hi))
             a->unbounded[a->nunbounded++] = i;
     /* the loop answers as the tree does: the nearest hit, ties to the lowest index */
-    if (!a->unbounded || bvh_build(&a->bvh, a->own ? a->own : s->prims, nb, v, threads) != 0) {
+    if (!a->unbounded || bvh_build(&a->bvh, a->prims, loop ? 0 : nb, v, threads) != 0) {
         accel_free(a);
         return NULL;
     }
@@ -198,8 +199,8 @@ size_t accel_bytes(const Accel *a)
     return bvh_bytes(&a->bvh) + sizeof(int) * (size_t)a->nunbounded + (a->own ? own : 0);
 }
 
-/* The planes after the BVH's answer best (h): a plane hit nearer, or as
- * near with a lower index, replaces it. */
+/* The planes after the BVH's answer best (h), indices into prims: a plane
+ * hit nearer, or as near with a lower index, replaces it. */
 static int closest_unbounded(const Accel *a, const Ray *r, int best, PrimHit *h, RayStats *st)
 {
     if (a->nunbounded == 0) /* a mesh alone: no pass at all */
@@ -225,8 +226,8 @@ __attribute__((noinline)) /* so that accel_closest stays a test and a jump */
 #endif
 static int closest_with_planes(const Accel *a, const Ray *r, PrimHit *h, RayStats *st)
 {
-    int i = bvh_closest(&a->bvh, r, h, &st->isect_tests);
-    return closest_unbounded(a, r, i < 0 ? i : scene_index(a, i), h, st);
+    int i = closest_unbounded(a, r, bvh_closest(&a->bvh, r, h, &st->isect_tests), h, st);
+    return i < 0 ? i : scene_index(a, i);
 }
 
 int accel_closest(const Accel *a, const Ray *r, PrimHit *h, RayStats *st)
@@ -241,8 +242,10 @@ int accel_closest(const Accel *a, const Ray *r, PrimHit *h, RayStats *st)
 void accel_closest_packet(const Accel *a, const Ray *r, int n, PrimHit *h, int *best, RayStats *st)
 {
     bvh_closest_packet(&a->bvh, r, n, h, best, &st->isect_tests);
-    for (int k = 0; k < n; k++)
-        best[k] = closest_unbounded(a, &r[k], best[k] < 0 ? best[k] : scene_index(a, best[k]), &h[k], st);
+    for (int k = 0; k < n; k++) {
+        best[k] = closest_unbounded(a, &r[k], best[k], &h[k], st);
+        best[k] = best[k] < 0 ? best[k] : scene_index(a, best[k]);
+    }
 }
 
 /* 1 when a plane blocks r (any hit will do). */
