@@ -1007,9 +1007,6 @@ static void best_keep(PnBest *b, double t, double err, double u, double v)
     }
 }
 
-/* Visits the sub-patches whose box the ray enters, nearest first, and
- * keeps the nearest hit. */
-
 static int trace(const PnPatch *pn, const PnPiece *start, const Ray *ray, PnMode mode, int proofs, PnHit *h,
                  long *proven);
 
@@ -1031,7 +1028,9 @@ int pn_hit_piece(const PnPatch *pn, const PnPiece *piece, const Ray *ray, PnMode
     return trace(pn, piece, ray, mode, 1, h, NULL);
 }
 
-/* From the whole patch (start NULL) or from a piece of it. */
+/* Visits the sub-patches whose box the ray enters, nearest first, and
+ * keeps the nearest hit; from the whole patch (start NULL) or from a piece
+ * of it. */
 static int trace(const PnPatch *pn, const PnPiece *start, const Ray *ray, PnMode mode, int proofs, PnHit *h,
                  long *proven)
 {
