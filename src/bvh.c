@@ -26,7 +26,6 @@
 #include <string.h>
 
 #include "lancer/pntri.h"
-#include "rounding.h"
 
 /* 8 bins: Wald reports SAH quality within a few percent of a full sweep
  * from 8-32 bins, and more bins cost build time without saving node visits
@@ -186,17 +185,10 @@ int bvh_prim_bounds(const Prim *p, float lo[3], float hi[3])
         return 1;
     }
     case PRIM_PN: { /* the box of its control net, the net's own floats */
-        if (p->g.pn.piece) { /* a piece's box, in double, rounded outwards */
-            const double *dl = p->g.pn.piece->lo, *dh = p->g.pn.piece->hi;
-            for (int k = 0; k < 3; k++) {
-                lo[k] = (float)dl[k];
-                hi[k] = (float)dh[k];
-                if ((double)lo[k] > dl[k])
-                    lo[k] = float_next(lo[k], 0);
-                if ((double)hi[k] < dh[k])
-                    hi[k] = float_next(hi[k], 1);
-            }
-            return 1;
+        if (p->g.pn.piece) { /* a piece's box, in double, rounded outwards below */
+            memcpy(l, p->g.pn.piece->lo, sizeof l);
+            memcpy(h, p->g.pn.piece->hi, sizeof h);
+            break;
         }
         Vec3 l3, h3;
         pn_bounds(p->g.pn.patch, &l3, &h3);
