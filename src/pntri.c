@@ -827,13 +827,14 @@ static int newton(const PnPatch *pn, const PnRay *r, const PnNet *net, double *t
     return *t > 0.0 && *t < r->tmax;
 }
 
-/* The largest coordinate of the patch's net, which bounds the patch's. */
-static double patch_mag(const PnPatch *pn)
+/* The whole patch as a piece: its net, its box, and as its magnitude the
+ * box's largest coordinate, which bounds every piece's. */
+static void whole_piece(const PnPatch *pn, PnPiece *w)
 {
-    double m = 0.0;
-    for (int i = 0; i < 10; i++)
-        m = max2(m, max2(fabs(pn->b[i].x), max2(fabs(pn->b[i].y), fabs(pn->b[i].z))));
-    return m;
+    pn_net_root(pn, &w->net);
+    pn_net_box(&w->net, w->lo, w->hi);
+    w->mag = max2(maxabs3(w->lo), maxabs3(w->hi));
+    w->depth = 0;
 }
 
 /* The piece as the graph of a function over its corner triangle's plane
@@ -896,7 +897,9 @@ double pn_net_slope(const PnPatch *pn, const PnNet *net)
     const double zero[3] = {0.0, 0.0, 0.0};
     PnFrame f;
     piece_frame(net, zero, zero, &f);
-    PnSlope sl = piece_slope(net, &f, patch_mag(pn));
+    PnPiece w;
+    whole_piece(pn, &w);
+    PnSlope sl = piece_slope(net, &f, w.mag);
     return sl.kappa > 0.0 ? sl.L : INFINITY;
 }
 
@@ -1010,17 +1013,21 @@ static void best_keep(PnBest *b, double t, double err, double u, double v)
 static int trace(const PnPatch *pn, const PnPiece *start, const Ray *ray, PnMode mode, int proofs, PnHit *h,
                  long *proven);
 
-int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h) { return trace(pn, NULL, ray, mode, 1, h, NULL); }
+int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h) { return pn_hit_with(pn, ray, mode, 1, h, NULL); }
 
 int pn_hit_with(const PnPatch *pn, const Ray *ray, PnMode mode, int proofs, PnHit *h, long *proven)
 {
-    return trace(pn, NULL, ray, mode, proofs, h, proven);
+    PnPiece w;
+    whole_piece(pn, &w);
+    return trace(pn, &w, ray, mode, proofs, h, proven);
 }
 
 void pn_piece_init(PnPiece *pc, const PnPatch *pn)
 {
+    PnPiece w;
+    whole_piece(pn, &w);
     pn_net_box(&pc->net, pc->lo, pc->hi);
-    pc->mag = patch_mag(pn);
+    pc->mag = w.mag;
 }
 
 int pn_hit_piece(const PnPatch *pn, const PnPiece *piece, const Ray *ray, PnMode mode, PnHit *h)
@@ -1028,9 +1035,9 @@ int pn_hit_piece(const PnPatch *pn, const PnPiece *piece, const Ray *ray, PnMode
     return trace(pn, piece, ray, mode, 1, h, NULL);
 }
 
-/* Visits the sub-patches whose box the ray enters, nearest first, and
- * keeps the nearest hit; from the whole patch (start NULL) or from a piece
- * of it. */
+/* Visits the sub-patches of the piece start (the whole patch, or a piece
+ * split ahead of rays) whose box the ray enters, nearest first, and keeps
+ * the nearest hit. */
 static int trace(const PnPatch *pn, const PnPiece *start, const Ray *ray, PnMode mode, int proofs, PnHit *h,
                  long *proven)
 {
@@ -1047,22 +1054,14 @@ static int trace(const PnPatch *pn, const PnPiece *start, const Ray *ray, PnMode
     int top = 0;
     PnBest best = {r.tmax, 0.0, 0.0, 0.0};
     PnNode *root = &stack[top];
-    double mroot; /* the patch's largest coordinate */
-    int depth0 = start ? start->depth : 0;
-    if (start) { /* its box first: the net is copied only for a ray that enters it */
-        if (!slab(start->lo, start->hi, r.o, r.d, r.inv, best.t, &root->tn, &root->tf))
-            return 0;
-        root->net = start->net;
-        memcpy(root->lo, start->lo, sizeof root->lo);
-        memcpy(root->hi, start->hi, sizeof root->hi);
-        mroot = start->mag;
-    } else {
-        pn_net_root(pn, &root->net);
-        pn_net_box(&root->net, root->lo, root->hi);
-        if (!slab(root->lo, root->hi, r.o, r.d, r.inv, best.t, &root->tn, &root->tf))
-            return 0;
-        mroot = max2(maxabs3(root->lo), maxabs3(root->hi));
-    }
+    /* its box first: the net is copied only for a ray that enters it */
+    if (!slab(start->lo, start->hi, r.o, r.d, r.inv, best.t, &root->tn, &root->tf))
+        return 0;
+    root->net = start->net;
+    memcpy(root->lo, start->lo, sizeof root->lo);
+    memcpy(root->hi, start->hi, sizeof root->hi);
+    double mroot = start->mag; /* the patch's largest coordinate */
+    int depth0 = start->depth;
     root->depth = depth0;
     root->tried = 0;
     top++;
