@@ -64,6 +64,8 @@ static int too_steep(double slope) { return !(slope <= ACCEL_PN_SLOPE); }
  * BVH's primitives (the scene's when none is), or -1 when memory runs out. */
 static int split_ahead(Accel *a, const Scene *s, PrimVariant v)
 {
+    /* a count first, so that a scene whose first level does not fit (a
+     * scanned mesh) allocates nothing; the second pass makes the roots again */
     int n = 0;
     for (int i = 0; i < s->nprims && n <= ACCEL_PN_PIECES / 3; i++)
         if (splits_ahead(&s->prims[i], v)) {
