@@ -1101,7 +1101,7 @@ static int trace(const PnPatch *pn, const PnPiece *start, const Ray *ray, PnMode
             }
             tried = c == PN_UNSURE_OUTSIDE;
         }
-        /* Newton's method, from outside the patch's box: a ray that starts
+        /* Newton's method, from outside the start's box: a ray that starts
          * in it (a spawned ray, leaving the surface) needs the split that
          * culls its own spot, and Newton's steps would be spent first */
         if (mode == PN_FAST && node->depth == depth0 && node->tn > 0.0) {
