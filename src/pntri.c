@@ -633,12 +633,14 @@ PN_INLINE void piece_frame(const PnNet *net, const double o[3], const double d[3
  * box's largest coordinate) and the ray meets it, with the hit's t, its
  * bound and the domain point; -1 otherwise (split on), and for every ray
  * that meets T's plane at a cosine below 1/4 and is not culled. dd is
- * |d|, computed once a ray. */
-static int flat_piece(const PnNet *net, const PnFrame *f, const double d[3], double dd, double tmax, double m,
-                      double *t, double *terr, double *u, double *v, int *only)
+ * |d|, computed once a ray; dev and len are piece_dev's and
+ * piece_lengths'. */
+/* The bound dev of flat_piece: how far the piece's exact surface strays,
+ * on any axis, from the triangle T of its corners; m is its box's largest
+ * coordinate. */
+PN_INLINE double piece_dev(const PnNet *net, const PnFrame *f, double m)
 {
-    *only = -1;
-    const double *A = f->A, *e1 = f->e1, *e2 = f->e2, *q = f->q, *n = f->n;
+    const double *A = f->A, *e1 = f->e1, *e2 = f->e2;
     /* T raised to degree 3: A + j (B - A) / 3 + k (C - A) / 3 at b_ijk */
     double sb[3], sc[3], dev = 0.0;
     for (int a = 0; a < 3; a++) {
@@ -661,6 +663,24 @@ static int flat_piece(const PnNet *net, const PnFrame *f, const double d[3], dou
         }
     }
     dev += net->err + PN_SLACK * m;
+    return dev;
+}
+
+/* T's edges: |AB|, |AC| and |BC|. */
+PN_INLINE void piece_lengths(const PnFrame *f, double len[3])
+{
+    const double *e1 = f->e1, *e2 = f->e2;
+    len[0] = sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
+    len[1] = sqrt(e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2]);
+    len[2] = sqrt((e2[0] - e1[0]) * (e2[0] - e1[0]) + (e2[1] - e1[1]) * (e2[1] - e1[1]) +
+                  (e2[2] - e1[2]) * (e2[2] - e1[2]));
+}
+
+static int flat_piece(const PnNet *net, const PnFrame *f, const double d[3], double dd, double tmax, double m,
+                      double dev, const double len[3], double *t, double *terr, double *u, double *v, int *only)
+{
+    *only = -1;
+    const double *e1 = f->e1, *e2 = f->e2, *q = f->q, *n = f->n;
     int flat = dev <= m * (double)FLT_EPSILON;
     double nn2 = f->nn2, nn = sqrt(nn2), nd = f->nd;
     if (!(nn > 0.0))
@@ -703,10 +723,7 @@ static int flat_piece(const PnNet *net, const PnFrame *f, const double d[3], dou
      * so no barycentric falls below -rad over its vertex's altitude. */
     double pm = maxabs3(p);
     double rad = dev * 1.7320508075688774 + 0.5 * (tb - ta) * dd + PN_SLACK * (pm + m);
-    double l1 = sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
-    double l2 = sqrt(e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2]);
-    double l3 = sqrt((e2[0] - e1[0]) * (e2[0] - e1[0]) + (e2[1] - e1[1]) * (e2[1] - e1[1]) +
-                     (e2[2] - e1[2]) * (e2[2] - e1[2]));
+    double l1 = len[0], l2 = len[1], l3 = len[2];
     /* altitude of A = |n| / |BC|, of B = |n| / |AC|, of C = |n| / |AB| */
     double g = (1.0 + PN_SLACK) * rad / nn;
     if (la < -g * l3 || lb < -g * l2 || lc < -g * l1)
@@ -742,6 +759,7 @@ typedef struct {
     double tn, tf;       /* the ray's interval in that box */
     int depth;
     int tried; /* a proof's Newton point fell outside an ancestor: none is tried here */
+    int start; /* the start piece itself, whose shape may be kept */
 } PnNode;
 
 typedef struct {
@@ -835,6 +853,7 @@ static void whole_piece(const PnPatch *pn, PnPiece *w)
     pn_net_box(&w->net, w->lo, w->hi);
     w->mag = max2(maxabs3(w->lo), maxabs3(w->hi));
     w->depth = 0;
+    w->shaped = 0; /* a ray's own copy: its shape would cost what it saves */
 }
 
 /* The piece as the graph of a function over its corner triangle's plane
@@ -936,9 +955,10 @@ enum { PN_UNSURE = 0, PN_CERT_HIT, PN_CERT_MISS, PN_UNSURE_OUTSIDE };
  *
  * mroot bounds the patch's coordinates; every rounding here is far below
  * PN_SLACK of the magnitudes it involves, but for the local coordinates'
- * (lu - its rounding is a float spacing of u, over the side s). */
-static int pn_certify(const PnPatch *pn, const PnRay *r, const PnNet *net, const PnFrame *f, double dd, double tmax,
-                      double mroot, double *t, double *terr, double *u, double *v)
+ * (lu - its rounding is a float spacing of u, over the side s). shaped:
+ * the piece, when net is a PnPiece's that keeps its slope, or NULL. */
+static int pn_certify(const PnPatch *pn, const PnRay *r, const PnNet *net, const PnFrame *f, const PnPiece *shaped,
+                      double dd, double tmax, double mroot, double *t, double *terr, double *u, double *v)
 {
     const double *o = r->o, *d = r->d, *e1 = f->e1, *e2 = f->e2, *n = f->n;
     double det = f->nn2, nn = sqrt(det);
@@ -952,7 +972,7 @@ static int pn_certify(const PnPatch *pn, const PnRay *r, const PnNet *net, const
     double lv0 = (c1[0] * n[0] + c1[1] * n[1] + c1[2] * n[2]) / det;
     if (!(lu0 > -0.5 && lv0 > -0.5 && lu0 + lv0 < 1.5)) /* far from the piece: Newton would leave it */
         return PN_UNSURE;
-    PnSlope sl = piece_slope(net, f, mroot);
+    PnSlope sl = shaped ? (PnSlope){shaped->kappa, shaped->slope} : piece_slope(net, f, mroot);
     if (!(sl.kappa > 0.0))
         return PN_UNSURE;
     double L = sl.L, kappa = sl.kappa;
@@ -1028,6 +1048,17 @@ void pn_piece_init(PnPiece *pc, const PnPatch *pn)
     whole_piece(pn, &w);
     pn_net_box(&pc->net, pc->lo, pc->hi);
     pc->mag = w.mag;
+    /* as trace measures it for a ray, from the parts of its frame that do
+     * not depend on the ray */
+    const double zero[3] = {0.0, 0.0, 0.0};
+    PnFrame f;
+    piece_frame(&pc->net, zero, zero, &f);
+    pc->dev = piece_dev(&pc->net, &f, max2(maxabs3(pc->lo), maxabs3(pc->hi)));
+    piece_lengths(&f, pc->len);
+    PnSlope sl = piece_slope(&pc->net, &f, pc->mag);
+    pc->kappa = sl.kappa;
+    pc->slope = sl.L;
+    pc->shaped = 1;
 }
 
 int pn_hit_piece(const PnPatch *pn, const PnPiece *piece, const Ray *ray, PnMode mode, PnHit *h)
@@ -1064,6 +1095,7 @@ static int trace(const PnPatch *pn, const PnPiece *start, const Ray *ray, PnMode
     int depth0 = start->depth;
     root->depth = depth0;
     root->tried = 0;
+    root->start = 1;
     top++;
     PnPool pool;
     int splits = 0;
@@ -1076,9 +1108,15 @@ static int trace(const PnPatch *pn, const PnPiece *start, const Ray *ray, PnMode
         int only;
         PnFrame frame;
         piece_frame(net, r.o, r.d, &frame);
+        const PnPiece *shaped = node->start && start->shaped ? start : NULL;
         { /* culls a piece the ray misses before Newton's steps are spent on it */
-            double t, e, u, v;
-            int f = flat_piece(net, &frame, r.d, dd, best.t, m, &t, &e, &u, &v, &only);
+            double t, e, u, v, len[3];
+            double dev = shaped ? shaped->dev : piece_dev(net, &frame, m);
+            if (shaped)
+                memcpy(len, shaped->len, sizeof len);
+            else
+                piece_lengths(&frame, len);
+            int f = flat_piece(net, &frame, r.d, dd, best.t, m, dev, len, &t, &e, &u, &v, &only);
             if (f == 1) /* (its interval starts before best, its midpoint may not) */
                 best_keep(&best, t, e, u, v);
             if (f >= 0)
@@ -1091,7 +1129,7 @@ static int trace(const PnPatch *pn, const PnPiece *start, const Ray *ray, PnMode
         int tried = node->tried;
         if (!tried && proofs && (mode == PN_EXACT || node->tn <= 0.0)) {
             double t, e, u, v;
-            int c = pn_certify(pn, &r, net, &frame, dd, best.t, mroot, &t, &e, &u, &v);
+            int c = pn_certify(pn, &r, net, &frame, shaped, dd, best.t, mroot, &t, &e, &u, &v);
             if (c == PN_CERT_MISS || (c == PN_CERT_HIT && mode == PN_EXACT)) {
                 if (proven)
                     ++*proven;
@@ -1157,6 +1195,7 @@ static int trace(const PnPatch *pn, const PnPiece *start, const Ray *ray, PnMode
             k->tf = tf[c];
             k->depth = depth;
             k->tried = tried;
+            k->start = 0;
         }
     }
     if (!(best.t < r.tmax)) /* none found */

@@ -953,6 +953,92 @@ static void test_slope_and_pieces(void **state)
     }
 }
 
+/* A piece keeps the shape that a ray's first tests measure of it: its
+ * corner triangle's edges, its net's distance from that triangle, and its
+ * slope; and a ray meets a piece that keeps them exactly as one that does
+ * not (the same bits), in both modes, for rays that hit it, miss it, graze
+ * it, and leave it. */
+static void test_pieces_keep_their_shape(void **state)
+{
+    (void)state;
+    unsigned long long seed = 41;
+    int hits = 0, compared = 0;
+    for (int k = 0; k < 300; k++) {
+        float sc = k % 3 == 0 ? 1.0f : k % 3 == 1 ? 1e-3f : 1e4f;
+        Vec3 c = vec_scale(test_rvec(&seed, -10, 10), sc);
+        PnPatch pn;
+        make_patch(&pn, c, vec_add(c, vec_scale(test_rvec(&seed, -1, 1), sc)),
+                   vec_add(c, vec_scale(test_rvec(&seed, -1, 1), sc)), unit(test_rvec(&seed, -1, 1)),
+                   unit(test_rvec(&seed, -1, 1)), unit(test_rvec(&seed, -1, 1)));
+        PnNet root, kids[4];
+        pn_net_root(&pn, &root);
+        pn_net_split(&root, kids);
+        for (int i = 0; i < 4; i++) {
+            PnPiece pc, bare;
+            pc.net = kids[i];
+            pc.depth = 1;
+            pn_piece_init(&pc, &pn);
+            assert_int_equal(pc.shaped, 1);
+            bare = pc;
+            bare.shaped = 0;
+            const double *A = pc.net.b[PN_AT(3, 0)], *B = pc.net.b[PN_AT(0, 0)], *C = pc.net.b[PN_AT(0, 3)];
+            double e1[3], e2[3], e3[3], dev = 0.0;
+            for (int a = 0; a < 3; a++) {
+                e1[a] = B[a] - A[a];
+                e2[a] = C[a] - A[a];
+                e3[a] = e2[a] - e1[a];
+            }
+            assert_true(pc.len[0] == sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]));
+            assert_true(pc.len[1] == sqrt(e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2]));
+            assert_true(pc.len[2] == sqrt(e3[0] * e3[0] + e3[1] * e3[1] + e3[2] * e3[2]));
+            /* b_ijk against A + j e1 / 3 + k e2 / 3 */
+            for (int ii = 0; ii <= 3; ii++)
+                for (int kk = 0; kk <= 3 - ii; kk++) {
+                    int jj = 3 - ii - kk;
+                    for (int a = 0; a < 3; a++)
+                        dev = fmax(dev, fabs(pc.net.b[PN_AT(ii, kk)][a] - (A[a] + jj * e1[a] / 3 + kk * e2[a] / 3)));
+                }
+            /* with the net's error and the flat test's rounding allowance,
+             * 2^-40 of the piece's largest coordinate m (this loop's own
+             * roundings are a few 2^-53 of m) */
+            double m = 0.0;
+            for (int a = 0; a < 3; a++)
+                m = fmax(m, fmax(fabs(pc.lo[a]), fabs(pc.hi[a])));
+            double want = dev + pc.net.err + 0x1p-40 * m;
+            assert_true(pc.dev >= want - 0x1p-44 * m && pc.dev <= want + 0x1p-44 * m);
+            if (pc.kappa > 0.0)
+                assert_true(pc.slope == pn_net_slope(&pn, &pc.net));
+            else
+                assert_true(isinf(pn_net_slope(&pn, &pc.net)));
+            /* rays through a point of the piece, leaving it, and aimed past it */
+            double u = test_uniform(&seed, 0, 1), v = test_uniform(&seed, 0, 1), pt[3];
+            if (u + v > 1)
+                u = 1 - u, v = 1 - v;
+            double sg = pc.net.flip ? -pc.net.s : pc.net.s;
+            pn_eval(&pn, pc.net.u0 + sg * u, pc.net.v0 + sg * v, pt, NULL, NULL);
+            Vec3 p = vec3((float)pt[0], (float)pt[1], (float)pt[2]);
+            for (int j = 0; j < 4; j++) {
+                Vec3 d = unit(test_rvec(&seed, -1, 1));
+                Vec3 o = j == 0 ? p : vec_sub(vec_add(p, vec_scale(test_rvec(&seed, -0.3f, 0.3f), j == 3 ? sc : 0)),
+                                                vec_scale(d, 2.0f * sc));
+                Ray r = ray_make(o, d, INFINITY);
+                for (int mode = 0; mode <= 1; mode++) {
+                    PnHit h[2];
+                    memset(h, 0, sizeof h);
+                    int got0 = pn_hit_piece(&pn, &pc, &r, mode ? PN_FAST : PN_EXACT, &h[0]);
+                    int got1 = pn_hit_piece(&pn, &bare, &r, mode ? PN_FAST : PN_EXACT, &h[1]);
+                    assert_int_equal(got0, got1);
+                    assert_memory_equal(&h[0], &h[1], sizeof h[0]);
+                    hits += got0;
+                    compared++;
+                }
+            }
+        }
+    }
+    assert_true(compared == 300 * 4 * 4 * 2);
+    assert_true(hits > 3000);
+}
+
 static void test_cgal_meshes_do_not_leak(void **state)
 {
     (void)state;
@@ -1058,6 +1144,7 @@ int main(void)
         cmocka_unit_test(test_fast_mode),
         cmocka_unit_test(test_proofs_agree_with_subdivision),
         cmocka_unit_test(test_slope_and_pieces),
+        cmocka_unit_test(test_pieces_keep_their_shape),
         cmocka_unit_test(test_cgal_meshes_do_not_leak),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -143,14 +143,20 @@ double pn_net_slope(const PnPatch *pn, const PnNet *net);
 
 /* A piece of a patch, a sub-patch depth splits down (pn_net_split), which
  * a BVH holds in the patch's place, with what every ray would compute of
- * it again: its net's box and the patch's largest coordinate. */
+ * it again: its net's box, the patch's largest coordinate, and the shape
+ * the first tests of every ray that enters it measure (pntri.c, trace). */
 typedef struct PnPiece {
     PnNet net;
     double lo[3], hi[3]; /* pn_net_box */
     double mag;
     int depth;
+    int shaped;          /* 1 when the four below are set */
+    double dev;          /* how far the net strays from its corners' triangle */
+    double len[3];       /* that triangle's edges, |AB|, |AC| and |BC| */
+    double kappa, slope; /* the piece as a graph over that triangle's plane */
 } PnPiece;
-/* Fills in the box and the magnitude of a piece of pn whose net is set. */
+/* Fills in the box, the magnitude and the shape of a piece of pn whose net
+ * is set. */
 void pn_piece_init(PnPiece *pc, const PnPatch *pn);
 
 /* pn_hit on one piece of the patch: the piece's hits (in PN_FAST, Newton's
