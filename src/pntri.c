@@ -32,9 +32,10 @@
 #define PN_INLINE static inline
 #endif
 
-/* The split's averages four doubles at a time with AVX, when the
- * processor has it (picked at run time: the rest of the file is built
- * for the baseline); the same operations lane by lane as the loop. */
+/* The split's averages and the evaluation's de Casteljau steps four
+ * doubles at a time with AVX, when the processor has it (picked at run
+ * time: the rest of the file is built for the baseline); the same
+ * operations lane by lane as the loops. */
 #if defined(__GNUC__) && defined(__x86_64__) && !defined(LANCER_NO_SIMD)
 #define PN_AVX 1
 #include <immintrin.h>
@@ -148,8 +149,47 @@ void pn_patch_init(PnPatch *pn, const Vec3 p[3], const Vec3 n[3])
 /* Two de Casteljau steps at (w, u, v) leave the linear net r_w, r_u, r_v:
  * the point is w r_w + u r_u + v r_v, and dB/du = 3 (r_u - r_w),
  * dB/dv = 3 (r_v - r_w). */
+static int split_avx(void);
+
+#ifdef PN_AVX
+/* pn_eval with x, y, z in the lanes of one register. */
+__attribute__((target("avx"))) static void eval_avx(const PnPatch *pn, double u, double v, double pt[3], double du[3],
+                                                    double dv[3])
+{
+    const __m256d W = _mm256_set1_pd(1.0 - u - v), U = _mm256_set1_pd(u), V = _mm256_set1_pd(v);
+    __m256d b[10];
+    for (int i = 0; i < 10; i++)
+        b[i] = _mm256_cvtps_pd(_mm_setr_ps(pn->b[i].x, pn->b[i].y, pn->b[i].z, 0.0f));
+#define STEP(x, y, z) _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(W, x), _mm256_mul_pd(U, y)), _mm256_mul_pd(V, z))
+    __m256d q0 = STEP(b[0], b[1], b[2]), q1 = STEP(b[1], b[3], b[4]), q2 = STEP(b[2], b[4], b[5]);
+    __m256d q3 = STEP(b[3], b[6], b[7]), q4 = STEP(b[4], b[7], b[8]), q5 = STEP(b[5], b[8], b[9]);
+    __m256d rw = STEP(q0, q1, q2), ru = STEP(q1, q3, q4), rv = STEP(q2, q4, q5);
+    double x[4];
+    if (pt) {
+        _mm256_storeu_pd(x, STEP(rw, ru, rv));
+        memcpy(pt, x, 3 * sizeof *pt);
+    }
+#undef STEP
+    const __m256d three = _mm256_set1_pd(3.0);
+    if (du) {
+        _mm256_storeu_pd(x, _mm256_mul_pd(three, _mm256_sub_pd(ru, rw)));
+        memcpy(du, x, 3 * sizeof *du);
+    }
+    if (dv) {
+        _mm256_storeu_pd(x, _mm256_mul_pd(three, _mm256_sub_pd(rv, rw)));
+        memcpy(dv, x, 3 * sizeof *dv);
+    }
+}
+#endif
+
 void pn_eval(const PnPatch *pn, double u, double v, double pt[3], double du[3], double dv[3])
 {
+#ifdef PN_AVX
+    if (split_avx()) {
+        eval_avx(pn, u, v, pt, du, dv);
+        return;
+    }
+#endif
     double w = 1.0 - u - v, b[10][3];
     for (int i = 0; i < 10; i++) {
         b[i][0] = pn->b[i].x;
@@ -312,7 +352,8 @@ void pn_split_program(PnSplitProgram *g)
 /* A pool of points, x, y, z and a 0, so that a point is one AVX register. */
 typedef double PnPool[PN_POOL][4];
 
-/* Set by a test to keep the split off AVX (pn_split_avx). */
+/* Set by a test to keep the split and the evaluation off AVX
+ * (pn_split_avx). */
 static int split_no_avx;
 
 int pn_split_avx(int allow)
@@ -325,8 +366,8 @@ int pn_split_avx(int allow)
 #endif
 }
 
-/* 1 when the split runs with AVX: the processor has it, and no test
- * turned it off. */
+/* 1 when the split and the evaluation run with AVX: the processor has
+ * it, and no test turned it off. */
 static int split_avx(void)
 {
 #ifdef PN_AVX

@@ -618,11 +618,12 @@ static void test_exact_hits_within_their_bound(void **state)
     assert_true(n > 5000);
 }
 
-/* The split's AVX form (where the processor has it) and its plain loop
- * give the same bits: the children's nets, their boxes, and every hit,
- * for patches at scales and offsets, hit, missed and grazed, and for
- * rays leaving the surface (which split deepest). */
-static void test_avx_split_is_the_loop(void **state)
+/* The AVX forms of the split and of pn_eval (where the processor has
+ * AVX) and their plain loops give the same bits: the children's nets,
+ * their boxes, the patch's points and derivatives, and every hit, for
+ * patches at scales and offsets, hit, missed and grazed, and for rays
+ * leaving the surface (which split deepest). */
+static void test_avx_is_the_loop(void **state)
 {
     (void)state;
     if (!pn_split_avx(1)) {
@@ -655,6 +656,15 @@ static void test_avx_split_is_the_loop(void **state)
             assert_int_equal(kids[0][i].flip, kids[1][i].flip);
         }
         assert_memory_equal(box[0], box[1], sizeof box[0]);
+        for (int j = 0; j < 4; j++) { /* inside the domain, on its edges and off it (Newton's steps stray) */
+            double uv[2] = {test_uniform(&seed, -0.5, 1.5), j == 1 ? 0.0 : test_uniform(&seed, -0.5, 1.5)};
+            double e[2][3][3];
+            for (int avx = 0; avx <= 1; avx++) {
+                pn_split_avx(avx);
+                pn_eval(&pn, uv[0], uv[1], e[avx][0], e[avx][1], e[avx][2]);
+            }
+            assert_memory_equal(e[0], e[1], sizeof e[0]);
+        }
         /* a ray through a point of the patch, or leaving it */
         double u = test_uniform(&seed, 0, 1), v = test_uniform(&seed, 0, 1), pt[3];
         if (u + v > 1)
@@ -1140,7 +1150,7 @@ int main(void)
         cmocka_unit_test(test_tessellation),
         cmocka_unit_test(test_exact_hits_within_their_bound),
         cmocka_unit_test(test_grazing_rays),
-        cmocka_unit_test(test_avx_split_is_the_loop),
+        cmocka_unit_test(test_avx_is_the_loop),
         cmocka_unit_test(test_fast_mode),
         cmocka_unit_test(test_proofs_agree_with_subdivision),
         cmocka_unit_test(test_slope_and_pieces),

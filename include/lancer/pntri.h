@@ -105,10 +105,10 @@ void pn_net_root(const PnPatch *pn, PnNet *net);
  * either end, so patches sharing an edge split it into the same points. */
 void pn_net_split(const PnNet *parent, PnNet child[4]);
 
-/* For tests: 0 makes the split run its plain loop where it would run AVX
- * (the same bits, lane by lane), 1 lets it pick again. Returns 1 when the
- * processor has AVX, which the split then uses. Not for use while another
- * thread splits. */
+/* For tests: 0 makes the split and pn_eval run their plain loops where
+ * they would run AVX (the same bits, lane by lane), 1 lets them pick
+ * again. Returns 1 when the processor has AVX, which they then use. Not
+ * for use while another thread traces patches. */
 int pn_split_avx(int allow);
 
 /* For tests: the split's program, as pntri.c describes it (test_pntri
