@@ -21,6 +21,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <stddef.h>
 #include <string.h>
 
 #include "rounding.h"
@@ -153,13 +154,15 @@ static int split_avx(void);
 
 #ifdef PN_AVX
 /* pn_eval with x, y, z in the lanes of one register. */
+/* (its loads read a float past each point: the next one's, or n[0]'s) */
+typedef char eval_avx_reads_within_the_patch[sizeof(PnPatch) >= offsetof(PnPatch, b) + sizeof(float) * 31 ? 1 : -1];
 __attribute__((target("avx"))) static void eval_avx(const PnPatch *pn, double u, double v, double pt[3], double du[3],
                                                     double dv[3])
 {
     const __m256d W = _mm256_set1_pd(1.0 - u - v), U = _mm256_set1_pd(u), V = _mm256_set1_pd(v);
     __m256d b[10];
-    for (int i = 0; i < 10; i++)
-        b[i] = _mm256_cvtps_pd(_mm_setr_ps(pn->b[i].x, pn->b[i].y, pn->b[i].z, 0.0f));
+    for (int i = 0; i < 10; i++) /* lane 3 (the next float) is never stored */
+        b[i] = _mm256_cvtps_pd(_mm_loadu_ps(&pn->b[i].x));
 #define STEP(x, y, z) _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(W, x), _mm256_mul_pd(U, y)), _mm256_mul_pd(V, z))
     __m256d q0 = STEP(b[0], b[1], b[2]), q1 = STEP(b[1], b[3], b[4]), q2 = STEP(b[2], b[4], b[5]);
     __m256d q3 = STEP(b[3], b[6], b[7]), q4 = STEP(b[4], b[7], b[8]), q5 = STEP(b[5], b[8], b[9]);
