@@ -203,7 +203,10 @@ size_t accel_bytes(const Accel *a)
 
 /* The planes after the BVH's answer best (h), indices into prims: a plane
  * hit nearer, or as near with a lower index, replaces it. */
-static int closest_unbounded(const Accel *a, const Ray *r, int best, PrimHit *h, RayStats *st)
+#ifdef __GNUC__
+__attribute__((always_inline))
+#endif
+static inline int closest_unbounded(const Accel *a, const Ray *r, int best, PrimHit *h, RayStats *st)
 {
     if (a->nunbounded == 0) /* a mesh alone: no pass at all */
         return best;
