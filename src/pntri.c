@@ -147,21 +147,19 @@ void pn_patch_init(PnPatch *pn, const Vec3 p[3], const Vec3 n[3])
 
 /* ---- evaluation ---- */
 
-/* Two de Casteljau steps at (w, u, v) leave the linear net r_w, r_u, r_v:
- * the point is w r_w + u r_u + v r_v, and dB/du = 3 (r_u - r_w),
- * dB/dv = 3 (r_v - r_w). */
 static int split_avx(void);
 
 #ifdef PN_AVX
-/* pn_eval with x, y, z in the lanes of one register. */
-/* (its loads read a float past each point: the next one's, or n[0]'s) */
+/* pn_eval with x, y, z in the lanes of one register. Its loads read a
+ * float past each point (the next one's, or n[0]'s): lane 3, never
+ * stored. */
 typedef char eval_avx_reads_within_the_patch[sizeof(PnPatch) >= offsetof(PnPatch, b) + sizeof(float) * 31 ? 1 : -1];
 __attribute__((target("avx"))) static void eval_avx(const PnPatch *pn, double u, double v, double pt[3], double du[3],
                                                     double dv[3])
 {
     const __m256d W = _mm256_set1_pd(1.0 - u - v), U = _mm256_set1_pd(u), V = _mm256_set1_pd(v);
     __m256d b[10];
-    for (int i = 0; i < 10; i++) /* lane 3 (the next float) is never stored */
+    for (int i = 0; i < 10; i++)
         b[i] = _mm256_cvtps_pd(_mm_loadu_ps(&pn->b[i].x));
 #define STEP(x, y, z) _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(W, x), _mm256_mul_pd(U, y)), _mm256_mul_pd(V, z))
     __m256d q0 = STEP(b[0], b[1], b[2]), q1 = STEP(b[1], b[3], b[4]), q2 = STEP(b[2], b[4], b[5]);
@@ -185,6 +183,9 @@ __attribute__((target("avx"))) static void eval_avx(const PnPatch *pn, double u,
 }
 #endif
 
+/* Two de Casteljau steps at (w, u, v) leave the linear net r_w, r_u, r_v:
+ * the point is w r_w + u r_u + v r_v, and dB/du = 3 (r_u - r_w),
+ * dB/dv = 3 (r_v - r_w). */
 void pn_eval(const PnPatch *pn, double u, double v, double pt[3], double du[3], double dv[3])
 {
 #ifdef PN_AVX
@@ -665,21 +666,7 @@ PN_INLINE void piece_frame(const PnNet *net, const double o[3], const double d[3
     f->nd = f->n[0] * d[0] + f->n[1] * d[1] + f->n[2] * d[2];
 }
 
-/* A piece's exact surface lies within dev, on every axis, of the triangle
- * T of its corners: the net's points are within dev of those of T raised
- * to degree 3, and the difference of two Bezier triangles lies in the
- * convex hull of the differences of their nets. The ray is tested against
- * T thickened by dev, a far tighter bound than the box once a piece is
- * nearly flat: the slab |n.(p - A)| <= h around T's plane gives t's
- * interval, and the ray's point in it must lie within reach of T. Returns
- * 0 when the ray misses the thickened triangle in (0, tmax); 1 when the
- * piece is flat to float precision (dev within a float spacing of m, its
- * box's largest coordinate) and the ray meets it, with the hit's t, its
- * bound and the domain point; -1 otherwise (split on), and for every ray
- * that meets T's plane at a cosine below 1/4 and is not culled. dd is
- * |d|, computed once a ray; dev and len are piece_dev's and
- * piece_lengths'. */
-/* The bound dev of flat_piece: how far the piece's exact surface strays,
+/* The bound dev of flat_piece (below): how far the piece's exact surface strays,
  * on any axis, from the triangle T of its corners; m is its box's largest
  * coordinate. */
 PN_INLINE double piece_dev(const PnNet *net, const PnFrame *f, double m)
@@ -720,6 +707,20 @@ PN_INLINE void piece_lengths(const PnFrame *f, double len[3])
                   (e2[2] - e1[2]) * (e2[2] - e1[2]));
 }
 
+/* A piece's exact surface lies within dev, on every axis, of the triangle
+ * T of its corners: the net's points are within dev of those of T raised
+ * to degree 3, and the difference of two Bezier triangles lies in the
+ * convex hull of the differences of their nets. The ray is tested against
+ * T thickened by dev, a far tighter bound than the box once a piece is
+ * nearly flat: the slab |n.(p - A)| <= h around T's plane gives t's
+ * interval, and the ray's point in it must lie within reach of T. Returns
+ * 0 when the ray misses the thickened triangle in (0, tmax); 1 when the
+ * piece is flat to float precision (dev within a float spacing of m, its
+ * box's largest coordinate) and the ray meets it, with the hit's t, its
+ * bound and the domain point; -1 otherwise (split on), and for every ray
+ * that meets T's plane at a cosine below 1/4 and is not culled. dd is
+ * |d|, computed once a ray; dev and len are piece_dev's and
+ * piece_lengths'. */
 static int flat_piece(const PnNet *net, const PnFrame *f, const double d[3], double dd, double tmax, double m,
                       double dev, const double len[3], double *t, double *terr, double *u, double *v, int *only)
 {
