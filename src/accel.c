@@ -201,6 +201,12 @@ size_t accel_bytes(const Accel *a)
     return bvh_bytes(&a->bvh) + sizeof(int) * (size_t)a->nunbounded + (a->own ? own : 0);
 }
 
+int accel_pn_split(const Accel *a, int *pieces)
+{
+    *pieces = a->own ? a->npieces : 0;
+    return a->own ? a->npieces - (a->nown - a->nscene) : 0; /* a patch's first piece takes its place */
+}
+
 /* The planes after the BVH's answer best (h), indices into prims: a plane
  * hit nearer, or as near with a lower index, replaces it. */
 #ifdef __GNUC__

@@ -256,6 +256,12 @@ expect 0 "$LANCER" render "$T/pn.scn" -o "$T/pn.exr" --stats "$T/pn.json" -q
 has "$T/pn.json" '"pn_patches": {"exact": 4, "fast": 1}'
 expect 0 "$LANCER" render "$T/pn.scn" -o "$T/pnf.exr" --pn-mode fast --stats "$T/pnf.json" -q
 has "$T/pnf.json" '"pn_patches": {"exact": 0, "fast": 5}'
+# the tetrahedron's curved patches are split ahead of rays, four pieces or more each; the
+# classic variant traces them whole
+split=$(sed -n 's/.*"pn_patches_split": \([0-9]*\), "pn_pieces": \([0-9]*\).*/\1 \2/p' "$T/pn.json")
+if [ "${split% *}" -ge 4 ] && [ "${split#* }" -ge $((4 * ${split% *})) ]; then ok; else bad "pn split: '$split'"; fi
+expect 0 "$LANCER" render "$T/pn.scn" -o "$T/pnc.exr" --classic --stats "$T/pnc.json" -q
+has "$T/pnc.json" '"pn_patches_split": 0, "pn_pieces": 0}'
 expect 0 "$LANCER" diff "$T/pn.exr" "$T/pnf.exr"
 if grep -q " over=0 pixels=768" "$T/out"; then ok; else bad "fast mode changed the picture: $(cat "$T/out")"; fi
 expect 2 "$LANCER" render "$T/pn.scn" --pn-mode slow
@@ -279,7 +285,9 @@ expect 0 "$LANCER" render "$T/floor.scn" -o "$T/floor.exr" --explain --stats "$T
 has "$T/out" "skipped  shadow rays toward light 0: a point light that nothing can stand in front of"
 has "$T/out" "rays: 768 camera, 0 shadow, 0 reflection, 0 refraction (768 in all)"
 has "$T/out" "time: parse "
+has "$T/out" "acceleration: "
 has "$T/floor.json" '"shadows": "clear"'
+has "$T/floor.json" '"acceleration": {"bytes": '
 has "$T/floor.json" '{"what": "reflection rays", "skipped": true, "why": "no material reflects"}'
 has "$T/floor.json" '"phases_share": {"parse": '
 expect 0 "$LANCER" render "$T/floor.scn" -o "$T/floor-full.exr" --no-plan --explain -q

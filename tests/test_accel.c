@@ -334,7 +334,8 @@ static void test_loop_answers_as_the_bvh(void **state)
  * t within both bounds; fast, which claims no bound: not before the
  * exact crossing, nor after the whole patch's, by 10^-4). An
  * octahedron whose vertex normals point out from its centre: eight steep
- * patches, among spheres. */
+ * patches, among spheres, which accel_pn_split counts (none in the
+ * classic variant). */
 static void check_split_patches(PnMode mode)
 {
     static const float V[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
@@ -374,6 +375,13 @@ static void check_split_patches(PnMode mode)
     Accel *whole = accel_build_as(&s, PRIM_CLASSIC, 1, 0);
     assert_non_null(whole);
     assert_true(accel_bytes(tree) > accel_bytes(whole) + 8 * 4 * sizeof(PnPiece));
+    int pieces = -1, loop_pieces = -1;
+    assert_int_equal(accel_pn_split(tree, &pieces), 8);
+    assert_true(pieces >= 8 * 4);
+    assert_int_equal(accel_pn_split(loop, &loop_pieces), 8);
+    assert_int_equal(loop_pieces, pieces);
+    assert_int_equal(accel_pn_split(whole, &pieces), 0);
+    assert_int_equal(pieces, 0);
     accel_free(whole);
     RayStats st = {0, 0, 0, 0, 0, 0, 0};
     int hits = 0, near = 0;

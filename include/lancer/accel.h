@@ -44,6 +44,10 @@ int accel_bounds(const Accel *a, Vec3 *lo, Vec3 *hi);
 /* The memory the structure holds, in bytes (not the scene's). */
 size_t accel_bytes(const Accel *a);
 
+/* How many PN patches were split ahead of rays (accel.c), and into how
+ * many pieces in all (*pieces); 0 and 0 when none was. */
+int accel_pn_split(const Accel *a, int *pieces);
+
 /* Rays that the packet queries below trace through the BVH together. */
 #define ACCEL_PACKET 8
 

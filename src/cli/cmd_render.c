@@ -204,8 +204,23 @@ static void write_plan(FILE *f, const RenderPlan *p)
 
 static const char *const PHASES[4] = {"parse", "build", "render", "write"};
 
+/* What the acceleration structure holds, for --stats and --explain. */
+typedef struct {
+    size_t bytes;
+    int pn_split, pn_pieces; /* accel_pn_split */
+} AccelInfo;
+
+static AccelInfo accel_info(const Accel *acc)
+{
+    AccelInfo ai;
+    ai.bytes = accel_bytes(acc);
+    ai.pn_split = accel_pn_split(acc, &ai.pn_pieces);
+    return ai;
+}
+
 /* The plan, the rays and the phases, for a person (--explain). */
-static void explain(FILE *f, const char *scene, const RenderPlan *p, const double phase[4], const RayStats *st)
+static void explain(FILE *f, const char *scene, const RenderPlan *p, const AccelInfo *ai, const double phase[4],
+                    const RayStats *st)
 {
     PlanNote notes[PLAN_NOTES_SHOWN];
     int n = plan_notes(p, notes, PLAN_NOTES_SHOWN);
@@ -214,6 +229,14 @@ static void explain(FILE *f, const char *scene, const RenderPlan *p, const doubl
         fprintf(f, "  %-8s %s: %s\n", notes[i].skipped ? "skipped" : "done", notes[i].what, notes[i].why);
     if (n > PLAN_NOTES_SHOWN)
         fprintf(f, "  ... and %d more\n", n - PLAN_NOTES_SHOWN);
+    if (ai->bytes < 1000000)
+        fprintf(f, "acceleration: %.1f kB", (double)ai->bytes / 1e3);
+    else
+        fprintf(f, "acceleration: %.1f MB", (double)ai->bytes / 1e6);
+    if (ai->pn_split)
+        fprintf(f, ", with %d PN patch%s split ahead of rays into %d pieces", ai->pn_split,
+                ai->pn_split > 1 ? "es" : "", ai->pn_pieces);
+    fprintf(f, "\n");
     fprintf(f, "rays: %llu camera, %llu shadow, %llu reflection, %llu refraction (%llu in all)\n", st->camera,
             st->shadow, st->reflection, st->refraction, st->camera + st->shadow + st->reflection + st->refraction);
     fprintf(f, "cut: %llu secondary rays below adc_bailout %g\n", st->cut, (double)p->adc_bailout);
@@ -230,7 +253,7 @@ static void explain(FILE *f, const char *scene, const RenderPlan *p, const doubl
 /* Writes the statistics as JSON into the file `file` (a temporary file of
  * the run's set; path names it in messages). */
 static int write_stats(const char *file, const char *path, const char *scene, const RenderPlan *p,
-                       const double phase[4], const RayStats *st)
+                       const AccelInfo *ai, const double phase[4], const RayStats *st)
 {
     FILE *f = fopen(file, "w");
     if (!f) {
@@ -243,6 +266,8 @@ static int write_stats(const char *file, const char *path, const char *scene, co
     write_plan(f, p);
     fprintf(f, ",\n  \"primitives\": %d,\n  \"degenerate_triangles\": %d,\n", p->scene->nprims,
             p->scene->degenerate);
+    fprintf(f, "  \"acceleration\": {\"bytes\": %zu, \"pn_patches_split\": %d, \"pn_pieces\": %d},\n", ai->bytes,
+            ai->pn_split, ai->pn_pieces);
     fprintf(f, "  \"phases_s\": {\"parse\": %.6f, \"build\": %.6f, \"render\": %.6f, \"write\": %.6f},\n",
             phase[0], phase[1], phase[2], phase[3]);
     double total = phase[0] + phase[1] + phase[2] + phase[3];
@@ -330,8 +355,9 @@ typedef struct {
 /* Writes the run's outputs into temporary files and puts them all in place
  * together, or none. Returns 0, -1 after a message, or 1 when a signal came
  * while they were written (they are then discarded). */
-static int write_outputs(const Args *a, const Paths *pp, const char *scene, const RenderPlan *plan, const Image *img,
-                         const ImageAttr *attrs, int nattrs, double phase[4], const RayStats *st)
+static int write_outputs(const Args *a, const Paths *pp, const char *scene, const RenderPlan *plan,
+                         const AccelInfo *ai, const Image *img, const ImageAttr *attrs, int nattrs, double phase[4],
+                         const RayStats *st)
 {
     char err[AFILE_PATH_MAX + 128];
     double t0 = clock_now();
@@ -351,7 +377,7 @@ static int write_outputs(const Args *a, const Paths *pp, const char *scene, cons
         rc = -1;
     }
     phase[3] = clock_now() - t0;
-    if (rc == 0 && stats && write_stats(stats, pp->stats, scene, plan, phase, st) != 0)
+    if (rc == 0 && stats && write_stats(stats, pp->stats, scene, plan, ai, phase, st) != 0)
         rc = -1;
     if (rc == 0 && outputs_stop)
         rc = 1;
@@ -498,6 +524,7 @@ static int render_one(Args *a, const char *scene, const PlanOptions *po, int fra
         goto out;
     }
     phase[1] = clock_now() - t0;
+    AccelInfo ai = accel_info(acc);
     if (!a->quiet && phase[1] > PROGRESS_PHASE)
         fprintf(stderr, "lancer: built the BVH in %.1f s; rendering\n", phase[1]);
 
@@ -509,7 +536,7 @@ static int render_one(Args *a, const char *scene, const PlanOptions *po, int fra
     if (rc < 0)
         fprintf(stderr, "lancer: could not set up the render threads\n");
     else if (rc == 0)
-        rc = write_outputs(a, pp, scene, &plan, &img, attrs, nattrs, phase, &st);
+        rc = write_outputs(a, pp, scene, &plan, &ai, &img, attrs, nattrs, phase, &st);
     if (rc == 1) /* stopped, while rendering or writing */
         rc = outputs_save_partial(attrs, nattrs, pp->exr, pp->partial, &img, done,
                                   prog.tty && prog.shown && prog.last_percent < 100 ? "\n" : "");
@@ -522,7 +549,7 @@ static int render_one(Args *a, const char *scene, const PlanOptions *po, int fra
                     a->png ? " and " : "", a->png ? pp->png : "", w, h, plan.threads, plan.threads > 1 ? "s" : "",
                     phase[2]);
         if (a->explain)
-            explain(stdout, scene, &plan, phase, &st);
+            explain(stdout, scene, &plan, &ai, phase, &st);
     } else
         rc = 1;
 out:
