@@ -101,11 +101,16 @@ echo "cluster: Slurm, frames 20 to 25 at 160x120: array $array (6 jobs), $(secs 
 "$SR" --lancer "$LANCER" --tiles 4 "$W/orbit.scn" "$W/big.exr" -- $B >"$W/ids" 2>"$W/err" || bad "slurm-render: $(cat "$W/err")"
 ids "$W/ids"
 first_array=$array first_merge=$merge
-i=0 # until task 1 has run for 2 s
-while [ $i -lt 240 ] && ! squeue -h -t R -j "${array}_1" -o %M 2>/dev/null | grep -Eq '0:0[2-9]|0:[1-9][0-9]'; do
+# until task 1 runs, then a quarter of a tile's time (a tile is a quarter of
+# the single render on one thread): a tile cut short on a machine of any
+# speed, where a fixed wait let a fast one finish first
+delay=$(awk -v s="$single1" 'BEGIN { t = s / 16; printf "%.2f", t < 0.3 ? 0.3 : t }')
+i=0
+while [ $i -lt 240 ] && [ -z "$(squeue -h -t R -j "${array}_1" 2>/dev/null)" ]; do
     sleep 0.25
     i=$((i + 1))
 done
+sleep "$delay"
 scancel "${array}_1"
 if slurm_wait "$array" 300; then ok; else bad "the array did not end in 300 s"; fi
 state1=$(scontrol -o show job "${array}_1" | sed -n 's/.*JobState=\([A-Z_]*\).*/\1/p')
@@ -129,7 +134,7 @@ if grep -q "resuming from .*tile.0001.partial.exr" "$W/big.tiles/log/tile.1.log"
     bad "tile 1 did not resume: $(cat "$W/big.tiles/log/tile.1.log")"
 fi
 same "$W/big.exr" "$W/big-single.exr" "cancelled and resumed tiles"
-echo "cluster: Slurm, 4 tiles of 1280x960 (spp 8): task ${first_array}_1 cancelled by scancel after 2 s ($saved), merge" \
+echo "cluster: Slurm, 4 tiles of 1280x960 (spp 8): task ${first_array}_1 cancelled by scancel $delay s after it started ($saved), merge" \
     "$first_merge cancelled by Slurm (--kill-on-invalid-dep); resubmitted as $array and $merge: 3 tiles skipped, 1" \
     "resumed, $(secs "$t0" "$(now)") s; merged = single: $(cmp -s "$W/big.exr" "$W/big-single.exr" && echo bit-identical || echo DIFFERENT)"
 
