@@ -153,10 +153,14 @@ has "$T/err" "wrote $T/f.0014.exr"
 
 # resume: stopped by SIGTERM, resumed on another thread count, the same file
 R="--width 2000 --height 1500 --spp 3 --aa-threshold 0.05"
-expect 0 "$LANCER" render "$T/orbit.scn" $R -q -o "$T/ref.exr"
+t0=$(date +%s.%N)
+expect 0 "$LANCER" render "$T/orbit.scn" $R -q --threads 2 -o "$T/ref.exr"
+# stopped a quarter of the way through (of the reference's time): midway on
+# a machine and a build of any speed, where a fixed wait let a fast one finish
+stop=$(awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN { printf "%.3f", (b - a) / 4 }')
 perl -e 'exec @ARGV or die' "$LANCER" render "$T/orbit.scn" $R --threads 2 -o "$T/big.exr" >"$T/out" 2>"$T/err" &
 pid=$!
-sleep 1.5
+sleep "$stop"
 kill -s TERM "$pid"
 wait "$pid"
 rc=$?
@@ -172,7 +176,7 @@ fi
 # a partial image of other settings or another region is refused, and kept
 perl -e 'exec @ARGV or die' "$LANCER" render "$T/orbit.scn" $R --threads 2 -o "$T/big2.exr" >"$T/out" 2>"$T/err" &
 pid=$!
-sleep 1.5
+sleep "$stop"
 kill -s TERM "$pid"
 wait "$pid"
 if [ -e "$T/big2.partial.exr" ]; then
