@@ -65,6 +65,15 @@ static void make_patch(PnPatch *pn, Vec3 a, Vec3 b, Vec3 c, Vec3 na, Vec3 nb, Ve
     pn_patch_init(pn, p, n);
 }
 
+/* A random patch with a corner at c and the others within sc of it on
+ * each axis, its vertex normals random too. */
+static void random_patch(PnPatch *pn, unsigned long long *seed, Vec3 c, float sc)
+{
+    Vec3 b = vec_add(c, vec_scale(test_rvec(seed, -1, 1), sc)), d = vec_add(c, vec_scale(test_rvec(seed, -1, 1), sc));
+    Vec3 na = test_rvec(seed, -1, 1), nb = test_rvec(seed, -1, 1), nc = test_rvec(seed, -1, 1);
+    make_patch(pn, c, b, d, na, nb, nc);
+}
+
 /* The modes' names, and nothing else. */
 static void test_mode_names(void **state)
 {
@@ -636,9 +645,7 @@ static void test_avx_is_the_loop(void **state)
         float sc = k % 3 == 0 ? 1.0f : k % 3 == 1 ? 1e-4f : 1e5f;
         Vec3 c = vec_scale(test_rvec(&seed, -100, 100), sc);
         PnPatch pn;
-        make_patch(&pn, c, vec_add(c, vec_scale(test_rvec(&seed, -1, 1), sc)),
-                   vec_add(c, vec_scale(test_rvec(&seed, -1, 1), sc)), unit(test_rvec(&seed, -1, 1)),
-                   unit(test_rvec(&seed, -1, 1)), unit(test_rvec(&seed, -1, 1)));
+        random_patch(&pn, &seed, c, sc);
         PnNet root, kids[2][4];
         pn_net_root(&pn, &root);
         double box[2][4][2][3];
@@ -977,9 +984,7 @@ static void test_pieces_keep_their_shape(void **state)
         float sc = k % 3 == 0 ? 1.0f : k % 3 == 1 ? 1e-3f : 1e4f;
         Vec3 c = vec_scale(test_rvec(&seed, -10, 10), sc);
         PnPatch pn;
-        make_patch(&pn, c, vec_add(c, vec_scale(test_rvec(&seed, -1, 1), sc)),
-                   vec_add(c, vec_scale(test_rvec(&seed, -1, 1), sc)), unit(test_rvec(&seed, -1, 1)),
-                   unit(test_rvec(&seed, -1, 1)), unit(test_rvec(&seed, -1, 1)));
+        random_patch(&pn, &seed, c, sc);
         PnNet root, kids[4];
         pn_net_root(&pn, &root);
         pn_net_split(&root, kids);
