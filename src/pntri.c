@@ -666,9 +666,9 @@ PN_INLINE void piece_frame(const PnNet *net, const double o[3], const double d[3
     f->nd = f->n[0] * d[0] + f->n[1] * d[1] + f->n[2] * d[2];
 }
 
-/* The bound dev of flat_piece (below): how far the piece's exact surface strays,
- * on any axis, from the triangle T of its corners; m is its box's largest
- * coordinate. */
+/* The bound dev of flat_piece (below): how far the piece's exact surface
+ * strays, on any axis, from the triangle T of its corners; m is its box's
+ * largest coordinate. */
 PN_INLINE double piece_dev(const PnNet *net, const PnFrame *f, double m)
 {
     const double *A = f->A, *e1 = f->e1, *e2 = f->e2;
@@ -804,7 +804,6 @@ typedef struct {
     double tn, tf;       /* the ray's interval in that box */
     int depth;
     int tried; /* a proof's Newton point fell outside an ancestor: none is tried here */
-    int start; /* the start piece itself, whose shape may be kept */
 } PnNode;
 
 typedef struct {
@@ -1140,12 +1139,14 @@ static int trace(const PnPatch *pn, const PnPiece *start, const Ray *ray, PnMode
     int depth0 = start->depth;
     root->depth = depth0;
     root->tried = 0;
-    root->start = 1;
     top++;
     PnPool pool;
     int splits = 0;
+    const PnPiece *kept = start->shaped ? start : NULL; /* the root, popped first, may keep its shape */
     while (top > 0) {
         const PnNode *node = &stack[--top]; /* read before any push overwrites it */
+        const PnPiece *shaped = kept;
+        kept = NULL;
         if (node->tn >= best.t)
             continue;
         const PnNet *net = &node->net;
@@ -1153,14 +1154,12 @@ static int trace(const PnPatch *pn, const PnPiece *start, const Ray *ray, PnMode
         int only;
         PnFrame frame;
         piece_frame(net, r.o, r.d, &frame);
-        const PnPiece *shaped = node->start && start->shaped ? start : NULL;
         { /* culls a piece the ray misses before Newton's steps are spent on it */
-            double t, e, u, v, len[3];
+            double t, e, u, v, own[3];
+            const double *len = shaped ? shaped->len : own;
             double dev = shaped ? shaped->dev : piece_dev(net, &frame, m);
-            if (shaped)
-                memcpy(len, shaped->len, sizeof len);
-            else
-                piece_lengths(&frame, len);
+            if (!shaped)
+                piece_lengths(&frame, own);
             int f = flat_piece(net, &frame, r.d, dd, best.t, m, dev, len, &t, &e, &u, &v, &only);
             if (f == 1) /* (its interval starts before best, its midpoint may not) */
                 best_keep(&best, t, e, u, v);
@@ -1240,7 +1239,6 @@ static int trace(const PnPatch *pn, const PnPiece *start, const Ray *ray, PnMode
             k->tf = tf[c];
             k->depth = depth;
             k->tried = tried;
-            k->start = 0;
         }
     }
     if (!(best.t < r.tmax)) /* none found */
