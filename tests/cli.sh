@@ -95,11 +95,15 @@ mkdir "$T/cwd" && cp "$T/tiny.scn" "$T/cwd/"
 (cd "$T/cwd" && "$LANCER" render tiny.scn --width 8 --height 6 --float -q) >"$T/out" 2>"$T/err"
 if [ -s "$T/cwd/out/tiny.exr" ]; then ok; else bad "no out/tiny.exr: $(cat "$T/err")"; fi
 
-# the thread count does not change a single bit of the image
-expect 0 "$LANCER" render "$ROOT/scenes/default.scn" -o "$T/t1.exr" --width 80 --height 60 --threads 1 -q --float
-expect 0 "$LANCER" render "$ROOT/scenes/default.scn" -o "$T/t2.exr" --width 80 --height 60 --threads 2 -q --float
+# the thread count does not change a single bit of the image, nor of the
+# PNG, which two threads write beside the EXR
+expect 0 "$LANCER" render "$ROOT/scenes/default.scn" -o "$T/t1.exr" --png "$T/t1.png" --width 80 --height 60 \
+    --threads 1 -q --float
+expect 0 "$LANCER" render "$ROOT/scenes/default.scn" -o "$T/t2.exr" --png "$T/t2.png" --width 80 --height 60 \
+    --threads 2 -q --float
 # (the EXR writer stores no timestamp, so equal pixels mean equal bytes)
 if cmp -s "$T/t1.exr" "$T/t2.exr"; then ok; else bad "1 and 2 threads differ"; fi
+if cmp -s "$T/t1.png" "$T/t2.png"; then ok; else bad "1 and 2 threads wrote different PNGs"; fi
 
 # export-pov: to standard output, to a file, and the default out/<name>.pov
 expect 0 "$LANCER" export-pov "$T/tiny.scn" -o -

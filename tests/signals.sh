@@ -167,9 +167,10 @@ if mkdir "$T/disk" && mount -t tmpfs -o size=64k lancer-test "$T/disk" 2>/dev/nu
     rc=$?
     if [ "$rc" -eq 1 ]; then ok; else bad "full disk: exit $rc, wanted 1"; fi
     if grep -q "$MNT/a.exr: cannot write: .*No space left on device" "$T/err"; then ok; else bad "full disk: $(cat "$T/err")"; fi
-    # the EXR fits, the PNG then does not: neither is replaced
+    # the EXR fits, the PNG then does not (one thread writes them in turn):
+    # neither is replaced
     "$LANCER" render "$ROOT/scenes/default.scn" -o "$MNT/a.exr" --png "$MNT/a.png" --width 256 --height 192 -q \
-        2>"$T/err"
+        --threads 1 2>"$T/err"
     rc=$?
     if [ "$rc" -eq 1 ]; then ok; else bad "full disk, PNG: exit $rc, wanted 1"; fi
     if grep -q "$MNT/a.png: cannot write: No space left on device" "$T/err"; then ok; else
@@ -179,6 +180,21 @@ if mkdir "$T/disk" && mount -t tmpfs -o size=64k lancer-test "$T/disk" 2>/dev/nu
         bad "full disk: a mixed set of outputs"
     fi
     if [ "$(ls "$MNT" | tr '\n' ' ')" = "a.exr a.png " ]; then ok; else bad "full disk: left $(ls "$MNT")"; fi
+    # two threads write them side by side: whichever runs out of room says
+    # so, and neither is replaced
+    "$LANCER" render "$ROOT/scenes/default.scn" -o "$MNT/a.exr" --png "$MNT/a.png" --width 256 --height 192 -q \
+        --threads 2 2>"$T/err"
+    rc=$?
+    if [ "$rc" -eq 1 ]; then ok; else bad "full disk, side by side: exit $rc, wanted 1"; fi
+    if grep -Eq "$MNT/a\.(exr|png): cannot write: .*No space left on device" "$T/err"; then ok; else
+        bad "full disk, side by side: $(cat "$T/err")"
+    fi
+    if [ "$(cat "$MNT/a.exr")" = "old exr" ] && [ "$(cat "$MNT/a.png")" = "old png" ]; then ok; else
+        bad "full disk, side by side: a mixed set of outputs"
+    fi
+    if [ "$(ls "$MNT" | tr '\n' ' ')" = "a.exr a.png " ]; then ok; else
+        bad "full disk, side by side: left $(ls "$MNT")"
+    fi
     # the PNG elsewhere, on the full disk: the EXR on a roomy one is not committed
     echo "old exr" >"$T/b.exr"
     dd if=/dev/zero of="$MNT/fill" bs=1k count=52 2>/dev/null

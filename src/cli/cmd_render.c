@@ -3,6 +3,7 @@
  * optional PNG preview and statistics.
  */
 #include <errno.h>
+#include <pthread.h>
 #include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -42,7 +43,8 @@ static const char usage[] =
     "      --aa-threshold T  adaptive anti-aliasing: only pixels that differ from a\n"
     "                        neighbour by more than T get the K x K grid of --spp\n"
     "                        (overrides the scene; 0: every pixel)\n"
-    "      --threads N       render threads (default: every core)\n"
+    "      --threads N       threads for the build, the render and the writing\n"
+    "                        (default: every core)\n"
     "      --float           write 32-bit float channels (default: half)\n"
     "      --classic         use the classic intersection routines instead of the\n"
     "                        robust ones (to compare their cost and error)\n"
@@ -352,6 +354,22 @@ typedef struct {
     char exr[AFILE_PATH_MAX], png[AFILE_PATH_MAX], stats[AFILE_PATH_MAX], partial[AFILE_PATH_MAX];
 } Paths;
 
+/* Writes the PNG preview into its temporary file tmp: on a thread of its
+ * own beside the EXR, or after it. */
+typedef struct {
+    const Image *img;
+    const char *tmp, *name;
+    int rc;
+    char err[AFILE_PATH_MAX + 128];
+} PngJob;
+
+static void *write_png(void *arg)
+{
+    PngJob *j = arg;
+    j->rc = image_write_png_file(j->img, j->tmp, j->name, j->err, sizeof j->err);
+    return NULL;
+}
+
 /* Writes the run's outputs into temporary files and puts them all in place
  * together, or none. Returns 0, -1 after a message, or 1 when a signal came
  * while they were written (they are then discarded). */
@@ -367,13 +385,23 @@ static int write_outputs(const Args *a, const Paths *pp, const char *scene, cons
     int rc = 0;
     if (!exr || (a->png && !png) || (a->stats && !stats))
         rc = -1;
+    /* The EXR and the PNG take about as long to compress: with more than
+     * one thread, side by side (each in its own temporary file, committed
+     * together below, so the outcome is the same). */
+    PngJob pj = {img, png, pp->png, 0, ""};
+    pthread_t tid;
+    int beside = rc == 0 && png && plan->threads > 1 && pthread_create(&tid, NULL, write_png, &pj) == 0;
     if (rc == 0 && image_write_exr_file(img, exr, pp->exr, a->use_float ? IMAGE_FLOAT : IMAGE_HALF, attrs, nattrs,
                                         err, sizeof err) != 0) {
         fprintf(stderr, "lancer: %s\n", err);
         rc = -1;
     }
-    if (rc == 0 && png && image_write_png_file(img, png, pp->png, err, sizeof err) != 0) {
-        fprintf(stderr, "lancer: %s\n", err);
+    if (beside)
+        pthread_join(tid, NULL);
+    else if (rc == 0 && png)
+        write_png(&pj);
+    if (pj.rc != 0) {
+        fprintf(stderr, "lancer: %s\n", pj.err);
         rc = -1;
     }
     phase[3] = clock_now() - t0;
