@@ -11,6 +11,7 @@
 
 #include <errno.h>
 #include <math.h>
+#include <pthread.h>
 #include <setjmp.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -74,18 +75,23 @@ static int image_valid(const Image *img)
 typedef struct {
     char msg[256];
     int set;
+    pthread_mutex_t *lock; /* while several threads encode: NULL, or the lock that guards msg */
 } ImageExrErr;
 
 static void image_exr_note(ImageExrErr *e, const char *msg)
 {
-    if (e->set)
-        return;
-    snprintf(e->msg, sizeof e->msg, "%s", msg);
-    /* The err buffer holds one line. */
-    for (char *p = e->msg; *p != '\0'; p++)
-        if ((unsigned char)*p < 0x20)
-            *p = ' ';
-    e->set = 1;
+    if (e->lock)
+        pthread_mutex_lock(e->lock);
+    if (!e->set) {
+        snprintf(e->msg, sizeof e->msg, "%s", msg);
+        /* The err buffer holds one line. */
+        for (char *p = e->msg; *p != '\0'; p++)
+            if ((unsigned char)*p < 0x20)
+                *p = ' ';
+        e->set = 1;
+    }
+    if (e->lock)
+        pthread_mutex_unlock(e->lock);
 }
 
 /* Replaces OpenEXRCore's default handler, which prints to stderr. The
@@ -130,35 +136,64 @@ static int image_rgb_offset(const char *name)
     }
 }
 
-/* Encodes every scanline chunk. The encoder converts our interleaved floats
- * to the channel type itself (half: round to nearest even, overflow to inf,
- * subnormals kept), so no conversion code lives here. */
-static exr_result_t image_exr_encode(exr_context_t ctx, int part, const Image *img)
-{
-    int32_t lpc = 0;
-    exr_result_t rv = exr_get_scanlines_per_chunk(ctx, part, &lpc);
-    if (rv != EXR_ERR_SUCCESS)
-        return rv;
-    if (lpc < 1)
-        return EXR_ERR_INVALID_ARGUMENT;
+/* Encodes every scanline chunk, on up to `threads` threads. The encoder
+ * converts our interleaved floats to the channel type itself (half: round
+ * to nearest even, overflow to inf, subnormals kept), so no conversion code
+ * lives here. OpenEXRCore lets each thread run an encode pipeline of its
+ * own on one context, and calls the pipeline's yield_until_ready_fn before
+ * writing a chunk: here it waits for the chunks before, which the format
+ * wants in order. So the chunks are compressed side by side, and the file
+ * is the same, byte for byte, for any number of threads. */
+typedef struct {
+    exr_context_t ctx;
+    int part, lpc, nchunks;
+    const Image *img;
+    pthread_mutex_t lock;
+    pthread_cond_t turn; /* written moved, or rv failed */
+    int claimed;         /* chunks handed out */
+    int written;         /* chunks written */
+    exr_result_t rv;     /* the first failure */
+} ExrJob;
 
+/* Waits until the chunks before this one are written. */
+static exr_result_t exr_wait_turn(exr_encode_pipeline_t *enc)
+{
+    ExrJob *j = enc->encoding_user_data;
+    int c = (enc->chunk.start_y - j->img->y) / j->lpc;
+    pthread_mutex_lock(&j->lock);
+    while (j->written < c && j->rv == EXR_ERR_SUCCESS)
+        pthread_cond_wait(&j->turn, &j->lock);
+    exr_result_t rv = j->rv == EXR_ERR_SUCCESS ? EXR_ERR_SUCCESS : EXR_ERR_INCORRECT_CHUNK;
+    pthread_mutex_unlock(&j->lock);
+    return rv;
+}
+
+/* Takes chunks until none is left or one fails. */
+static void *exr_encode_chunks(void *arg)
+{
+    ExrJob *j = arg;
+    const Image *img = j->img;
     exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
     int started = 0;
-    for (int y = 0; y < img->height; y += lpc) {
+    for (;;) {
         exr_chunk_info_t ci;
-        rv = exr_write_scanline_chunk_info(ctx, part, img->y + y, &ci);
-        if (rv != EXR_ERR_SUCCESS)
+        exr_result_t rv = EXR_ERR_SUCCESS;
+        /* the context's bookkeeping one thread at a time */
+        pthread_mutex_lock(&j->lock);
+        int c = j->rv == EXR_ERR_SUCCESS && j->claimed < j->nchunks ? j->claimed++ : -1;
+        if (c >= 0)
+            rv = exr_write_scanline_chunk_info(j->ctx, j->part, img->y + c * j->lpc, &ci);
+        if (c >= 0 && rv == EXR_ERR_SUCCESS)
+            rv = started ? exr_encoding_update(j->ctx, j->part, &ci, &enc)
+                         : exr_encoding_initialize(j->ctx, j->part, &ci, &enc);
+        pthread_mutex_unlock(&j->lock);
+        if (c < 0)
             break;
-        if (started) {
-            rv = exr_encoding_update(ctx, part, &ci, &enc);
-        } else {
-            rv = exr_encoding_initialize(ctx, part, &ci, &enc);
-            started = 1;
-        }
-        if (rv != EXR_ERR_SUCCESS)
-            break;
-        for (int c = 0; c < enc.channel_count && rv == EXR_ERR_SUCCESS; c++) {
-            exr_coding_channel_info_t *ch = &enc.channels[c];
+        int first = !started;
+        started = 1;
+        int y = c * j->lpc;
+        for (int k = 0; k < enc.channel_count && rv == EXR_ERR_SUCCESS; k++) {
+            exr_coding_channel_info_t *ch = &enc.channels[k];
             int off = image_rgb_offset(ch->channel_name);
             if (off < 0) {
                 rv = EXR_ERR_INVALID_ARGUMENT; /* cannot happen: we add only R, G, B */
@@ -171,20 +206,77 @@ static exr_result_t image_exr_encode(exr_context_t ctx, int part, const Image *i
             ch->user_pixel_stride = (int32_t)(3 * sizeof(float));
             ch->user_line_stride = (int32_t)(3 * sizeof(float)) * img->width;
         }
-        if (rv == EXR_ERR_SUCCESS && y == 0)
-            rv = exr_encoding_choose_default_routines(ctx, part, &enc);
+        if (rv == EXR_ERR_SUCCESS && first)
+            rv = exr_encoding_choose_default_routines(j->ctx, j->part, &enc);
+        enc.yield_until_ready_fn = exr_wait_turn;
+        enc.encoding_user_data = j;
         if (rv == EXR_ERR_SUCCESS)
-            rv = exr_encoding_run(ctx, part, &enc);
+            rv = exr_encoding_run(j->ctx, j->part, &enc);
+        pthread_mutex_lock(&j->lock);
+        if (rv == EXR_ERR_SUCCESS)
+            j->written++;
+        else if (j->rv == EXR_ERR_SUCCESS)
+            j->rv = rv;
+        pthread_cond_broadcast(&j->turn);
+        pthread_mutex_unlock(&j->lock);
         if (rv != EXR_ERR_SUCCESS)
             break;
     }
     if (started)
-        exr_encoding_destroy(ctx, &enc);
-    return rv;
+        exr_encoding_destroy(j->ctx, &enc);
+    return NULL;
+}
+
+static exr_result_t image_exr_encode(exr_context_t ctx, int part, const Image *img, int threads, ImageExrErr *e)
+{
+    int32_t lpc = 0;
+    exr_result_t rv = exr_get_scanlines_per_chunk(ctx, part, &lpc);
+    if (rv != EXR_ERR_SUCCESS)
+        return rv;
+    if (lpc < 1)
+        return EXR_ERR_INVALID_ARGUMENT;
+    ExrJob j;
+    memset(&j, 0, sizeof j);
+    j.ctx = ctx;
+    j.part = part;
+    j.lpc = lpc;
+    j.nchunks = (img->height + lpc - 1) / lpc;
+    j.img = img;
+    j.rv = EXR_ERR_SUCCESS;
+    /* no more threads than chunks for each to take a few */
+    int extra = threads - 1 < j.nchunks / 4 ? threads - 1 : j.nchunks / 4, started = 0;
+    pthread_t *tids = extra > 0 ? malloc(sizeof(pthread_t) * (size_t)extra) : NULL;
+    pthread_mutex_t msg_lock; /* the error handler's, never held while OpenEXRCore is called */
+    if (pthread_mutex_init(&j.lock, NULL) != 0) {
+        free(tids);
+        return EXR_ERR_OUT_OF_MEMORY;
+    }
+    if (pthread_cond_init(&j.turn, NULL) != 0) {
+        pthread_mutex_destroy(&j.lock);
+        free(tids);
+        return EXR_ERR_OUT_OF_MEMORY;
+    }
+    if (tids && pthread_mutex_init(&msg_lock, NULL) == 0) {
+        e->lock = &msg_lock;
+        while (started < extra && pthread_create(&tids[started], NULL, exr_encode_chunks, &j) == 0)
+            started++;
+    }
+    exr_encode_chunks(&j); /* the calling thread takes chunks too */
+    for (int i = 0; i < started; i++)
+        pthread_join(tids[i], NULL);
+    if (e->lock)
+        pthread_mutex_destroy(e->lock);
+    e->lock = NULL;
+    free(tids);
+    pthread_cond_destroy(&j.turn);
+    pthread_mutex_destroy(&j.lock);
+    if (j.rv == EXR_ERR_SUCCESS && j.written != j.nchunks)
+        return EXR_ERR_INCORRECT_CHUNK; /* cannot happen: every chunk is taken */
+    return j.rv;
 }
 
 static exr_result_t image_exr_write_file(const Image *img, const char *file, ImagePrecision prec,
-                                         const ImageAttr *attrs, int nattrs, ImageExrErr *e)
+                                         const ImageAttr *attrs, int nattrs, int threads, ImageExrErr *e)
 {
     exr_context_initializer_t init = image_exr_init(e);
     exr_context_t ctx = NULL;
@@ -221,7 +313,7 @@ static exr_result_t image_exr_write_file(const Image *img, const char *file, Ima
     if (rv == EXR_ERR_SUCCESS)
         rv = exr_write_header(ctx);
     if (rv == EXR_ERR_SUCCESS)
-        rv = image_exr_encode(ctx, part, img);
+        rv = image_exr_encode(ctx, part, img, threads, e);
     /* exr_finish writes the chunk offset table and closes the file, so its
      * result decides success too. */
     exr_result_t frv = exr_finish(&ctx);
@@ -243,12 +335,12 @@ static int exr_args_ok(const Image *img, const char *path, ImagePrecision prec, 
 }
 
 int image_write_exr_file(const Image *img, const char *file, const char *name, ImagePrecision prec,
-                         const ImageAttr *attrs, int nattrs, char *err, size_t errlen)
+                         const ImageAttr *attrs, int nattrs, int threads, char *err, size_t errlen)
 {
     if (!exr_args_ok(img, name, prec, err, errlen))
         return -1;
-    ImageExrErr e = {{0}, 0};
-    exr_result_t rv = image_exr_write_file(img, file, prec, attrs, nattrs, &e);
+    ImageExrErr e = {{0}, 0, NULL};
+    exr_result_t rv = image_exr_write_file(img, file, prec, attrs, nattrs, threads, &e);
     if (rv != EXR_ERR_SUCCESS) {
         image_exr_report(err, errlen, name, "cannot write", &e, rv);
         return -1;
@@ -263,8 +355,8 @@ int image_write_exr(const Image *img, const char *path, ImagePrecision prec, cha
     char tmp[AFILE_PATH_MAX];
     if (afile_temp(path, tmp, sizeof tmp, err, errlen) != 0)
         return -1;
-    ImageExrErr e = {{0}, 0};
-    exr_result_t rv = image_exr_write_file(img, tmp, prec, NULL, 0, &e);
+    ImageExrErr e = {{0}, 0, NULL};
+    exr_result_t rv = image_exr_write_file(img, tmp, prec, NULL, 0, 1, &e);
     if (rv != EXR_ERR_SUCCESS) {
         afile_abort(tmp);
         image_exr_report(err, errlen, path, "cannot write", &e, rv);
@@ -580,7 +672,7 @@ int image_parse_exr_meta(const char *name, const void *data, size_t len, Image *
     img->width = 0;
     img->height = 0;
     img->rgb = NULL;
-    ImageExrRead rd = {{{0}, 0}, (const unsigned char *)data, len, NULL, 0};
+    ImageExrRead rd = {{{0}, 0, NULL}, (const unsigned char *)data, len, NULL, 0};
     exr_context_initializer_t init = image_exr_init(&rd.e);
     init.user_data = &rd;
     init.read_fn = image_exr_mem_read;

@@ -341,7 +341,7 @@ static void test_exr_tile_windows(void **state)
     const ImageAttr attrs[] = {{"lancer:a", "one"}, {"other", "not kept"}, {"lancer:b", ""}};
     char tmp[1024];
     snprintf(tmp, sizeof tmp, "%s", path);
-    assert_int_equal(image_write_exr_file(&img, tmp, path, IMAGE_FLOAT, attrs, 3, err, sizeof err), 0);
+    assert_int_equal(image_write_exr_file(&img, tmp, path, IMAGE_FLOAT, attrs, 3, 1, err, sizeof err), 0);
     assert_int_equal(image_read_exr_meta(path, &back, &meta, err, sizeof err), 0);
     assert_true(back.x == 13 && back.y == 7 && back.width == 29 && back.height == 37);
     assert_true(back.full_width == 100 && back.full_height == 80);
@@ -1006,6 +1006,88 @@ static void test_failed_write_keeps_old_file(void **state)
     image_free(&small);
 }
 
+/* Chunks compressed on several threads are written in order: the file is
+ * the same, byte for byte, as one thread's, for any thread count, half or
+ * float, with a data window whose rows start off the 16-row chunks and end
+ * in a short chunk. */
+static void test_exr_threads_same_bytes(void **state)
+{
+    Fixture *f = *state;
+    char err[512] = "";
+    Image img;
+    assert_int_equal(image_init(&img, 61, 203), 0);
+    fill_random_floats(&img, 4242u);
+    for (size_t i = 0; i < (size_t)61 * 203 * 3; i += 7)
+        img.rgb[i] = 0.5f; /* some runs for zlib to find */
+    img.y = 5;
+    img.full_width = 61;
+    img.full_height = 210;
+    const ImageAttr attrs[] = {{"lancer:rows", "0-3"}};
+    for (int half = 0; half < 2; half++) {
+        unsigned char *first = NULL;
+        size_t first_len = 0;
+        static const int counts[] = {1, 2, 3, 8, 64};
+        for (size_t k = 0; k < sizeof counts / sizeof counts[0]; k++) {
+            char path[512];
+            snprintf(path, sizeof path, "%s", join(f, "threads.exr"));
+            assert_int_equal(image_write_exr_file(&img, path, path, half ? IMAGE_HALF : IMAGE_FLOAT, attrs, 1,
+                                                  counts[k], err, sizeof err),
+                             0);
+            size_t len;
+            unsigned char *bytes = slurp(path, &len);
+            if (!first) {
+                first = bytes;
+                first_len = len;
+                continue;
+            }
+            assert_int_equal(len, first_len);
+            assert_memory_equal(bytes, first, len);
+            free(bytes);
+        }
+        Image back;
+        char path[512];
+        snprintf(path, sizeof path, "%s", join(f, "threads.exr"));
+        assert_int_equal(image_read_exr(path, &back, err, sizeof err), 0);
+        assert_int_equal(back.y, 5);
+        assert_int_equal(back.height, 203);
+        if (!half)
+            assert_memory_equal(back.rgb, img.rgb, sizeof(float) * 3 * 61 * 203);
+        image_free(&back);
+        free(first);
+    }
+    image_free(&img);
+}
+
+/* A write on several threads that fails half way (file size limit) stops
+ * every thread and says which file failed: no thread waits for a chunk
+ * that will never be written. */
+static void test_exr_threads_failed_write(void **state)
+{
+    Fixture *f = *state;
+    Image big;
+    assert_int_equal(image_init(&big, 256, 512), 0);
+    fill_random_floats(&big, 7u); /* incompressible */
+    char path[512];
+    snprintf(path, sizeof path, "%s", join(f, "big.exr"));
+    struct rlimit saved, lim;
+    assert_int_equal(getrlimit(RLIMIT_FSIZE, &saved), 0);
+    lim = saved;
+    lim.rlim_cur = 65536;
+    void (*old_handler)(int) = signal(SIGXFSZ, SIG_IGN);
+    quiet_begin(f);
+    assert_int_equal(setrlimit(RLIMIT_FSIZE, &lim), 0);
+    char err[512] = "";
+    int rc = image_write_exr_file(&big, path, "big.exr", IMAGE_FLOAT, NULL, 0, 4, err, sizeof err);
+    int restored = setrlimit(RLIMIT_FSIZE, &saved);
+    signal(SIGXFSZ, old_handler);
+    assert_int_equal(restored, 0);
+    quiet_end(f);
+    assert_int_equal(rc, -1);
+    assert_non_null(strstr(err, "big.exr: cannot write"));
+    assert_null(strchr(err, '\n'));
+    image_free(&big);
+}
+
 /* `test_image --seeds DIR`: small EXRs of every compression that OpenEXR
  * 3.1's C library writes (not DWAA and DWAB), tiled and scanline, with
  * foreign and missing channels of every type, as DIR/exr: the fuzzer's
@@ -1054,6 +1136,8 @@ int main(int argc, char **argv)
         cmocka_unit_test_setup_teardown(test_write_replaces_existing, setup, teardown),
         cmocka_unit_test_setup_teardown(test_write_over_directory, setup, teardown),
         cmocka_unit_test_setup_teardown(test_failed_write_keeps_old_file, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_exr_threads_same_bytes, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_exr_threads_failed_write, setup, teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

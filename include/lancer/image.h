@@ -54,10 +54,11 @@ typedef struct {
 } ImageAttr;
 
 /* image_write_exr into the file `file` itself (a temporary file the caller
- * commits, afile.h), with nattrs string attributes in its header; messages
- * name `name`, the file the user knows. */
+ * commits, afile.h), with nattrs string attributes in its header, its
+ * chunks compressed on up to `threads` threads (the same bytes for any
+ * number); messages name `name`, the file the user knows. */
 int image_write_exr_file(const Image *img, const char *file, const char *name, ImagePrecision prec,
-                         const ImageAttr *attrs, int nattrs, char *err, size_t errlen);
+                         const ImageAttr *attrs, int nattrs, int threads, char *err, size_t errlen);
 
 /* Reads the R, G and B channels of a scanline or tiled EXR into a new image
  * (img must be uninitialised or freed); missing channels read as 0. The

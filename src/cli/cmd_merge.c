@@ -150,7 +150,7 @@ static int run(void *args, const char **pos, int npos)
         attrs[k] = (ImageAttr){first.name[k], first.value[k]};
     const char *exr = outputs_add(a->exr), *png = exr && a->png ? outputs_add(a->png) : NULL;
     if (exr && (!a->png || png) &&
-        image_write_exr_file(&full, exr, a->exr, first.half ? IMAGE_HALF : IMAGE_FLOAT, attrs, first.n, err,
+        image_write_exr_file(&full, exr, a->exr, first.half ? IMAGE_HALF : IMAGE_FLOAT, attrs, first.n, 1, err,
                              sizeof err) == 0 &&
         (!png || image_write_png_file(&full, png, a->png, err, sizeof err) == 0)) {
         rc = outputs_commit() == 0 ? 0 : 1;

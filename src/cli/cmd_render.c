@@ -387,12 +387,13 @@ static int write_outputs(const Args *a, const Paths *pp, const char *scene, cons
         rc = -1;
     /* The EXR and the PNG take about as long to compress: with more than
      * one thread, side by side (each in its own temporary file, committed
-     * together below, so the outcome is the same). */
+     * together below, so the outcome is the same), the EXR's chunks on the
+     * threads the PNG leaves. */
     PngJob pj = {img, png, pp->png, 0, ""};
     pthread_t tid;
     int beside = rc == 0 && png && plan->threads > 1 && pthread_create(&tid, NULL, write_png, &pj) == 0;
     if (rc == 0 && image_write_exr_file(img, exr, pp->exr, a->use_float ? IMAGE_FLOAT : IMAGE_HALF, attrs, nattrs,
-                                        err, sizeof err) != 0) {
+                                        plan->threads - beside, err, sizeof err) != 0) {
         fprintf(stderr, "lancer: %s\n", err);
         rc = -1;
     }

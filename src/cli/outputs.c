@@ -154,7 +154,7 @@ int outputs_save_partial(const ImageAttr *attrs, int nattrs, const char *exr, co
         all[n_all++] = attrs[i];
     all[n_all++] = (ImageAttr){"lancer:rows", rows};
     const char *tmp = outputs_add(partial);
-    int rc = !tmp || image_write_exr_file(img, tmp, partial, IMAGE_FLOAT, all, n_all, err, sizeof err) != 0;
+    int rc = !tmp || image_write_exr_file(img, tmp, partial, IMAGE_FLOAT, all, n_all, 1, err, sizeof err) != 0;
     if (tmp && rc)
         fprintf(stderr, "lancer: %s\n", err);
     if (rc)
