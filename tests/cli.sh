@@ -96,13 +96,16 @@ mkdir "$T/cwd" && cp "$T/tiny.scn" "$T/cwd/"
 if [ -s "$T/cwd/out/tiny.exr" ]; then ok; else bad "no out/tiny.exr: $(cat "$T/err")"; fi
 
 # the thread count does not change a single bit of the image, nor of the
-# PNG, which two threads write beside the EXR
+# files: two threads write the PNG beside the EXR, or the EXR's chunks side
+# by side
 expect 0 "$LANCER" render "$ROOT/scenes/default.scn" -o "$T/t1.exr" --png "$T/t1.png" --width 80 --height 60 \
     --threads 1 -q --float
 expect 0 "$LANCER" render "$ROOT/scenes/default.scn" -o "$T/t2.exr" --png "$T/t2.png" --width 80 --height 60 \
     --threads 2 -q --float
+expect 0 "$LANCER" render "$ROOT/scenes/default.scn" -o "$T/t3.exr" --width 80 --height 60 --threads 2 -q --float
 # (the EXR writer stores no timestamp, so equal pixels mean equal bytes)
 if cmp -s "$T/t1.exr" "$T/t2.exr"; then ok; else bad "1 and 2 threads differ"; fi
+if cmp -s "$T/t1.exr" "$T/t3.exr"; then ok; else bad "the EXR's chunks on 2 threads differ"; fi
 if cmp -s "$T/t1.png" "$T/t2.png"; then ok; else bad "1 and 2 threads wrote different PNGs"; fi
 
 # export-pov: to standard output, to a file, and the default out/<name>.pov
