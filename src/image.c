@@ -728,11 +728,59 @@ unsigned char image_srgb8(float linear)
     return (unsigned char)(v * 255.0 + 0.5);
 }
 
+/* image_srgb8 by its thresholds: at[k] is the least float in (0, 1] that
+ * image_srgb8 takes to k or more (k = 1 .. 255), found by bisection over
+ * the floats' bit patterns, which order the positive floats. image_srgb8
+ * never decreases as its argument grows, so the byte of x is the largest k
+ * with at[k] <= x: the same bytes, without a pow() for each channel of
+ * each pixel. */
+typedef struct {
+    float at[256];
+} Srgb8Table;
+
+static float float_of_bits(uint32_t b)
+{
+    float f;
+    memcpy(&f, &b, sizeof f);
+    return f;
+}
+
+static void srgb8_table(Srgb8Table *t)
+{
+    uint32_t one;
+    const float fone = 1.0f;
+    memcpy(&one, &fone, sizeof one);
+    t->at[0] = 0.0f;
+    for (int k = 1; k < 256; k++) {
+        uint32_t lo = 1, hi = one; /* image_srgb8 of hi is 255 >= k */
+        while (lo < hi) {
+            uint32_t mid = lo + (hi - lo) / 2;
+            if (image_srgb8(float_of_bits(mid)) >= k)
+                hi = mid;
+            else
+                lo = mid + 1;
+        }
+        t->at[k] = float_of_bits(lo);
+    }
+}
+
+static unsigned char srgb8_lookup(const Srgb8Table *t, float x)
+{
+    if (!(x > 0.0f)) /* NaN too */
+        return 0;
+    unsigned k = 0;
+    for (unsigned step = 128; step > 0; step >>= 1)
+        if (x >= t->at[k + step])
+            k += step;
+    return (unsigned char)k;
+}
+
 /* Everything the setjmp-protected code touches lives here, outside the
  * frame that calls setjmp, so longjmp cannot leave stale locals behind. */
 typedef struct {
     const Image *img;
     FILE *fp;
+    Srgb8Table srgb;
     unsigned char *row; /* 3 * width bytes */
     png_structp png;
     png_infop info;
@@ -803,10 +851,11 @@ static int image_png_run(ImagePngJob *job)
     png_set_sRGB_gAMA_and_cHRM(job->png, job->info, PNG_sRGB_INTENT_PERCEPTUAL);
     png_set_compression_level(job->png, IMAGE_ZIP_LEVEL);
     png_write_info(job->png, job->info);
+    srgb8_table(&job->srgb);
     for (int y = 0; y < img->height; y++) {
         const float *src = img->rgb + (size_t)y * (size_t)img->width * 3;
         for (size_t i = 0; i < (size_t)img->width * 3; i++)
-            job->row[i] = image_srgb8(src[i]);
+            job->row[i] = srgb8_lookup(&job->srgb, src[i]);
         png_write_row(job->png, job->row);
     }
     png_write_end(job->png, job->info);

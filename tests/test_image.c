@@ -5,6 +5,7 @@
  */
 #include <stdarg.h>
 #include <stddef.h>
+#include <float.h>
 #include <stdint.h>
 #include <setjmp.h>
 #include <cmocka.h>
@@ -846,6 +847,54 @@ static void test_png_roundtrip(void **state)
     image_free(&img);
 }
 
+/* The PNG writer converts by thresholds, not by image_srgb8 itself: its
+ * bytes must be image_srgb8's at and around every value where the byte
+ * changes (found here by bisection), across [0, 1] by even steps of the
+ * floats' bit patterns, and at the odd values. */
+static void test_png_bytes_are_srgb8(void **state)
+{
+    Fixture *f = *state;
+    char err[512] = "";
+    Image img;
+    assert_int_equal(image_init(&img, 128, 128), 0);
+    size_t n = (size_t)128 * 128 * 3, i = 0;
+    const float one = 1.0f;
+    uint32_t one_bits;
+    memcpy(&one_bits, &one, sizeof one_bits);
+    for (int k = 1; k < 256; k++) {
+        uint32_t lo = 1, hi = one_bits;
+        while (lo < hi) {
+            uint32_t mid = lo + (hi - lo) / 2;
+            float x;
+            memcpy(&x, &mid, sizeof x);
+            if (image_srgb8(x) >= k)
+                hi = mid;
+            else
+                lo = mid + 1;
+        }
+        for (int d = -64; d <= 64; d++) {
+            uint32_t b = lo + (uint32_t)d;
+            memcpy(&img.rgb[i++], &b, sizeof(float));
+        }
+    }
+    const float odd[] = {0.0f, -0.0f, NAN, INFINITY, -INFINITY, 1.0f, 1.5f, -1.0f, 1e-45f, FLT_MIN, 0.0031308f};
+    for (size_t k = 0; k < sizeof odd / sizeof odd[0]; k++)
+        img.rgb[i++] = odd[k];
+    const uint32_t step = one_bits / (uint32_t)(n - i) + 1;
+    for (uint32_t b = 0; i < n; b += step)
+        memcpy(&img.rgb[i++], &b, sizeof(float));
+    const char *path = join(f, "srgb.png");
+    assert_int_equal(image_write_png(&img, path, err, sizeof err), 0);
+    PngData png;
+    assert_int_equal(png_load(path, &png), 0);
+    for (i = 0; i < n; i++)
+        if (png.pixels[i] != image_srgb8(img.rgb[i]))
+            fail_msg("value %zu (%.9g): PNG byte %d, image_srgb8 %d", i, (double)img.rgb[i], png.pixels[i],
+                     image_srgb8(img.rgb[i]));
+    free(png.pixels);
+    image_free(&img);
+}
+
 /* ---- failures ----------------------------------------------------------- */
 
 static void test_write_into_missing_dir(void **state)
@@ -1132,6 +1181,7 @@ int main(int argc, char **argv)
         cmocka_unit_test_setup_teardown(test_exr_read_claims_checked, setup, teardown),
         cmocka_unit_test(test_srgb8),
         cmocka_unit_test_setup_teardown(test_png_roundtrip, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_png_bytes_are_srgb8, setup, teardown),
         cmocka_unit_test_setup_teardown(test_write_into_missing_dir, setup, teardown),
         cmocka_unit_test_setup_teardown(test_write_replaces_existing, setup, teardown),
         cmocka_unit_test_setup_teardown(test_write_over_directory, setup, teardown),
