@@ -167,34 +167,24 @@ if mkdir "$T/disk" && mount -t tmpfs -o size=64k lancer-test "$T/disk" 2>/dev/nu
     rc=$?
     if [ "$rc" -eq 1 ]; then ok; else bad "full disk: exit $rc, wanted 1"; fi
     if grep -q "$MNT/a.exr: cannot write: .*No space left on device" "$T/err"; then ok; else bad "full disk: $(cat "$T/err")"; fi
-    # the EXR fits, the PNG then does not (one thread writes them in turn):
-    # neither is replaced
-    "$LANCER" render "$ROOT/scenes/default.scn" -o "$MNT/a.exr" --png "$MNT/a.png" --width 256 --height 192 -q \
-        --threads 1 2>"$T/err"
-    rc=$?
-    if [ "$rc" -eq 1 ]; then ok; else bad "full disk, PNG: exit $rc, wanted 1"; fi
-    if grep -q "$MNT/a.png: cannot write: No space left on device" "$T/err"; then ok; else
-        bad "full disk, PNG: $(cat "$T/err")"
-    fi
-    if [ "$(cat "$MNT/a.exr")" = "old exr" ] && [ "$(cat "$MNT/a.png")" = "old png" ]; then ok; else
-        bad "full disk: a mixed set of outputs"
-    fi
-    if [ "$(ls "$MNT" | tr '\n' ' ')" = "a.exr a.png " ]; then ok; else bad "full disk: left $(ls "$MNT")"; fi
-    # two threads write them side by side: whichever runs out of room says
-    # so, and neither is replaced
-    "$LANCER" render "$ROOT/scenes/default.scn" -o "$MNT/a.exr" --png "$MNT/a.png" --width 256 --height 192 -q \
-        --threads 2 2>"$T/err"
-    rc=$?
-    if [ "$rc" -eq 1 ]; then ok; else bad "full disk, side by side: exit $rc, wanted 1"; fi
-    if grep -Eq "$MNT/a\.(exr|png): cannot write: .*No space left on device" "$T/err"; then ok; else
-        bad "full disk, side by side: $(cat "$T/err")"
-    fi
-    if [ "$(cat "$MNT/a.exr")" = "old exr" ] && [ "$(cat "$MNT/a.png")" = "old png" ]; then ok; else
-        bad "full disk, side by side: a mixed set of outputs"
-    fi
-    if [ "$(ls "$MNT" | tr '\n' ' ')" = "a.exr a.png " ]; then ok; else
-        bad "full disk, side by side: left $(ls "$MNT")"
-    fi
+    # full_pair LABEL THREADS MESSAGE: the EXR and the PNG on the full disk,
+    # MESSAGE (an extended regular expression) the error wanted; neither is
+    # replaced and nothing is left
+    full_pair() {
+        "$LANCER" render "$ROOT/scenes/default.scn" -o "$MNT/a.exr" --png "$MNT/a.png" --width 256 --height 192 \
+            -q --threads "$2" 2>"$T/err"
+        rc=$?
+        if [ "$rc" -eq 1 ]; then ok; else bad "$1: exit $rc, wanted 1"; fi
+        if grep -Eq "$3" "$T/err"; then ok; else bad "$1: $(cat "$T/err")"; fi
+        if [ "$(cat "$MNT/a.exr")" = "old exr" ] && [ "$(cat "$MNT/a.png")" = "old png" ]; then ok; else
+            bad "$1: a mixed set of outputs"
+        fi
+        if [ "$(ls "$MNT" | tr '\n' ' ')" = "a.exr a.png " ]; then ok; else bad "$1: left $(ls "$MNT")"; fi
+    }
+    # the EXR fits, the PNG then does not (one thread writes them in turn)
+    full_pair "full disk, PNG" 1 "$MNT/a\.png: cannot write: No space left on device"
+    # two threads write them side by side: whichever runs out of room says so
+    full_pair "full disk, side by side" 2 "$MNT/a\.(exr|png): cannot write: .*No space left on device"
     # the PNG elsewhere, on the full disk: the EXR on a roomy one is not committed
     echo "old exr" >"$T/b.exr"
     dd if=/dev/zero of="$MNT/fill" bs=1k count=52 2>/dev/null

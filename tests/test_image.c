@@ -988,6 +988,33 @@ static void test_write_over_directory(void **state)
     image_free(&img);
 }
 
+/* A limit of `bytes` on the size of files written (RLIMIT_FSIZE), with
+ * SIGXFSZ ignored: a write past it fails with EFBIG, even as root. Nothing
+ * may print while the limit is on (stdout may be a big file), so the
+ * fixture's output is quiet until fsize_limit_off. */
+typedef struct {
+    struct rlimit saved;
+    void (*handler)(int);
+} FsizeLimit;
+
+static void fsize_limit_on(Fixture *f, rlim_t bytes, FsizeLimit *l)
+{
+    assert_int_equal(getrlimit(RLIMIT_FSIZE, &l->saved), 0);
+    struct rlimit lim = l->saved;
+    lim.rlim_cur = bytes;
+    l->handler = signal(SIGXFSZ, SIG_IGN);
+    quiet_begin(f);
+    assert_int_equal(setrlimit(RLIMIT_FSIZE, &lim), 0);
+}
+
+static void fsize_limit_off(Fixture *f, FsizeLimit *l)
+{
+    int restored = setrlimit(RLIMIT_FSIZE, &l->saved);
+    signal(SIGXFSZ, l->handler);
+    assert_int_equal(restored, 0);
+    quiet_end(f);
+}
+
 /* A write that fails half way (file size limit: EFBIG, which works even as
  * root) must leave the old file byte for byte and no temporary behind. */
 static void test_failed_write_keeps_old_file(void **state)
@@ -1009,21 +1036,12 @@ static void test_failed_write_keeps_old_file(void **state)
     unsigned char *exr_old = slurp(exr, &exr_len);
     unsigned char *png_old = slurp(png, &png_len);
 
-    struct rlimit saved, lim;
-    assert_int_equal(getrlimit(RLIMIT_FSIZE, &saved), 0);
-    lim = saved;
-    lim.rlim_cur = 4096;
-    void (*old_handler)(int) = signal(SIGXFSZ, SIG_IGN);
-    quiet_begin(f);
-    /* Nothing may print while the limit is on: stdout may be a big file. */
-    assert_int_equal(setrlimit(RLIMIT_FSIZE, &lim), 0);
+    FsizeLimit lim;
+    fsize_limit_on(f, 4096, &lim);
     char exr_err[512] = "", png_err[512] = "";
     int exr_rc = image_write_exr(&big, exr, IMAGE_FLOAT, exr_err, sizeof exr_err);
     int png_rc = image_write_png(&big, png, png_err, sizeof png_err);
-    int restored = setrlimit(RLIMIT_FSIZE, &saved);
-    signal(SIGXFSZ, old_handler);
-    assert_int_equal(restored, 0);
-    quiet_end(f);
+    fsize_limit_off(f, &lim);
 
     assert_int_equal(exr_rc, -1);
     assert_non_null(strstr(exr_err, exr));
@@ -1118,19 +1136,11 @@ static void test_exr_threads_failed_write(void **state)
     fill_random_floats(&big, 7u); /* incompressible */
     char path[512];
     snprintf(path, sizeof path, "%s", join(f, "big.exr"));
-    struct rlimit saved, lim;
-    assert_int_equal(getrlimit(RLIMIT_FSIZE, &saved), 0);
-    lim = saved;
-    lim.rlim_cur = 65536;
-    void (*old_handler)(int) = signal(SIGXFSZ, SIG_IGN);
-    quiet_begin(f);
-    assert_int_equal(setrlimit(RLIMIT_FSIZE, &lim), 0);
+    FsizeLimit lim;
+    fsize_limit_on(f, 65536, &lim);
     char err[512] = "";
     int rc = image_write_exr_file(&big, path, "big.exr", IMAGE_FLOAT, NULL, 0, 4, err, sizeof err);
-    int restored = setrlimit(RLIMIT_FSIZE, &saved);
-    signal(SIGXFSZ, old_handler);
-    assert_int_equal(restored, 0);
-    quiet_end(f);
+    fsize_limit_off(f, &lim);
     assert_int_equal(rc, -1);
     assert_non_null(strstr(err, "big.exr: cannot write"));
     assert_null(strchr(err, '\n'));
