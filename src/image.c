@@ -747,9 +747,7 @@ static float float_of_bits(uint32_t b)
 
 static void srgb8_table(Srgb8Table *t)
 {
-    uint32_t one;
-    const float fone = 1.0f;
-    memcpy(&one, &fone, sizeof one);
+    const uint32_t one = 0x3f800000u; /* 1.0f's bits */
     t->at[0] = 0.0f;
     for (int k = 1; k < 256; k++) {
         uint32_t lo = 1, hi = one; /* image_srgb8 of hi is 255 >= k */
