@@ -252,6 +252,10 @@ int accel_closest(const Accel *a, const Ray *r, PrimHit *h, RayStats *st)
 
 void accel_closest_packet(const Accel *a, const Ray *r, int n, PrimHit *h, int *best, RayStats *st)
 {
+    if (n == 1) { /* a packet's set-up costs more than one ray saves */
+        best[0] = accel_closest(a, r, h, st);
+        return;
+    }
     bvh_closest_packet(&a->bvh, r, n, h, best, &st->isect_tests);
     for (int k = 0; k < n; k++) {
         best[k] = closest_unbounded(a, &r[k], best[k], &h[k], st);
@@ -291,6 +295,8 @@ unsigned accel_occluded_packet(const Accel *a, const Ray *r, int n, RayStats *st
     if (n > BVH_PACKET) /* at most BVH_PACKET at a time */
         return accel_occluded_packet(a, r, BVH_PACKET, st) |
                accel_occluded_packet(a, r + BVH_PACKET, n - BVH_PACKET, st) << BVH_PACKET;
+    if (n == 1) /* as accel_closest_packet */
+        return (unsigned)accel_occluded(a, r, st);
     /* the planes first, ray by ray, as accel_occluded; the rest together */
     unsigned hit = 0;
     for (int k = 0; k < n; k++)

@@ -54,16 +54,28 @@ static float toward(Vec3 p, Vec3 q, Vec3 *dir)
  * d): 1 when nothing is in between, 0 behind an opaque object, and, when
  * shadows are filtered, the product of pass_factor over every transparent
  * surface crossed (refraction is ignored, as in POV-Ray). */
+static Vec3 crossings(const Ctx *c, Ray r, int i, const PrimHit *first, Vec3 q);
+
 static Vec3 transmittance(const Ctx *c, PlanShadow mode, Vec3 o, Vec3 q, Vec3 d, float dist)
 {
     Ray r = ray_make(o, d, dist);
     c->st->shadow++;
     if (mode == PLAN_SHADOW_OPAQUE) /* any hit will do */
         return accel_occluded(c->a, &r, c->st) ? vec3(0, 0, 0) : vec3(1, 1, 1);
+    PrimHit h;
+    int i = accel_closest(c->a, &r, &h, c->st);
+    return crossings(c, r, i, &h, q);
+}
+
+/* transmittance() of filtered shadows once the shadow ray r towards q has
+ * found its first surface, i (*first), or none (i < 0). */
+static Vec3 crossings(const Ctx *c, Ray r, int i, const PrimHit *first, Vec3 q)
+{
     Vec3 f = vec3(1, 1, 1);
+    PrimHit h = i < 0 ? (PrimHit){0} : *first;
     for (int n = 0; n < LIMIT_SHADOW_CROSSINGS; n++) {
-        PrimHit h;
-        int i = accel_closest(c->a, &r, &h, c->st);
+        if (n > 0)
+            i = accel_closest(c->a, &r, &h, c->st);
         if (i < 0)
             return f;
         const Material *m = material_of(c, i);
@@ -72,7 +84,7 @@ static Vec3 transmittance(const Ctx *c, PlanShadow mode, Vec3 o, Vec3 q, Vec3 d,
         f = vec_mul(f, pass_factor(m));
         Surface sf;
         prim_surface(&c->s->prims[i], &r, &h, c->p->variant, &sf);
-        r.o = prim_spawn_origin(&sf, d);
+        r.o = prim_spawn_origin(&sf, r.d);
         r.tmax = vec_length(vec_sub(q, r.o));
         c->st->shadow++;
     }
@@ -395,7 +407,10 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
     for (int i = 0; i < s->nlights; i++) {
         const Light *l = &s->lights[i];
         const PlanShadow mode = c->p->shadow[i];
-        const int together = mode == PLAN_SHADOW_OPAQUE && l->area_n1 * l->area_n2 == 1;
+        /* A point light's shadow rays go through the BVH together: any-hit
+         * queries, or, when shadows are filtered, their first surfaces'
+         * closest hits, each followed on alone (transmittance()). */
+        const int together = (mode == PLAN_SHADOW_OPAQUE || mode == PLAN_SHADOW_FILTERED) && l->area_n1 * l->area_n2 == 1;
         Vec3 term[ACCEL_PACKET], lc[ACCEL_PACKET];
         Ray sr[ACCEL_PACKET];
         int lit[ACCEL_PACKET], who[ACCEL_PACKET], ns = 0;
@@ -411,6 +426,14 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
                 who[ns++] = k;
             } else
                 lc[k] = vec_mul(lc[k], light_visibility(c, i, &sf[k], L, dist, lc[k]));
+        }
+        if (mode == PLAN_SHADOW_FILTERED && ns) {
+            int first[ACCEL_PACKET];
+            PrimHit fh[ACCEL_PACKET];
+            accel_closest_packet(c->a, sr, ns, fh, first, c->st);
+            for (int j = 0; j < ns; j++)
+                lc[who[j]] = vec_mul(lc[who[j]], crossings(c, sr[j], first[j], &fh[j], l->pos));
+            ns = 0;
         }
         unsigned dark = ns ? accel_occluded_packet(c->a, sr, ns, c->st) : 0;
         for (int j = 0; j < ns; j++)

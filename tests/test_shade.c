@@ -451,6 +451,61 @@ static void test_traced_is_trace(void **state)
     scene_free(&s);
 }
 
+/* Filtered shadows in a packet: the shadow rays' first surfaces found
+ * together (accel_closest_packet), each then followed on alone, give what
+ * one ray at a time gives, bit for bit, for rays whose shadow rays cross a
+ * glass sphere twice, meet an opaque one, or reach the light; and a packet
+ * of one. */
+static void test_filtered_shadows_in_packets(void **state)
+{
+    (void)state;
+    Scene s;
+    load(&s, "material g { color 0.8 0.5 0.25 ambient 0 diffuse 0 filter 0.5 transmit 0.25 ior 1.5 }\n"
+             "light { position -20 10 -20 }\n"
+             "sphere { center -10 5 -10 radius 1 material g }\n"
+             "sphere { center -7.5 5 -7.5 radius 0.5 material m }\n");
+    RenderPlan p;
+    Accel *a = plan_world(&p, &s);
+    assert_int_equal(p.shadow[0], PLAN_SHADOW_FILTERED);
+    /* floor points (x, 0, z), every z > 0, so that the camera rays, and
+     * their shadow rays, have one sign per axis: one packet each. The
+     * first four lie in the glass sphere's shadow, the next two in the
+     * opaque one's, the last in the light. */
+    const float at[][2] = {{0, 0.1f}, {0.5f, 0.2f}, {1, 0.3f}, {-1, 0.4f}, {5, 5}, {4.9f, 5.1f}, {5, 1}};
+    const int n = (int)(sizeof at / sizeof at[0]);
+    Ray r[ACCEL_PACKET];
+    for (int k = 0; k < n; k++)
+        r[k] = ray_make(EYE, vec_normalize(vec_sub(vec3(at[k][0], 0, at[k][1]), EYE)), INFINITY);
+    for (int m = 1; m <= n; m += n - 1) {
+        PrimHit h[ACCEL_PACKET];
+        int best[ACCEL_PACKET];
+        RayStats st = {0, 0, 0, 0, 0, 0, 0}, st1 = st;
+        accel_closest_packet(a, r, m, h, best, &st);
+        Vec3 all[ACCEL_PACKET];
+        shade_traced_packet(&p, a, r, m, best, h, &st, all);
+        for (int k = 0; k < m; k++) {
+            Vec3 want = shade_trace(&p, a, &r[k], &st1);
+            assert_memory_equal(&all[k], &want, sizeof want);
+        }
+        assert_true(st.shadow == st1.shadow);
+        if (m == n) {
+            /* each glass shadow ray crossed in and out: 7 + 4 x 2 rays */
+            assert_int_equal(st.shadow, 15);
+            /* red: ambient 0.05, and diffuse 0.3 N.L times F = 0.65 for
+             * each crossing, F^2 in the glass's shadow; 0 in the opaque
+             * sphere's */
+            for (int k = 0; k < n; k++) {
+                float nl = 10.0f / vec_length(vec_sub(vec3(-20, 10, -20), vec3(at[k][0], 0, at[k][1])));
+                float f = k < 4 ? 0.65f * 0.65f : k < 6 ? 0.0f : 1.0f;
+                assert_float_equal(all[k].x, 0.05f + 0.3f * nl * f, 1e-5);
+            }
+        }
+    }
+    accel_free(a);
+    plan_free(&p);
+    scene_free(&s);
+}
+
 /* POV-Ray's adaptive area light, against povray 3.7.0.10's own renders
  * (docs/povray-rules.md, section 10): a 5 x 5 light straight above a white
  * floor point, its two columns of samples at x = 1 and 2 behind a slab.
@@ -500,7 +555,8 @@ int main(void)
         cmocka_unit_test(test_transparent_surface),
         cmocka_unit_test(test_shadow_through_glass), cmocka_unit_test(test_refraction_through_slab),
         cmocka_unit_test(test_total_internal_reflection), cmocka_unit_test(test_no_self_shadowing_on_spheres),
-        cmocka_unit_test(test_traced_is_trace), cmocka_unit_test(test_adaptive_area_light),
+        cmocka_unit_test(test_traced_is_trace), cmocka_unit_test(test_filtered_shadows_in_packets),
+        cmocka_unit_test(test_adaptive_area_light),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
