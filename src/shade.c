@@ -241,7 +241,7 @@ static inline int light_term(const Material *m, const Surface *sf, const Ray *r,
 
 static Vec3 trace(const Ctx *c, const Ray *r, int level, int continued, const Interiors *in, float wt);
 static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, const PrimHit *h, int level,
-                         const Interiors *in, const float *wt, Vec3 *out);
+                         const Interiors *const *in, const float *wt, Vec3 *out);
 
 /* POV-Ray's adc_bailout (trace.cpp, Trace::TraceRay): a ray carries the
  * product of the coefficients on its path, its weight, and one whose
@@ -261,16 +261,20 @@ static int worth(const Ctx *c, float wt)
 /* The largest of a colour's channels: POV-Ray's weight of a filter. */
 static float max3(Vec3 v) { return float_max(v.x, float_max(v.y, v.z)); }
 
+/* What refraction() made of a hit. */
+enum { REFRACT_NONE, REFRACT_TIR, REFRACT_ON, REFRACT_RAY };
+
 /* The ray refracted into or out of primitive `prim` (POV-Ray's trace.cpp
  * ComputeRefraction: the ratio of indices comes from the ray's list of
- * interiors, so nested and overlapping solids refract as POV-Ray's do).
- * Adds its contribution, filtered by f (pass_factor), to *col; returns 1 on
- * total internal reflection, adding nothing: the caller's mirror ray then
- * carries it all. */
-static int refract(const Ctx *c, int prim, const Material *m, Vec3 f, const Surface *sf, const Ray *r, int level,
-                   const Interiors *in, float wt, Vec3 *col)
+ * interiors, so nested and overlapping solids refract as POV-Ray's do),
+ * of weight wt: REFRACT_RAY for a ray one level deeper, *t, inside *out;
+ * REFRACT_ON for one straight through (no bend), which stays at the level;
+ * REFRACT_TIR on total internal reflection (the caller's mirror ray then
+ * carries it all); REFRACT_NONE when its weight is below the bailout. */
+static int refraction(const Ctx *c, int prim, const Material *m, const Surface *sf, const Ray *r,
+                      const Interiors *in, float wt, Ray *t, Interiors *out)
 {
-    Interiors out = *in;
+    *out = *in;
     float eta; /* incident index over transmitted index */
     int k = -1;
     for (int i = 0; i < in->n; i++)
@@ -278,39 +282,37 @@ static int refract(const Ctx *c, int prim, const Material *m, Vec3 f, const Surf
             k = i;
     if (in->n == 0) {
         eta = 1.0f / m->ior;
-        out.prim[out.n++] = prim;
+        out->prim[out->n++] = prim;
     } else if (k == in->n - 1) { /* leaving the innermost solid */
-        out.n--;
-        eta = m->ior / (out.n ? material_of(c, out.prim[out.n - 1])->ior : 1.0f);
+        out->n--;
+        eta = m->ior / (out->n ? material_of(c, out->prim[out->n - 1])->ior : 1.0f);
     } else if (k >= 0) { /* leaving a solid it overlaps: no bend */
-        memmove(&out.prim[k], &out.prim[k + 1], sizeof(int) * (size_t)(out.n - k - 1));
-        out.n--;
+        memmove(&out->prim[k], &out->prim[k + 1], sizeof(int) * (size_t)(out->n - k - 1));
+        out->n--;
         eta = 1.0f;
     } else { /* entering a solid nested in the current one */
         eta = material_of(c, in->prim[in->n - 1])->ior / m->ior;
-        if (out.n < LIMIT_INTERIORS)
-            out.prim[out.n++] = prim;
+        if (out->n < LIMIT_INTERIORS)
+            out->prim[out->n++] = prim;
     }
     if (fabsf(eta - 1.0f) < 1e-10f) { /* straight through, at the same level */
         if (!worth(c, wt))
-            return 0;
-        Ray t = ray_make(prim_spawn_origin(sf, r->d), r->d, INFINITY);
+            return REFRACT_NONE;
+        *t = ray_make(prim_spawn_origin(sf, r->d), r->d, INFINITY);
         c->st->refraction++;
-        *col = vec_add(*col, vec_mul(f, trace(c, &t, level, 1, &out, wt)));
-        return 0;
+        return REFRACT_ON;
     }
     float cosi = -vec_dot(r->d, sf->ns);
     float disc = 1.0f + eta * eta * (cosi * cosi - 1.0f);
     if (disc < 0.0f)
-        return 1;
+        return REFRACT_TIR;
     if (!worth(c, wt))
-        return 0;
+        return REFRACT_NONE;
     /* Heckbert's refraction formula, with N facing the incoming ray. */
     Vec3 d = vec_normalize(vec_madd(vec_scale(r->d, eta), sf->ns, eta * cosi - sqrtf(disc)));
-    Ray t = ray_make(prim_spawn_origin(sf, d), d, INFINITY);
+    *t = ray_make(prim_spawn_origin(sf, d), d, INFINITY);
     c->st->refraction++;
-    *col = vec_add(*col, vec_mul(f, trace(c, &t, level, 0, &out, wt)));
-    return 0;
+    return REFRACT_RAY;
 }
 
 /* `level` is the parent's level (0 for a camera ray); a continued ray stays
@@ -324,7 +326,7 @@ static Vec3 trace(const Ctx *c, const Ray *r, int level, int continued, const In
     PrimHit h;
     int i = accel_closest(c->a, r, &h, c->st);
     Vec3 col;
-    shade_packet(c, r, 1, &i, &h, level, in, &wt, &col);
+    shade_packet(c, r, 1, &i, &h, level, &in, &wt, &col);
     return col;
 }
 
@@ -344,31 +346,6 @@ static Ray mirror_ray(const Ctx *c, const Ray *r, const Surface *sf)
     return ray_make(prim_spawn_origin(sf, d), d, INFINITY);
 }
 
-/* The secondary rays of a hit whose direct light col is known, one ray on
- * its own (shade_packet's, for a ray that refracts). */
-static Vec3 shade_rest(const Ctx *c, const Ray *r, int i, const Material *m, const Surface *sf, Vec3 col, int level,
-                       const Interiors *in, float wt)
-{
-    /* Any child ray of a hit at the last level returns black: skip them. */
-    if (level >= c->p->max_depth)
-        return col;
-    int tir = 0;
-    Vec3 f = pass_factor(m);
-    float wf = wt * max3(f); /* a transmitted ray's weight */
-    if (refracts(c, f))
-        tir = refract(c, i, m, f, sf, r, level, in, wf, &col);
-    else if (c->p->full) /* --no-plan: traced all the same, and weighed 0 */
-        refract(c, i, m, vec3(0, 0, 0), sf, r, level, in, 0.0f, &col);
-    /* total internal reflection: the mirror ray, its colour unfiltered
-     * but its weight the transmitted ray's, as in POV-Ray */
-    float w = tir ? 1.0f : m->reflection;
-    if (worth(c, tir ? wf : wt * m->reflection)) {
-        Ray rr = mirror_ray(c, r, sf);
-        col = vec_madd(col, trace(c, &rr, level, 0, in, tir ? wf : wt * m->reflection), w);
-    }
-    return col;
-}
-
 Vec3 shade_trace(const RenderPlan *p, const Accel *a, const Ray *r, RayStats *st)
 {
     Ctx c = {p, p->scene, a, st};
@@ -382,21 +359,23 @@ Vec3 shade_traced(const RenderPlan *p, const Accel *a, const Ray *r, int i, cons
     return col;
 }
 
-/* The colours of the n rays r (n <= ACCEL_PACKET) at `level`, whose closest
- * hits are best[k] (h[k]), or the background where best[k] < 0, into
- * out[k]: ambient and the lights, light by light over all of them, so that
- * the shadow rays towards a point light of an opaque scene go to
- * accel_occluded_packet together; then the secondary rays, the mirror rays
- * together, their hits shaded the same way one level deeper. Each colour is
- * the same whatever the rays it is shaded with. */
+/* The colours of the n rays r (n <= ACCEL_PACKET) at `level`, inside the
+ * solids in[k] and of weights wt[k], whose closest hits are best[k] (h[k]),
+ * or the background where best[k] < 0, into out[k]: ambient and the
+ * lights, light by light over all of them, so that the shadow rays towards
+ * a point light go through the BVH together; then the secondary rays, the
+ * refracted rays together and the mirror rays together, their hits shaded
+ * the same way one level deeper. Each colour is the same whatever the rays
+ * it is shaded with. */
 static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, const PrimHit *h, int level,
-                         const Interiors *in, const float *wt, Vec3 *out)
+                         const Interiors *const *in, const float *wt, Vec3 *out)
 {
     const Scene *s = c->s;
     const Material *m[ACCEL_PACKET];
     Surface sf[ACCEL_PACKET];
     for (int k = 0; k < n; k++) {
         if (best[k] < 0) {
+            m[k] = NULL;
             out[k] = s->background;
             continue;
         }
@@ -445,37 +424,73 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
     }
     if (level >= c->p->max_depth) /* any child ray of a hit at the last level returns black */
         return;
-    /* shade_rest() for a ray that refracts; the others' mirror rays,
-     * traced as trace() would, are shaded together one level deeper */
-    Ray rr[ACCEL_PACKET];
-    float w2[ACCEL_PACKET];
-    int who[ACCEL_PACKET], nr = 0;
+    /* The secondary rays, traced as trace() would: the refracted rays
+     * together, then the mirror rays together, their hits shaded the same
+     * way one level deeper; each hit adds its refracted ray's colour, then
+     * its mirror ray's. */
+    Ray tr[ACCEL_PACKET], rr[ACCEL_PACKET];
+    Interiors tin[ACCEL_PACKET];
+    const Interiors *tinp[ACCEL_PACKET], *rin[ACCEL_PACKET];
+    Vec3 tf[ACCEL_PACKET];
+    float tw[ACCEL_PACKET], rw[ACCEL_PACKET], rmul[ACCEL_PACKET]; /* rmul: by hit, the others by ray */
+    int twho[ACCEL_PACKET], rwho[ACCEL_PACKET], nt = 0, nr = 0;
     for (int k = 0; k < n; k++) {
         if (best[k] < 0)
             continue;
-        if (refracts(c, pass_factor(m[k])) || c->p->full)
-            out[k] = shade_rest(c, &r[k], best[k], m[k], &sf[k], out[k], level, in, wt[k]);
-        else if (worth(c, wt[k] * m[k]->reflection)) {
-            w2[nr] = wt[k] * m[k]->reflection;
+        int tir = 0;
+        Vec3 f = pass_factor(m[k]);
+        float wf = wt[k] * max3(f); /* a transmitted ray's weight */
+        const int through = refracts(c, f);
+        if (through || c->p->full) {
+            if (!through) /* --no-plan: traced all the same, and weighed 0 */
+                f = vec3(0, 0, 0);
+            float w = through ? wf : 0.0f;
+            int got = refraction(c, best[k], m[k], &sf[k], &r[k], in[k], w, &tr[nt], &tin[nt]);
+            if (got == REFRACT_ON)
+                out[k] = vec_add(out[k], vec_mul(f, trace(c, &tr[nt], level, 1, &tin[nt], w)));
+            else if (got == REFRACT_RAY) {
+                tf[nt] = f;
+                tw[nt] = w;
+                tinp[nt] = &tin[nt];
+                twho[nt++] = k;
+            }
+            tir = through && got == REFRACT_TIR;
+        }
+        /* total internal reflection: the mirror ray, its colour unfiltered
+         * but its weight the transmitted ray's, as in POV-Ray */
+        float w = tir ? wf : wt[k] * m[k]->reflection;
+        rmul[k] = tir ? 1.0f : m[k]->reflection;
+        if (worth(c, w)) {
+            rw[nr] = w;
             rr[nr] = mirror_ray(c, &r[k], &sf[k]);
-            who[nr++] = k;
+            rin[nr] = in[k];
+            rwho[nr++] = k;
         }
     }
-    if (nr == 0)
-        return;
     int best2[ACCEL_PACKET];
     PrimHit h2[ACCEL_PACKET];
     Vec3 got[ACCEL_PACKET];
-    accel_closest_packet(c->a, rr, nr, h2, best2, c->st);
-    shade_packet(c, rr, nr, best2, h2, level + 1, in, w2, got);
-    for (int j = 0; j < nr; j++)
-        out[who[j]] = vec_madd(out[who[j]], got[j], m[who[j]]->reflection);
+    if (nt) {
+        accel_closest_packet(c->a, tr, nt, h2, best2, c->st);
+        shade_packet(c, tr, nt, best2, h2, level + 1, tinp, tw, got);
+        for (int j = 0; j < nt; j++)
+            out[twho[j]] = vec_add(out[twho[j]], vec_mul(tf[j], got[j]));
+    }
+    if (nr) {
+        accel_closest_packet(c->a, rr, nr, h2, best2, c->st);
+        shade_packet(c, rr, nr, best2, h2, level + 1, rin, rw, got);
+        for (int j = 0; j < nr; j++)
+            out[rwho[j]] = vec_madd(out[rwho[j]], got[j], rmul[rwho[j]]);
+    }
 }
 
 void shade_traced_packet(const RenderPlan *p, const Accel *a, const Ray *r, int n, const int *best, const PrimHit *h,
                          RayStats *st, Vec3 *out)
 {
     static const float ONES[ACCEL_PACKET] = {1, 1, 1, 1, 1, 1, 1, 1}; /* camera rays weigh 1 */
+    const Interiors *in[ACCEL_PACKET]; /* camera rays start in the same solids */
+    for (int k = 0; k < ACCEL_PACKET; k++)
+        in[k] = &p->camera_in;
     Ctx c = {p, p->scene, a, st};
     for (int k = 0; k < n; k += ACCEL_PACKET) {
         int m = n - k < ACCEL_PACKET ? n - k : ACCEL_PACKET;
@@ -483,6 +498,6 @@ void shade_traced_packet(const RenderPlan *p, const Accel *a, const Ray *r, int 
             for (int j = 0; j < m; j++)
                 out[k + j] = vec3(0, 0, 0);
         else
-            shade_packet(&c, r + k, m, best + k, h + k, 1, &p->camera_in, ONES, out + k);
+            shade_packet(&c, r + k, m, best + k, h + k, 1, in, ONES, out + k);
     }
 }

@@ -506,6 +506,103 @@ static void test_filtered_shadows_in_packets(void **state)
     scene_free(&s);
 }
 
+/* Refracted rays in packets: rays into two overlapping glass spheres of
+ * one index (a ray from one into the other goes straight on, at its
+ * level) with a third of another index inside one of them (nested
+ * interiors, total internal reflection), shaded sixteen at a time
+ * (shade_traced_packet), give what each gives alone (shade_trace), bit
+ * for bit, with the same rays counted; at depths 2 and 6, and with
+ * --no-plan's rays of weight 0. */
+static void test_refraction_in_packets(void **state)
+{
+    (void)state;
+    Scene s;
+    load(&s, "material g { color 0.9 0.95 1 ambient 0 diffuse 0.05 phong 0.6 reflection 0.2 transmit 0.7 ior 1.5 }\n"
+             "material w { color 0.8 0.9 1 ambient 0 diffuse 0.1 reflection 0.1 filter 0.6 ior 1.33 }\n"
+             "light { position -2 6 -1 }\n"
+             "sphere { center 0 1 0.6 radius 1 material g }\n"
+             "sphere { center 0.6 1 1.2 radius 0.8 material g }\n"
+             "sphere { center -0.2 1 0.5 radius 0.3 material w }\n");
+    enum { N = 16 };
+    Ray r[N];
+    for (int k = 0; k < N; k++) /* x > 0, y < 0, z > 0 for all: one packet each */
+        r[k] = ray_make(EYE, vec_normalize(vec_sub(vec3(-0.6f + 0.3f * (float)(k % 8), 0.6f + 0.5f * (float)(k / 8), 0.2f + 0.1f * (float)(k % 8)), EYE)), INFINITY);
+    for (int full = 0; full <= 1; full++)
+        for (int depth = 2; depth <= 6; depth += 4) {
+            s.image.max_depth = depth;
+            PlanOptions o = plan_options();
+            o.world = 1;
+            o.full = full;
+            RenderPlan p;
+            char err[256];
+            assert_int_equal(plan_build(&p, &s, &o, err, sizeof err), 0);
+            Accel *a = accel_build(&s, p.variant, 1);
+            assert_non_null(a);
+            PrimHit h[N];
+            int best[N];
+            RayStats st = {0, 0, 0, 0, 0, 0, 0}, st1 = st;
+            accel_closest_packet(a, r, 8, h, best, &st);
+            accel_closest_packet(a, r + 8, 8, h + 8, best + 8, &st);
+            Vec3 all[N];
+            shade_traced_packet(&p, a, r, N, best, h, &st, all);
+            for (int k = 0; k < N; k++) {
+                Vec3 want = shade_trace(&p, a, &r[k], &st1);
+                assert_memory_equal(&all[k], &want, sizeof want);
+            }
+            assert_true(st.shadow == st1.shadow && st.reflection == st1.reflection);
+            assert_true(st.refraction == st1.refraction && st.cut == st1.cut);
+            assert_true(st.refraction >= N); /* every ray went in */
+            accel_free(a);
+            plan_free(&p);
+        }
+    scene_free(&s);
+}
+
+/* A sphere of the glass's own index that neither shows nor filters,
+ * inside a glass sphere, changes nothing: a ray into it goes straight on
+ * (the index ratio is 1 by the interiors' list), at its level, so the
+ * floor seen through the glass stays lit at max_depth 3. Packets of eight
+ * rays with it against single rays without it (to float rounding: the
+ * ray's origin moves along its path). */
+static void test_invisible_sphere_in_glass(void **state)
+{
+    (void)state;
+    const char *glass = "material g { color 0.9 0.95 1 ambient 0 diffuse 0.05 reflection 0.1 transmit 0.8 ior 1.5 }\n"
+                        "material inv { color 1 1 1 ambient 0 diffuse 0 transmit 1 ior 1.5 }\n"
+                        "light { position -2 6 -1 }\n"
+                        "sphere { center 0.5 1.2 0.8 radius 1 material g }\n";
+    char with[1024];
+    snprintf(with, sizeof with, "%ssphere { center 0.4 1 0.8 radius 0.5 material inv }\n", glass);
+    Scene s0, s1;
+    load(&s0, glass);
+    load(&s1, with);
+    Ray r[ACCEL_PACKET];
+    for (int k = 0; k < ACCEL_PACKET; k++) /* through the middle of both spheres, one sign per axis */
+        r[k] = ray_make(EYE, vec_normalize(vec_sub(vec3(0.3f + 0.05f * (float)k, 0.9f + 0.02f * (float)k, 0.7f + 0.03f * (float)k), EYE)), INFINITY);
+    for (int depth = 3; depth <= 6; depth += 3) {
+        s0.image.max_depth = s1.image.max_depth = depth;
+        RenderPlan p0, p1;
+        Accel *a0 = plan_world(&p0, &s0), *a1 = plan_world(&p1, &s1);
+        PrimHit h[ACCEL_PACKET];
+        int best[ACCEL_PACKET];
+        RayStats st = {0, 0, 0, 0, 0, 0, 0};
+        Vec3 got[ACCEL_PACKET];
+        accel_closest_packet(a1, r, ACCEL_PACKET, h, best, &st);
+        shade_traced_packet(&p1, a1, r, ACCEL_PACKET, best, h, &st, got);
+        for (int k = 0; k < ACCEL_PACKET; k++) {
+            Vec3 want = shade_trace(&p0, a0, &r[k], &st);
+            assert_vec(got[k], want.x, want.y, want.z, 1e-5);
+            assert_true(want.x > 0.1f); /* the lit floor, through the glass */
+        }
+        accel_free(a0);
+        accel_free(a1);
+        plan_free(&p0);
+        plan_free(&p1);
+    }
+    scene_free(&s0);
+    scene_free(&s1);
+}
+
 /* POV-Ray's adaptive area light, against povray 3.7.0.10's own renders
  * (docs/povray-rules.md, section 10): a 5 x 5 light straight above a white
  * floor point, its two columns of samples at x = 1 and 2 behind a slab.
@@ -556,6 +653,7 @@ int main(void)
         cmocka_unit_test(test_shadow_through_glass), cmocka_unit_test(test_refraction_through_slab),
         cmocka_unit_test(test_total_internal_reflection), cmocka_unit_test(test_no_self_shadowing_on_spheres),
         cmocka_unit_test(test_traced_is_trace), cmocka_unit_test(test_filtered_shadows_in_packets),
+        cmocka_unit_test(test_refraction_in_packets), cmocka_unit_test(test_invisible_sphere_in_glass),
         cmocka_unit_test(test_adaptive_area_light),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
