@@ -439,18 +439,19 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
             continue;
         int tir = 0;
         Vec3 f = pass_factor(m[k]);
-        float wf = wt[k] * max3(f); /* a transmitted ray's weight */
         const int through = refracts(c, f);
+        float wf = 0.0f; /* a transmitted ray's weight */
         if (through || c->p->full) {
-            if (!through) /* --no-plan: traced all the same, and weighed 0 */
+            if (through)
+                wf = wt[k] * max3(f);
+            else /* --no-plan: traced all the same, and weighed 0 */
                 f = vec3(0, 0, 0);
-            float w = through ? wf : 0.0f;
-            int got = refraction(c, best[k], m[k], &sf[k], &r[k], in[k], w, &tr[nt], &tin[nt]);
+            int got = refraction(c, best[k], m[k], &sf[k], &r[k], in[k], wf, &tr[nt], &tin[nt]);
             if (got == REFRACT_ON)
-                out[k] = vec_add(out[k], vec_mul(f, trace(c, &tr[nt], level, 1, &tin[nt], w)));
+                out[k] = vec_add(out[k], vec_mul(f, trace(c, &tr[nt], level, 1, &tin[nt], wf)));
             else if (got == REFRACT_RAY) {
                 tf[nt] = f;
-                tw[nt] = w;
+                tw[nt] = wf;
                 tinp[nt] = &tin[nt];
                 twho[nt++] = k;
             }
