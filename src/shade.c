@@ -54,7 +54,7 @@ static float toward(Vec3 p, Vec3 q, Vec3 *dir)
  * d): 1 when nothing is in between, 0 behind an opaque object, and, when
  * shadows are filtered, the product of pass_factor over every transparent
  * surface crossed (refraction is ignored, as in POV-Ray). */
-static Vec3 crossings(const Ctx *c, Ray r, int i, const PrimHit *first, Vec3 q);
+static void filtered(const Ctx *c, const Ray *r, int n, const Vec3 *q, Vec3 *f);
 
 static Vec3 transmittance(const Ctx *c, PlanShadow mode, Vec3 o, Vec3 q, Vec3 d, float dist)
 {
@@ -62,33 +62,51 @@ static Vec3 transmittance(const Ctx *c, PlanShadow mode, Vec3 o, Vec3 q, Vec3 d,
     c->st->shadow++;
     if (mode == PLAN_SHADOW_OPAQUE) /* any hit will do */
         return accel_occluded(c->a, &r, c->st) ? vec3(0, 0, 0) : vec3(1, 1, 1);
-    PrimHit h;
-    int i = accel_closest(c->a, &r, &h, c->st);
-    return crossings(c, r, i, &h, q);
+    Vec3 f;
+    filtered(c, &r, 1, &q, &f);
+    return f;
 }
 
-/* transmittance() of filtered shadows once the shadow ray r towards q has
- * found its first surface, i (*first), or none (i < 0). */
-static Vec3 crossings(const Ctx *c, Ray r, int i, const PrimHit *first, Vec3 q)
+/* transmittance() of filtered shadows for the shadow rays r[k] towards
+ * points q[k], k < n <= ACCEL_PACKET, into f[k]: the rays still on their
+ * way go through the BVH together, surface after surface. */
+static void filtered(const Ctx *c, const Ray *r, int n, const Vec3 *q, Vec3 *f)
 {
-    Vec3 f = vec3(1, 1, 1);
-    PrimHit h = i < 0 ? (PrimHit){0} : *first;
-    for (int n = 0; n < LIMIT_SHADOW_CROSSINGS; n++) {
-        if (n > 0)
-            i = accel_closest(c->a, &r, &h, c->st);
-        if (i < 0)
-            return f;
-        const Material *m = material_of(c, i);
-        if (m->filter + m->transmit <= 0.0f)
-            return vec3(0, 0, 0);
-        f = vec_mul(f, pass_factor(m));
-        Surface sf;
-        prim_surface(&c->s->prims[i], &r, &h, c->p->variant, &sf);
-        r.o = prim_spawn_origin(&sf, r.d);
-        r.tmax = vec_length(vec_sub(q, r.o));
-        c->st->shadow++;
+    Ray on[ACCEL_PACKET]; /* the rays on their way past a surface */
+    const Ray *cur = r;   /* the rays on their way, cur[j] for r[who[j]] */
+    int who[ACCEL_PACKET], non = n;
+    for (int k = 0; k < n; k++) {
+        f[k] = vec3(1, 1, 1);
+        who[k] = k;
     }
-    return vec3(0, 0, 0);
+    for (int cross = 0; cross < LIMIT_SHADOW_CROSSINGS && non; cross++) {
+        int best[ACCEL_PACKET], m = 0;
+        PrimHit h[ACCEL_PACKET];
+        accel_closest_packet(c->a, cur, non, h, best, c->st);
+        for (int j = 0; j < non; j++) {
+            const int i = best[j], k = who[j];
+            if (i < 0) /* through to q */
+                continue;
+            const Material *mt = material_of(c, i);
+            if (mt->filter + mt->transmit <= 0.0f) {
+                f[k] = vec3(0, 0, 0);
+                continue;
+            }
+            f[k] = vec_mul(f[k], pass_factor(mt));
+            Surface sf;
+            prim_surface(&c->s->prims[i], &cur[j], &h[j], c->p->variant, &sf);
+            Ray next = cur[j];
+            next.o = prim_spawn_origin(&sf, next.d);
+            next.tmax = vec_length(vec_sub(q[k], next.o));
+            on[m] = next; /* m <= j: cur[m] is done with */
+            who[m++] = k;
+            c->st->shadow++;
+        }
+        cur = on;
+        non = m;
+    }
+    for (int j = 0; j < non; j++) /* more crossings than the limit: dark */
+        f[who[j]] = vec3(0, 0, 0);
 }
 
 /* prim_spawn_origin(sf, d) from sf's two spawn origins o. */
@@ -174,29 +192,27 @@ static Vec3 light_visibility(const Ctx *c, int li, const Surface *sf, Vec3 L, fl
     const int n = l->area_n1 * l->area_n2;
     Vec3 vis = vec3(0, 0, 0), o[2];
     prim_spawn_origins(sf, o);
-    if (mode == PLAN_SHADOW_OPAQUE) {
-        /* The samples' rays leave one point for one small patch: they go to
-         * accel_occluded_packet together, which answers as
-         * transmittance() would, and are summed in the same order. */
-        for (int k0 = 0; k0 < n; k0 += ACCEL_PACKET) {
-            Ray sr[ACCEL_PACKET];
-            int ns = n - k0 < ACCEL_PACKET ? n - k0 : ACCEL_PACKET;
-            for (int k = 0; k < ns; k++) {
-                Vec3 d;
-                float qd = toward(sf->p, area->point[k0 + k], &d);
-                sr[k] = ray_make(spawn_toward(sf, o, d), d, qd);
-            }
-            c->st->shadow += (unsigned long long)ns;
+    /* The samples' rays leave one point for one small patch: they go
+     * through the BVH together, and are summed in the same order. */
+    for (int k0 = 0; k0 < n; k0 += ACCEL_PACKET) {
+        Ray sr[ACCEL_PACKET];
+        Vec3 t[ACCEL_PACKET];
+        const Vec3 *q = &area->point[k0];
+        int ns = n - k0 < ACCEL_PACKET ? n - k0 : ACCEL_PACKET;
+        for (int k = 0; k < ns; k++) {
+            Vec3 d;
+            float qd = toward(sf->p, q[k], &d);
+            sr[k] = ray_make(spawn_toward(sf, o, d), d, qd);
+        }
+        c->st->shadow += (unsigned long long)ns;
+        if (mode == PLAN_SHADOW_OPAQUE) {
             unsigned dark = accel_occluded_packet(c->a, sr, ns, c->st);
             for (int k = 0; k < ns; k++)
-                vis = vec_madd(vis, dark >> k & 1 ? vec3(0, 0, 0) : vec3(1, 1, 1), area->weight[k0 + k]);
-        }
-        return vis;
-    }
-    for (int k = 0; k < n; k++) {
-        Vec3 d, q = area->point[k];
-        float qd = toward(sf->p, q, &d);
-        vis = vec_madd(vis, transmittance(c, mode, spawn_toward(sf, o, d), q, d, qd), area->weight[k]);
+                t[k] = dark >> k & 1 ? vec3(0, 0, 0) : vec3(1, 1, 1);
+        } else
+            filtered(c, sr, ns, q, t);
+        for (int k = 0; k < ns; k++)
+            vis = vec_madd(vis, t[k], area->weight[k0 + k]);
     }
     return vis;
 }
@@ -407,11 +423,12 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
                 lc[k] = vec_mul(lc[k], light_visibility(c, i, &sf[k], L, dist, lc[k]));
         }
         if (mode == PLAN_SHADOW_FILTERED && ns) {
-            int first[ACCEL_PACKET];
-            PrimHit fh[ACCEL_PACKET];
-            accel_closest_packet(c->a, sr, ns, fh, first, c->st);
+            Vec3 vis[ACCEL_PACKET], at[ACCEL_PACKET];
             for (int j = 0; j < ns; j++)
-                lc[who[j]] = vec_mul(lc[who[j]], crossings(c, sr[j], first[j], &fh[j], l->pos));
+                at[j] = l->pos;
+            filtered(c, sr, ns, at, vis);
+            for (int j = 0; j < ns; j++)
+                lc[who[j]] = vec_mul(lc[who[j]], vis[j]);
             ns = 0;
         }
         unsigned dark = ns ? accel_occluded_packet(c->a, sr, ns, c->st) : 0;

@@ -260,6 +260,23 @@ static void test_area_light_in_packets(void **state)
     scene_free(&s);
 }
 
+static void test_area_light_through_glass_in_packets(void **state)
+{
+    (void)state;
+    Scene s;
+    /* test_area_light_in_packets' light and sphere, the sphere of glass:
+     * the ninth sample, alone in its packet, comes through it filtered
+     * twice, F^2 = 0.5^2 in red; then the first, in the first packet. */
+    load(&s, "material g { color 0.5 0.4 0.3 ambient 0 diffuse 0 filter 0.5 transmit 0.25 }\n"
+             "light { position 0 10 0 area_u 8 0 0 area_v 0 0 0 area_samples 9 1 }\n"
+             "sphere { center 2 5 0 radius 0.1 material g }\n");
+    float k = 0.1f + (15.0f / 16.0f + 0.25f / 16.0f) * 0.6f;
+    assert_float_equal(trace(&s, EYE, DIR).x, 0.5f * k, 1e-6);
+    s.prims[1].g.sphere.c = vec3(-2, 5, 0);
+    assert_float_equal(trace(&s, EYE, DIR).x, 0.5f * k, 1e-6);
+    scene_free(&s);
+}
+
 static void test_transparent_surface(void **state)
 {
     (void)state;
@@ -451,11 +468,11 @@ static void test_traced_is_trace(void **state)
     scene_free(&s);
 }
 
-/* Filtered shadows in a packet: the shadow rays' first surfaces found
- * together (accel_closest_packet), each then followed on alone, give what
- * one ray at a time gives, bit for bit, for rays whose shadow rays cross a
- * glass sphere twice, meet an opaque one, or reach the light; and a packet
- * of one. */
+/* Filtered shadows in a packet: the shadow rays go through the BVH
+ * together, surface after surface, and give what one ray at a time gives,
+ * bit for bit, and the analytic colours, for rays whose shadow rays cross
+ * a glass sphere twice, meet an opaque one, or reach the light; in packets
+ * of 1, 2 and 7. */
 static void test_filtered_shadows_in_packets(void **state)
 {
     (void)state;
@@ -463,20 +480,26 @@ static void test_filtered_shadows_in_packets(void **state)
     load(&s, "material g { color 0.8 0.5 0.25 ambient 0 diffuse 0 filter 0.5 transmit 0.25 ior 1.5 }\n"
              "light { position -20 10 -20 }\n"
              "sphere { center -10 5 -10 radius 1 material g }\n"
-             "sphere { center -7.5 5 -7.5 radius 0.5 material m }\n");
+             "sphere { center -7.5 5 -7.5 radius 0.5 material m }\n"
+             "sphere { center -16.2 8 -15.92 radius 0.12 material g }\n");
     RenderPlan p;
     Accel *a = plan_world(&p, &s);
     assert_int_equal(p.shadow[0], PLAN_SHADOW_FILTERED);
     /* floor points (x, 0, z), every z > 0, so that the camera rays, and
-     * their shadow rays, have one sign per axis: one packet each. The
-     * first four lie in the glass sphere's shadow, the next two in the
-     * opaque one's, the last in the light. */
-    const float at[][2] = {{0, 0.1f}, {0.5f, 0.2f}, {1, 0.3f}, {-1, 0.4f}, {5, 5}, {4.9f, 5.1f}, {5, 1}};
+     * their shadow rays, have one sign per axis: one packet each. In the
+     * glass sphere's shadow (F^2 in red), the opaque one's (0) or the
+     * light (1), in turns, so that the rays still on their way after the
+     * first surface are not the first ones; the last, past a second glass
+     * sphere too (F^4), goes on alone after its fourth. */
+    const float at[][2] = {{5, 5}, {0, 0.1f}, {5, 1}, {0.5f, 0.2f}, {1, 0.3f}, {4.9f, 5.1f}, {-1, 0.4f}};
+    const float f2 = 0.65f * 0.65f, filt[] = {0, f2, 1, f2, f2, 0, f2 * f2};
     const int n = (int)(sizeof at / sizeof at[0]);
     Ray r[ACCEL_PACKET];
     for (int k = 0; k < n; k++)
         r[k] = ray_make(EYE, vec_normalize(vec_sub(vec3(at[k][0], 0, at[k][1]), EYE)), INFINITY);
-    for (int m = 1; m <= n; m += n - 1) {
+    const int sizes[] = {1, 2, n};
+    for (int z = 0; z < 3; z++) {
+        const int m = sizes[z];
         PrimHit h[ACCEL_PACKET];
         int best[ACCEL_PACKET];
         RayStats st = {0, 0, 0, 0, 0, 0, 0}, st1 = st;
@@ -489,15 +512,12 @@ static void test_filtered_shadows_in_packets(void **state)
         }
         assert_true(st.shadow == st1.shadow);
         if (m == n) {
-            /* each glass shadow ray crossed in and out: 7 + 4 x 2 rays */
-            assert_int_equal(st.shadow, 15);
-            /* red: ambient 0.05, and diffuse 0.3 N.L times F = 0.65 for
-             * each crossing, F^2 in the glass's shadow; 0 in the opaque
-             * sphere's */
+            /* each glass shadow ray crossed in and out: 7 + 4 x 2 + 2 rays */
+            assert_int_equal(st.shadow, 17);
+            /* red: ambient 0.05, and diffuse 0.3 N.L times the filter */
             for (int k = 0; k < n; k++) {
                 float nl = 10.0f / vec_length(vec_sub(vec3(-20, 10, -20), vec3(at[k][0], 0, at[k][1])));
-                float f = k < 4 ? 0.65f * 0.65f : k < 6 ? 0.0f : 1.0f;
-                assert_float_equal(all[k].x, 0.05f + 0.3f * nl * f, 1e-5);
+                assert_float_equal(all[k].x, 0.05f + 0.3f * nl * filt[k], 1e-5);
             }
         }
     }
@@ -649,6 +669,7 @@ int main(void)
         cmocka_unit_test(test_miss_and_depth_limit), 
         cmocka_unit_test(test_light_behind_surface_adds_nothing), cmocka_unit_test(test_area_weights),
         cmocka_unit_test(test_area_light_penumbra), cmocka_unit_test(test_area_light_in_packets),
+        cmocka_unit_test(test_area_light_through_glass_in_packets),
         cmocka_unit_test(test_transparent_surface),
         cmocka_unit_test(test_shadow_through_glass), cmocka_unit_test(test_refraction_through_slab),
         cmocka_unit_test(test_total_internal_reflection), cmocka_unit_test(test_no_self_shadowing_on_spheres),
