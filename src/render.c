@@ -94,6 +94,9 @@ static int render_row(const Job *job, int y, int xa, int xb, int k, const unsign
     int n = 0;
     float sx[ACCEL_PACKET], sy[ACCEL_PACKET]; /* the samples' image-plane positions */
     int px[ACCEL_PACKET];
+    float at[LIMIT_SPP]; /* the sub-pixel centres' offsets, once a row */
+    for (int i = 0; i < k; i++)
+        at[i] = ((float)i + 0.5f) / (float)k;
     for (int x = xa; x < xb; x++) {
         if (stopped(job))
             return -1;
@@ -103,8 +106,8 @@ static int render_row(const Job *job, int y, int xa, int xb, int k, const unsign
         o[0] = o[1] = o[2] = 0.0f;
         for (int j = 0; j < k; j++)
             for (int i = 0; i < k; i++) {
-                sx[n] = (float)x + ((float)i + 0.5f) / (float)k;
-                sy[n] = (float)y + ((float)j + 0.5f) / (float)k;
+                sx[n] = (float)x + at[i];
+                sy[n] = (float)y + at[j];
                 px[n++] = x - xa;
                 if (n == ACCEL_PACKET) {
                     trace_packet(job, sx, sy, px, n, out, st);
