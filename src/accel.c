@@ -250,6 +250,43 @@ int accel_closest(const Accel *a, const Ray *r, PrimHit *h, RayStats *st)
     return bvh_closest(&a->bvh, r, h, &st->isect_tests);
 }
 
+/* Plane i (unbounded) against the rays r[0 .. n-1] up to tmax[k], n <=
+ * ACCEL_PACKET: bit k when ray k hits it, at cur[k]. Robust planes take
+ * the rays together. */
+static unsigned unbounded_rays(const Accel *a, int i, const Ray *r, const float *tmax, int n, PrimHit *cur)
+{
+    const Prim *p = &a->prims[i];
+    if (p->kind == PRIM_PLANE && a->variant == PRIM_ROBUST)
+        return prim_plane_hit_robust_rays(&p->g.plane, r, tmax, n, cur);
+    unsigned hit = 0;
+    for (int k = 0; k < n; k++) {
+        Ray q = r[k];
+        q.tmax = tmax[k];
+        hit |= (unsigned)prim_intersect(p, &q, a->variant, &cur[k]) << k;
+    }
+    return hit;
+}
+
+/* closest_unbounded for each of the rays r[0 .. n-1], n <= ACCEL_PACKET,
+ * a plane at a time for all of them. */
+static void closest_unbounded_rays(const Accel *a, const Ray *r, int n, int *best, PrimHit *h, RayStats *st)
+{
+    for (int u = 0; u < a->nunbounded; u++) {
+        const int i = a->unbounded[u];
+        float tmax[ACCEL_PACKET];
+        PrimHit cur[ACCEL_PACKET];
+        for (int k = 0; k < n; k++) /* past the nearest hit so far, to see ties */
+            tmax[k] = best[k] >= 0 ? prim_tmax_past(h[k].t, r[k].tmax) : r[k].tmax;
+        unsigned m = unbounded_rays(a, i, r, tmax, n, cur);
+        for (int k = 0; k < n; k++)
+            if ((m >> k & 1) && prim_hit_wins(cur[k].t, i, h[k].t, best[k])) {
+                best[k] = i;
+                h[k] = cur[k];
+            }
+    }
+    st->isect_tests += (unsigned long long)a->nunbounded * (unsigned long long)n;
+}
+
 void accel_closest_packet(const Accel *a, const Ray *r, int n, PrimHit *h, int *best, RayStats *st)
 {
     if (n == 1) { /* a packet's set-up costs more than one ray saves */
@@ -257,10 +294,10 @@ void accel_closest_packet(const Accel *a, const Ray *r, int n, PrimHit *h, int *
         return;
     }
     bvh_closest_packet(&a->bvh, r, n, h, best, &st->isect_tests);
-    for (int k = 0; k < n; k++) {
-        best[k] = closest_unbounded(a, &r[k], best[k], &h[k], st);
+    for (int k = 0; k < n; k += ACCEL_PACKET)
+        closest_unbounded_rays(a, r + k, n - k < ACCEL_PACKET ? n - k : ACCEL_PACKET, best + k, h + k, st);
+    for (int k = 0; k < n; k++)
         best[k] = best[k] < 0 ? best[k] : scene_index(a, best[k]);
-    }
 }
 
 /* 1 when a plane blocks r (any hit will do). */
@@ -297,10 +334,18 @@ unsigned accel_occluded_packet(const Accel *a, const Ray *r, int n, RayStats *st
                accel_occluded_packet(a, r + BVH_PACKET, n - BVH_PACKET, st) << BVH_PACKET;
     if (n == 1) /* as accel_closest_packet */
         return (unsigned)accel_occluded(a, r, st);
-    /* the planes first, ray by ray, as accel_occluded; the rest together */
+    /* the planes first, as accel_occluded, a plane at a time for the rays
+     * it has not blocked yet; the rest together */
     unsigned hit = 0;
+    float tmax[BVH_PACKET];
     for (int k = 0; k < n; k++)
-        hit |= (unsigned)unbounded_blocks(a, &r[k], st) << k;
+        tmax[k] = r[k].tmax;
+    for (int u = 0; u < a->nunbounded && hit != (1u << n) - 1; u++) {
+        PrimHit cur[BVH_PACKET];
+        for (int k = 0; k < n; k++) /* as unbounded_blocks counts */
+            st->isect_tests += !(hit >> k & 1);
+        hit |= unbounded_rays(a, a->unbounded[u], r, tmax, n, cur);
+    }
     if (!hit) /* the common case: no copies */
         return bvh_occluded_packet(&a->bvh, r, n, &st->isect_tests);
     Ray rest[BVH_PACKET];

@@ -12,11 +12,19 @@
 #include "lancer/prim.h"
 
 #include <float.h>
+#include <stddef.h>
 #include <stdint.h>
 #include <string.h>
 
 #include "lancer/pntri.h"
 #include "rounding.h"
+
+/* Four rays' plane tests at once with AVX, when the processor has it
+ * (picked at run time: the rest of the file is built for the baseline). */
+#if defined(__GNUC__) && defined(__x86_64__) && !defined(LANCER_NO_SIMD)
+#define PRIM_AVX 1
+#include <immintrin.h>
+#endif
 
 /* The spawn margin off a triangle, in units of gamma (tri_spawn_margin):
  * 16 times the least that test_prim's triangles need. */
@@ -203,6 +211,104 @@ int prim_plane_hit_robust(const Plane *pl, const Ray *r, PrimHit *h)
         return 0;
     h->t = tf;
     return 1;
+}
+
+#ifdef PRIM_AVX
+/* The 32-bit lanes of a 64-bit lane mask. */
+__attribute__((target("avx"))) static inline __m128 mask_ps(__m256d m)
+{
+    __m256 f = _mm256_castpd_ps(m);
+    return _mm_shuffle_ps(_mm256_castps256_ps128(f), _mm256_extractf128_ps(f, 1), _MM_SHUFFLE(2, 0, 2, 0));
+}
+
+/* Field at (in floats) of the rays r[k0 .. k0 + 3] in double. */
+typedef char ray_is_floats[sizeof(Ray) % sizeof(float) == 0 ? 1 : -1];
+__attribute__((target("avx"))) static inline __m256d ray_field(const Ray *r, int k0, int at)
+{
+    const float *f = (const float *)&r[k0] + at;
+    const int s = (int)(sizeof(Ray) / sizeof(float));
+    return _mm256_cvtps_pd(_mm_setr_ps(f[0], f[s], f[2 * s], f[3 * s]));
+}
+
+/* prim_plane_hit_robust for the rays r[k0 .. k0 + 3], lane by lane: the
+ * same operations in the same order, each verdict a mask. */
+__attribute__((target("avx"))) static unsigned plane_hit4(const Plane *pl, const Ray *r, int k0, const float *tmax,
+                                                         float *t_out, float *terr_out)
+{
+    const __m256d zero = _mm256_setzero_pd(), sign = _mm256_set1_pd(-0.0);
+    const __m256d nx = _mm256_set1_pd(pl->n.x), ny = _mm256_set1_pd(pl->n.y), nz = _mm256_set1_pd(pl->n.z);
+    const int o = (int)(offsetof(Ray, o) / sizeof(float)), d = (int)(offsetof(Ray, d) / sizeof(float));
+    __m256d dx = _mm256_mul_pd(nx, ray_field(r, k0, d)), dy = _mm256_mul_pd(ny, ray_field(r, k0, d + 1));
+    __m256d dz = _mm256_mul_pd(nz, ray_field(r, k0, d + 2));
+    __m256d den = _mm256_add_pd(_mm256_add_pd(dx, dy), dz);
+    __m256d ox = _mm256_mul_pd(nx, ray_field(r, k0, o)), oy = _mm256_mul_pd(ny, ray_field(r, k0, o + 1));
+    __m256d oz = _mm256_mul_pd(nz, ray_field(r, k0, o + 2));
+    __m256d num = _mm256_sub_pd(_mm256_set1_pd(pl->d), _mm256_add_pd(_mm256_add_pd(ox, oy), oz));
+#define ABS(x) _mm256_andnot_pd(sign, x)
+    /* num == 0 || (num < 0) != (den < 0) */
+    __m256d miss = _mm256_or_pd(_mm256_cmp_pd(num, zero, _CMP_EQ_OQ),
+                                _mm256_xor_pd(_mm256_cmp_pd(num, zero, _CMP_LT_OQ), _mm256_cmp_pd(den, zero, _CMP_LT_OQ)));
+    __m256d e_den = _mm256_mul_pd(_mm256_set1_pd(gamma_d(2)), _mm256_add_pd(_mm256_add_pd(ABS(dx), ABS(dy)), ABS(dz)));
+    miss = _mm256_or_pd(miss, _mm256_cmp_pd(ABS(den), e_den, _CMP_NGT_UQ));
+    __m256d tm = _mm256_cvtps_pd(_mm_loadu_ps(tmax + k0));
+    __m256d reach = _mm256_mul_pd(tm, ABS(den));
+    miss = _mm256_or_pd(miss, _mm256_and_pd(_mm256_cmp_pd(reach, _mm256_set1_pd(0x1p-1000), _CMP_GT_OQ),
+                                            _mm256_cmp_pd(ABS(num), _mm256_mul_pd(reach, _mm256_set1_pd(1.0 + 0x1p-50)),
+                                                          _CMP_GE_OQ)));
+    __m256d e_num = _mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(gamma_d(2)), _mm256_add_pd(_mm256_add_pd(ABS(ox), ABS(oy)), ABS(oz))),
+                                  _mm256_mul_pd(_mm256_set1_pd(gamma_d(1)), ABS(num)));
+    __m256d t = _mm256_div_pd(num, den);
+    /* quotient_err, then round_t's float_up */
+    __m256d err = _mm256_add_pd(_mm256_div_pd(_mm256_add_pd(e_num, _mm256_mul_pd(ABS(t), e_den)), _mm256_sub_pd(ABS(den), e_den)),
+                                _mm256_mul_pd(_mm256_set1_pd(gamma_d(1)), ABS(t)));
+    __m128 tf = _mm256_cvtpd_ps(t);
+    __m256d x = _mm256_add_pd(err, ABS(_mm256_sub_pd(_mm256_cvtps_pd(tf), t)));
+#undef ABS
+    __m128 f = _mm256_cvtpd_ps(x); /* x >= 0: float_next(f, 1) is f's bits plus 1 */
+    __m128 big = _mm_cmpge_ps(f, _mm_set1_ps(FLT_MIN));
+    __m128 g = _mm_or_ps(_mm_and_ps(big, _mm_mul_ps(f, _mm_set1_ps(1.0f + FLT_EPSILON))),
+                         _mm_andnot_ps(big, _mm_castsi128_ps(_mm_add_epi32(_mm_castps_si128(f), _mm_set1_epi32(1)))));
+    __m128 keep = mask_ps(_mm256_cmp_pd(_mm256_cvtps_pd(f), x, _CMP_GE_OQ));
+    __m128 terr = _mm_or_ps(_mm_and_ps(keep, f), _mm_andnot_ps(keep, g));
+    __m128 in = _mm_and_ps(_mm_cmpgt_ps(tf, _mm_setzero_ps()), _mm_cmplt_ps(tf, _mm_loadu_ps(tmax + k0)));
+    _mm_storeu_ps(t_out, tf);
+    _mm_storeu_ps(terr_out, terr);
+    return (unsigned)_mm_movemask_ps(_mm_andnot_ps(mask_ps(miss), in));
+}
+#endif
+
+/* The processor runs plane_hit4: it has AVX. */
+static int plane_avx(void)
+{
+#ifdef PRIM_AVX
+    return __builtin_cpu_supports("avx");
+#else
+    return 0;
+#endif
+}
+
+unsigned prim_plane_hit_robust_rays(const Plane *pl, const Ray *r, const float *tmax, int n, PrimHit *h)
+{
+    unsigned hit = 0;
+    int k = 0;
+#ifdef PRIM_AVX
+    if (plane_avx())
+        for (; k + 4 <= n; k += 4) {
+            float t[4], terr[4];
+            unsigned m = plane_hit4(pl, r, k, tmax, t, terr);
+            for (int j = 0; j < 4; j++)
+                h[k + j] = (PrimHit){t[j], terr[j], 0.0f, 0.0f, 0};
+            hit |= m << k;
+        }
+#endif
+    for (; k < n; k++) { /* the rest one by one */
+        Ray q = r[k];
+        q.tmax = tmax[k];
+        PrimHit c = {0.0f, 0.0f, 0.0f, 0.0f, 0};
+        hit |= (unsigned)prim_plane_hit_robust(pl, &q, &c) << k;
+        h[k] = c;
+    }
+    return hit;
 }
 
 /* g(t) = |f + t d|^2 - r2, the exact sphere equation along the ray, in

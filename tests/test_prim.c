@@ -828,6 +828,73 @@ static void test_spawn_leaves_triangle(void **state)
     assert_true(tests > 50000);
 }
 
+/* ---- planes, rays at once ---- */
+
+/* prim_plane_hit_robust_rays against prim_plane_hit_robust, ray by ray:
+ * the same verdicts and, for hits, the same t and terr, bit for bit, on
+ * random and axis-aligned planes, for rays from all around, from on the
+ * plane, parallel to it, with tiny and huge components and non-finite
+ * ones, to tmax past, at and short of the hit, in groups of 1 to 8 (the
+ * AVX lanes, four at a time, and the rest one by one). */
+static void test_plane_rays_match_scalar(void **state)
+{
+    (void)state;
+    unsigned long long s = 0x9E3779B97F4A7C15ULL;
+    int hits = 0, misses = 0;
+    for (int round = 0; round < 4000; round++) {
+        Plane pl;
+        int axis = round % 4 == 0; /* y = d, so that origins can lie on it exactly */
+        if (axis)
+            pl = (Plane){{0, round % 8 == 0 ? 1.0f : -1.0f, 0}, test_uniform(&s, -5, 5)};
+        else {
+            Vec3 n = vec3(test_uniform(&s, -1, 1), test_uniform(&s, -1, 1), test_uniform(&s, -1, 1));
+            pl = (Plane){vec_normalize(n), test_uniform(&s, -10, 10) * (round % 16 == 1 ? 1e6f : 1.0f)};
+        }
+        Ray r[8];
+        float tmax[8];
+        int n = 1 + round % 8;
+        for (int k = 0; k < n; k++) {
+            Vec3 o = vec3(test_uniform(&s, -20, 20), test_uniform(&s, -20, 20), test_uniform(&s, -20, 20));
+            Vec3 d = vec_normalize(vec3(test_uniform(&s, -1, 1), test_uniform(&s, -1, 1), test_uniform(&s, -1, 1)));
+            int kind = (int)test_uniform(&s, 0, 10);
+            if (kind == 0 && axis)
+                o.y = pl.n.y * pl.d; /* on the plane */
+            else if (kind == 1 && axis)
+                d.y = 0.0f; /* parallel */
+            else if (kind == 2)
+                d = vec3(d.x * 1e-30f, d.y * 1e-41f, d.z); /* tiny and subnormal */
+            else if (kind == 3)
+                o = vec_scale(o, 1e30f); /* huge */
+            else if (kind == 4)
+                o.x = (round & 1) ? INFINITY : NAN;
+            else if (kind == 5)
+                d.z = NAN;
+            r[k] = ray_make(o, d, INFINITY);
+            PrimHit h;
+            int m = (int)test_uniform(&s, 0, 4);
+            tmax[k] = m == 0 ? INFINITY : m == 1 ? test_uniform(&s, 0.01f, 50) : 1e-30f;
+            if (m == 3 && prim_plane_hit_robust(&pl, &r[k], &h)) /* at the hit, or one float past it */
+                tmax[k] = (round & 2) ? h.t : nextafterf(h.t, INFINITY);
+        }
+        PrimHit got[8];
+        unsigned bits = prim_plane_hit_robust_rays(&pl, r, tmax, n, got);
+        for (int k = 0; k < n; k++) {
+            Ray q = r[k];
+            q.tmax = tmax[k];
+            PrimHit want;
+            int hit = prim_plane_hit_robust(&pl, &q, &want);
+            assert_int_equal((int)(bits >> k & 1), hit);
+            if (hit) {
+                assert_memory_equal(&got[k].t, &want.t, sizeof want.t);
+                assert_memory_equal(&got[k].terr, &want.terr, sizeof want.terr);
+                hits++;
+            } else
+                misses++;
+        }
+    }
+    assert_true(hits > 2500 && misses > 10000);
+}
+
 /* ---- four triangles at once ---- */
 
 static unsigned long long rng = 0x2545F4914F6CDD1DULL;
@@ -1059,6 +1126,7 @@ int main(void)
         cmocka_unit_test(test_sphere_tangent_and_inside),
         cmocka_unit_test(test_ellipsoid),
         cmocka_unit_test(test_plane),
+        cmocka_unit_test(test_plane_rays_match_scalar),
         cmocka_unit_test(test_triangle),
         cmocka_unit_test(test_smooth_triangle_normal),
         cmocka_unit_test(test_box),

@@ -178,6 +178,10 @@ int prim_ellipsoid_hit(const Ellipsoid *e, const Ray *r, PrimHit *h);
  * n.d is within its rounding bound of 0 (parallel to working precision) are
  * misses. */
 int prim_plane_hit_robust(const Plane *pl, const Ray *r, PrimHit *h);
+/* prim_plane_hit_robust for the rays r[k] up to tmax[k] (not their own),
+ * k < n <= 32: bit k of the result when ray k hits, at h[k] (u, v and
+ * face 0). The same answers, bit for bit; with AVX, four rays at once. */
+unsigned prim_plane_hit_robust_rays(const Plane *pl, const Ray *r, const float *tmax, int n, PrimHit *h);
 /* Sphere: the numerically stable quadratic of Haines, Guenther and
  * Akenine-Moller, "Precision Improvements for Ray/Sphere Intersection", Ray
  * Tracing Gems ch. 7 (2019), in double; each root is then certified by the
