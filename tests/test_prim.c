@@ -493,6 +493,48 @@ static int spawn_pair_agrees(const Surface *s, unsigned long long *seed)
     return n;
 }
 
+/* prim_spawn_origin against its definition, with libm's nextafterf: p
+ * moved by the error bound along the side's normal, then one float further
+ * along each component the normal moves; for points at 0, at and around
+ * the least and the largest floats, of either sign, huge enough to round
+ * to infinity, normals with components of 0, and bounds of 0. */
+static void test_spawn_origin_is_its_definition(void **state)
+{
+    (void)state;
+    unsigned long long g = 99;
+    static const float pick[] = {0.0f, -0.0f, 0x1p-149f, -0x1p-149f, 0x1p-126f, 3.5f, -7.25f, FLT_MAX, -FLT_MAX, 1e30f};
+    int moved = 0;
+    for (int k = 0; k < 20000; k++) {
+        Surface sf;
+        memset(&sf, 0, sizeof sf);
+        float c[3], e[3], m[3];
+        for (int i = 0; i < 3; i++) {
+            int w = (int)test_uniform(&g, 0, 14);
+            c[i] = w < 10 ? pick[w] : test_uniform(&g, -100, 100);
+            e[i] = (k + i) % 3 == 0 ? 0.0f : test_uniform(&g, 0, 1e-3f);
+            m[i] = (k >> i) % 4 == 0 ? 0.0f : test_uniform(&g, -1, 1);
+        }
+        sf.p = vec3(c[0], c[1], c[2]);
+        sf.perr = vec3(e[0], e[1], e[2]);
+        sf.noff = sf.ng = vec3(m[0], m[1], m[2]);
+        Vec3 d = test_rvec(&g, -1, 1);
+        float nd = vec_dot(sf.ng, d);
+        Vec3 n = nd < 0.0f ? vec_neg(sf.noff) : sf.noff;
+        float dist = fabsf(n.x) * sf.perr.x + fabsf(n.y) * sf.perr.y + fabsf(n.z) * sf.perr.z;
+        float want[3] = {sf.p.x + dist * n.x, sf.p.y + dist * n.y, sf.p.z + dist * n.z}, nn[3] = {n.x, n.y, n.z};
+        for (int i = 0; i < 3; i++)
+            if (nn[i] != 0.0f) {
+                want[i] = nextafterf(want[i], nn[i] > 0.0f ? INFINITY : -INFINITY);
+                moved++;
+            }
+        Vec3 got = prim_spawn_origin(&sf, d);
+        assert_memory_equal(&got.x, &want[0], sizeof(float));
+        assert_memory_equal(&got.y, &want[1], sizeof(float));
+        assert_memory_equal(&got.z, &want[2], sizeof(float));
+    }
+    assert_true(moved > 30000);
+}
+
 static double obox_coord(const OBox *b, Vec3 q, int i)
 {
     const Vec3 ax[3] = {b->u, b->v, b->w};
@@ -1136,6 +1178,7 @@ int main(void)
         cmocka_unit_test(test_smooth_normal_flips_on_its_own),
         cmocka_unit_test(test_inside),
         cmocka_unit_test(test_spawn_origin),
+        cmocka_unit_test(test_spawn_origin_is_its_definition),
         cmocka_unit_test(test_spawn_origins_pair),
         cmocka_unit_test(test_spawn_leaves_triangle),
         cmocka_unit_test(test_robust_error_bounds),
