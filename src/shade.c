@@ -49,25 +49,7 @@ static float toward(Vec3 p, Vec3 q, Vec3 *dir)
     return dist;
 }
 
-/* The light arriving at a surface point from point q, at distance dist in
- * unit direction d, along a ray from o (the point's spawn origin toward
- * d): 1 when nothing is in between, 0 behind an opaque object, and, when
- * shadows are filtered, the product of pass_factor over every transparent
- * surface crossed (refraction is ignored, as in POV-Ray). */
-static void filtered(const Ctx *c, const Ray *r, int n, const Vec3 *q, Vec3 *f);
-
-static Vec3 transmittance(const Ctx *c, PlanShadow mode, Vec3 o, Vec3 q, Vec3 d, float dist)
-{
-    Ray r = ray_make(o, d, dist);
-    c->st->shadow++;
-    if (mode == PLAN_SHADOW_OPAQUE) /* any hit will do */
-        return accel_occluded(c->a, &r, c->st) ? vec3(0, 0, 0) : vec3(1, 1, 1);
-    Vec3 f;
-    filtered(c, &r, 1, &q, &f);
-    return f;
-}
-
-/* transmittance() of filtered shadows for the shadow rays r[k] towards
+/* transmittance() with filtered shadows, for the shadow rays r[k] towards
  * points q[k], k < n <= ACCEL_PACKET, into f[k]: the rays still on their
  * way go through the BVH together, surface after surface. */
 static void filtered(const Ctx *c, const Ray *r, int n, const Vec3 *q, Vec3 *f)
@@ -107,6 +89,22 @@ static void filtered(const Ctx *c, const Ray *r, int n, const Vec3 *q, Vec3 *f)
     }
     for (int j = 0; j < non; j++) /* more crossings than the limit: dark */
         f[who[j]] = vec3(0, 0, 0);
+}
+
+/* The light arriving at a surface point from point q, at distance dist in
+ * unit direction d, along a ray from o (the point's spawn origin toward
+ * d): 1 when nothing is in between, 0 behind an opaque object, and, when
+ * shadows are filtered, the product of pass_factor over every transparent
+ * surface crossed (refraction is ignored, as in POV-Ray). */
+static Vec3 transmittance(const Ctx *c, PlanShadow mode, Vec3 o, Vec3 q, Vec3 d, float dist)
+{
+    Ray r = ray_make(o, d, dist);
+    c->st->shadow++;
+    if (mode == PLAN_SHADOW_OPAQUE) /* any hit will do */
+        return accel_occluded(c->a, &r, c->st) ? vec3(0, 0, 0) : vec3(1, 1, 1);
+    Vec3 f;
+    filtered(c, &r, 1, &q, &f);
+    return f;
 }
 
 /* prim_spawn_origin(sf, d) from sf's two spawn origins o. */
@@ -403,9 +401,9 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
         const Light *l = &s->lights[i];
         const PlanShadow mode = c->p->shadow[i];
         /* A point light's shadow rays go through the BVH together: any-hit
-         * queries, or, when shadows are filtered, their first surfaces'
-         * closest hits, each followed on alone (transmittance()). */
-        const int together = (mode == PLAN_SHADOW_OPAQUE || mode == PLAN_SHADOW_FILTERED) && l->area_n1 * l->area_n2 == 1;
+         * queries, or, when shadows are filtered, surface after surface
+         * (filtered()). */
+        const int together = l->area_n1 * l->area_n2 == 1;
         Vec3 term[ACCEL_PACKET], lc[ACCEL_PACKET];
         Ray sr[ACCEL_PACKET];
         int lit[ACCEL_PACKET], who[ACCEL_PACKET], ns = 0;
