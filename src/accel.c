@@ -207,49 +207,6 @@ int accel_pn_split(const Accel *a, int *pieces)
     return a->own ? a->npieces - (a->nown - a->nscene) : 0; /* a patch's first piece takes its place */
 }
 
-/* The planes after the BVH's answer best (h), indices into prims: a plane
- * hit nearer, or as near with a lower index, replaces it. */
-#ifdef __GNUC__
-__attribute__((always_inline))
-#endif
-static inline int closest_unbounded(const Accel *a, const Ray *r, int best, PrimHit *h, RayStats *st)
-{
-    if (a->nunbounded == 0) /* a mesh alone: no pass at all */
-        return best;
-    Ray q = *r; /* tmax: past the nearest hit so far, to see ties */
-    if (best >= 0)
-        q.tmax = prim_tmax_past(h->t, r->tmax);
-    PrimHit cur;
-    for (int k = 0; k < a->nunbounded; k++) {
-        int i = a->unbounded[k];
-        if (prim_intersect(&a->prims[i], &q, a->variant, &cur) && prim_hit_wins(cur.t, i, h->t, best)) {
-            best = i;
-            *h = cur;
-            q.tmax = prim_tmax_past(cur.t, r->tmax);
-        }
-    }
-    st->isect_tests += (unsigned long long)a->nunbounded;
-    return best;
-}
-
-#ifdef __GNUC__
-__attribute__((noinline)) /* so that accel_closest stays a test and a jump */
-#endif
-static int closest_with_planes(const Accel *a, const Ray *r, PrimHit *h, RayStats *st)
-{
-    int i = closest_unbounded(a, r, bvh_closest(&a->bvh, r, h, &st->isect_tests), h, st);
-    return i < 0 ? i : scene_index(a, i);
-}
-
-int accel_closest(const Accel *a, const Ray *r, PrimHit *h, RayStats *st)
-{
-    /* Without planes, a tail call: a call that returned here to test for
-     * planes would keep a frame for every ray. */
-    if (a->nunbounded || a->own)
-        return closest_with_planes(a, r, h, st);
-    return bvh_closest(&a->bvh, r, h, &st->isect_tests);
-}
-
 /* Plane i (unbounded) against the rays r[0 .. n-1] up to tmax[k], n <=
  * ACCEL_PACKET: bit k when ray k hits it, at cur[k]. Robust planes take
  * the rays together. */
@@ -267,9 +224,10 @@ static unsigned unbounded_rays(const Accel *a, int i, const Ray *r, const float 
     return hit;
 }
 
-/* closest_unbounded for each of the rays r[0 .. n-1], n <= ACCEL_PACKET,
- * a plane at a time for all of them. */
-static void closest_unbounded_rays(const Accel *a, const Ray *r, int n, int *best, PrimHit *h, RayStats *st)
+/* The planes after the BVH's answers best[k] (h[k]), indices into prims,
+ * for the rays r[0 .. n-1], n <= ACCEL_PACKET, a plane at a time for all
+ * of them: a plane hit nearer, or as near with a lower index, replaces it. */
+static void closest_unbounded(const Accel *a, const Ray *r, int n, int *best, PrimHit *h, RayStats *st)
 {
     for (int u = 0; u < a->nunbounded; u++) {
         const int i = a->unbounded[u];
@@ -287,6 +245,25 @@ static void closest_unbounded_rays(const Accel *a, const Ray *r, int n, int *bes
     st->isect_tests += (unsigned long long)a->nunbounded * (unsigned long long)n;
 }
 
+#ifdef __GNUC__
+__attribute__((noinline)) /* so that accel_closest stays a test and a jump */
+#endif
+static int closest_with_planes(const Accel *a, const Ray *r, PrimHit *h, RayStats *st)
+{
+    int i = bvh_closest(&a->bvh, r, h, &st->isect_tests);
+    closest_unbounded(a, r, 1, &i, h, st);
+    return i < 0 ? i : scene_index(a, i);
+}
+
+int accel_closest(const Accel *a, const Ray *r, PrimHit *h, RayStats *st)
+{
+    /* Without planes, a tail call: a call that returned here to test for
+     * planes would keep a frame for every ray. */
+    if (a->nunbounded || a->own)
+        return closest_with_planes(a, r, h, st);
+    return bvh_closest(&a->bvh, r, h, &st->isect_tests);
+}
+
 void accel_closest_packet(const Accel *a, const Ray *r, int n, PrimHit *h, int *best, RayStats *st)
 {
     if (n == 1) { /* a packet's set-up costs more than one ray saves */
@@ -295,12 +272,14 @@ void accel_closest_packet(const Accel *a, const Ray *r, int n, PrimHit *h, int *
     }
     bvh_closest_packet(&a->bvh, r, n, h, best, &st->isect_tests);
     for (int k = 0; k < n; k += ACCEL_PACKET)
-        closest_unbounded_rays(a, r + k, n - k < ACCEL_PACKET ? n - k : ACCEL_PACKET, best + k, h + k, st);
+        closest_unbounded(a, r + k, n - k < ACCEL_PACKET ? n - k : ACCEL_PACKET, best + k, h + k, st);
     for (int k = 0; k < n; k++)
         best[k] = best[k] < 0 ? best[k] : scene_index(a, best[k]);
 }
 
-/* 1 when a plane blocks r (any hit will do). */
+/* 1 when a plane blocks r (any hit will do): one ray's own loop, which
+ * stops at the first; unbounded_rays costs the rays that go one by one
+ * (an adaptive area light's) more. */
 static inline int unbounded_blocks(const Accel *a, const Ray *r, RayStats *st)
 {
     PrimHit cur;
