@@ -255,6 +255,8 @@ __attribute__((target("avx"))) static unsigned plane_hit4(const Plane *pl, const
     miss = _mm256_or_pd(miss, _mm256_and_pd(_mm256_cmp_pd(reach, _mm256_set1_pd(0x1p-1000), _CMP_GT_OQ),
                                             _mm256_cmp_pd(ABS(num), _mm256_mul_pd(reach, _mm256_set1_pd(1.0 + 0x1p-50)),
                                                           _CMP_GE_OQ)));
+    if (_mm256_movemask_pd(miss) == 15) /* every lane decided: the divisions below are the cost */
+        return 0;
     __m256d e_num = _mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(gamma_d(2)), _mm256_add_pd(_mm256_add_pd(ABS(ox), ABS(oy)), ABS(oz))),
                                   _mm256_mul_pd(_mm256_set1_pd(gamma_d(1)), ABS(num)));
     __m256d t = _mm256_div_pd(num, den);
@@ -296,8 +298,10 @@ unsigned prim_plane_hit_robust_rays(const Plane *pl, const Ray *r, const float *
         for (; k + 4 <= n; k += 4) {
             float t[4], terr[4];
             unsigned m = plane_hit4(pl, r, k, tmax, t, terr);
-            for (int j = 0; j < 4; j++)
+            for (unsigned b = m; b; b &= b - 1) { /* the lanes hit: no other is read */
+                int j = __builtin_ctz(b);
                 h[k + j] = (PrimHit){t[j], terr[j], 0.0f, 0.0f, 0};
+            }
             hit |= m << k;
         }
 #endif
