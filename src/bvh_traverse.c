@@ -450,14 +450,21 @@ static int packet_pre(const Ray *r, int n, PacketPre *p)
     const float *o[3] = {&r->o.x, &r->o.y, &r->o.z}, *d[3] = {&r->d.x, &r->d.y, &r->d.z};
     const __m256 zero = _mm256_setzero_ps(), fmax = _mm256_set1_ps(FLT_MAX), one = _mm256_set1_ps(1.0f);
     const __m256 pad = _mm256_set1_ps(BVH_SLAB_PAD), abs = _mm256_set1_ps(-0.0f);
+    /* Every load and division first, the checks after: the three
+     * divisions then overlap instead of each waiting for the last axis's
+     * checks (the compiler may not start a division before a branch). */
+    __m256 oa[3], iv[3];
     for (int a = 0; a < 3; a++) {
-        __m256 oa = _mm256_i32gather_ps(o[a], idx, 4), omin, omax;
-        if (_mm256_movemask_ps(_mm256_cmp_ps(_mm256_andnot_ps(abs, oa), fmax, _CMP_NLE_UQ)))
+        oa[a] = _mm256_i32gather_ps(o[a], idx, 4);
+        iv[a] = _mm256_div_ps(one, _mm256_i32gather_ps(d[a], idx, 4)); /* as ray_pre divides (lane by lane) */
+    }
+    for (int a = 0; a < 3; a++) {
+        __m256 omin, omax, inv = iv[a];
+        if (_mm256_movemask_ps(_mm256_cmp_ps(_mm256_andnot_ps(abs, oa[a]), fmax, _CMP_NLE_UQ)))
             return 0;
-        lane_range(oa, &omin, &omax);
-        /* as ray_pre divides (lane by lane); every lane finite, non-zero
-         * and of ray 0's sign: a NaN would slip past the min and max below */
-        __m256 inv = _mm256_div_ps(one, _mm256_i32gather_ps(d[a], idx, 4));
+        lane_range(oa[a], &omin, &omax);
+        /* every lane finite, non-zero and of ray 0's sign: a NaN would
+         * slip past the min and max below */
         __m256 bad = _mm256_or_ps(_mm256_cmp_ps(_mm256_andnot_ps(abs, inv), fmax, _CMP_NLE_UQ),
                                   _mm256_cmp_ps(inv, zero, _CMP_EQ_OQ));
         int neg = _mm256_movemask_ps(_mm256_cmp_ps(inv, zero, _CMP_LT_OQ));
@@ -466,7 +473,7 @@ static int packet_pre(const Ray *r, int n, PacketPre *p)
         __m256 lo, hi;
         lane_range(inv, &lo, &hi);
         slab_planes(a, neg != 0, &p->near[a], &p->far[a]);
-        p->o8[a] = oa;
+        p->o8[a] = oa[a];
         p->on8[a] = neg ? omin : omax;
         p->of8[a] = neg ? omax : omin;
         p->imin8[a] = lo;
