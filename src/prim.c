@@ -1083,9 +1083,7 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
     s->ns = oriented ? s->ng : vec_dot(ns, r->d) > 0.0f ? vec_neg(ns) : ns;
 }
 
-/* prim_spawn_origin for a direction with nd = dot(ng, dir): its side is
- * all the origin depends on. */
-static Vec3 spawn_side(const Surface *s, float nd)
+Vec3 prim_spawn_side(const Surface *s, float nd)
 {
     if (s->pin_side && (nd > 0.0f) == (s->pin_side > 0))
         return s->pin; /* into an oriented box, from beside one of its edges */
@@ -1094,20 +1092,18 @@ static Vec3 spawn_side(const Surface *s, float nd)
     Vec3 po = vec_madd(s->p, n, dist);
     /* One float further along each component the normal moves, so that the
      * rounding of po itself cannot undo the offset, even when dist is 0 (a
-     * box face, where p is exact). */
-    float c[3] = {po.x, po.y, po.z}, nn[3] = {n.x, n.y, n.z};
-    for (int i = 0; i < 3; i++)
-        if (nn[i] != 0.0f)
-            c[i] = float_next(c[i], nn[i] > 0.0f);
-    return vec3(c[0], c[1], c[2]);
+     * box face, where p is exact). Three scalars, not an array: the
+     * array's stores, a lane at a time, stalled its reload as a Vec3. */
+    float x = n.x != 0.0f ? float_next(po.x, n.x > 0.0f) : po.x;
+    float y = n.y != 0.0f ? float_next(po.y, n.y > 0.0f) : po.y;
+    float z = n.z != 0.0f ? float_next(po.z, n.z > 0.0f) : po.z;
+    return vec3(x, y, z);
 }
-
-Vec3 prim_spawn_origin(const Surface *s, Vec3 dir) { return spawn_side(s, vec_dot(s->ng, dir)); }
 
 void prim_spawn_origins(const Surface *s, Vec3 o[2])
 {
-    o[0] = spawn_side(s, -1.0f);
-    o[1] = spawn_side(s, 1.0f);
+    o[0] = prim_spawn_side(s, -1.0f);
+    o[1] = prim_spawn_side(s, 1.0f);
 }
 
 int prim_inside(const Prim *p, Vec3 q)

@@ -77,10 +77,12 @@ static void filtered(const Ctx *c, const Ray *r, int n, const Vec3 *q, Vec3 *f)
             f[k] = vec_mul(f[k], pass_factor(mt));
             Surface sf;
             prim_surface(&c->s->prims[i], &cur[j], &h[j], c->p->variant, &sf);
-            Ray next = cur[j];
-            next.o = prim_spawn_origin(&sf, next.d);
-            next.tmax = vec_length(vec_sub(q[k], next.o));
-            on[m] = next; /* m <= j: cur[m] is done with */
+            /* on past the surface, field by field: a Ray copied whole
+             * from one built on the stack stalled on its reload */
+            const Vec3 d = cur[j].d, o = prim_spawn_origin(&sf, d);
+            on[m].o = o; /* m <= j: cur[m] is done with */
+            on[m].d = d;
+            on[m].tmax = vec_length(vec_sub(q[k], o));
             who[m++] = k;
             c->st->shadow++;
         }
@@ -111,7 +113,7 @@ static Vec3 transmittance(const Ctx *c, PlanShadow mode, Vec3 o, Vec3 q, Vec3 d,
 static Vec3 spawn_toward(const Surface *sf, const Vec3 o[2], Vec3 d)
 {
     float nd = vec_dot(sf->ng, d);
-    return nd < 0.0f ? o[0] : nd > 0.0f ? o[1] : prim_spawn_origin(sf, d);
+    return nd < 0.0f ? o[0] : nd > 0.0f ? o[1] : prim_spawn_side(sf, nd);
 }
 
 /* An area light's sample grid, each sample traced at most once, for

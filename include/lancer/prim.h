@@ -303,8 +303,12 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
 /* The origin for a ray leaving surface point s->p in direction dir: p moved
  * along the geometric normal, to dir's side, by more than s->perr projected
  * on it, then one float further (pbrt-v4's OffsetRayOrigin). No fixed
- * epsilon: the offset is the error bound of this very hit. */
-Vec3 prim_spawn_origin(const Surface *s, Vec3 dir);
+ * epsilon: the offset is the error bound of this very hit. It depends on
+ * dir's side alone: prim_spawn_side takes nd = dot(s->ng, dir). */
+Vec3 prim_spawn_side(const Surface *s, float nd);
+/* Inline, so that dir crosses no call: a Vec3 passed by value was packed
+ * through memory, and its reload stalled on the stores. */
+static inline Vec3 prim_spawn_origin(const Surface *s, Vec3 dir) { return prim_spawn_side(s, vec_dot(s->ng, dir)); }
 
 /* prim_spawn_origin's two answers, for the many rays that leave one point
  * (an area light's samples): o[0] for every dir with dot(s->ng, dir) < 0,
