@@ -525,6 +525,32 @@ typedef struct {
     unsigned rays;
 } PacketEntry;
 
+/* Leaf L holds one primitive, not a triangle, and two rays or more enter
+ * it: prim_intersect_rays tests them together (a sphere's four at once). */
+static inline int lone_other(const BvhLeaf *L, unsigned rays)
+{
+    return L->count == 1 && !L->tris && (rays & (rays - 1));
+}
+
+/* leaf_closest for the rays in the mask together, at such a leaf: q[k],
+ * best[k], h[k] and qt[k] as it leaves them for each. Returns the tests. */
+static unsigned long long leaf_closest_rays(const Bvh *b, const BvhLeaf *L, const Ray *r, Ray *q, unsigned rays,
+                                            int *best, PrimHit *h, float *qt)
+{
+    const int id = b->order[L->first];
+    PrimHit cur[BVH_PACKET];
+    for (unsigned m = prim_intersect_rays(&b->prims[id], q, rays, b->variant, cur); m; m &= m - 1) {
+        int k = tri_low_bit(m);
+        if (prim_hit_wins(cur[k].t, id, h[k].t, best[k])) {
+            best[k] = id;
+            h[k] = cur[k];
+            q[k].tmax = prim_tmax_past(cur[k].t, r[k].tmax);
+            qt[k] = q[k].tmax * BVH_REACH;
+        }
+    }
+    return (unsigned long long)__builtin_popcount(rays);
+}
+
 void bvh_closest_packet_avx2(const Bvh *b, const Ray *r, int n, PrimHit *h, int *best, unsigned long long *tests)
 {
     PacketPre p;
@@ -558,11 +584,14 @@ void bvh_closest_packet_avx2(const Bvh *b, const Ray *r, int n, PrimHit *h, int 
             continue;
         if (e.code < 0) {
             const BvhLeaf *L = &b->leaves[-1 - e.code];
-            for (unsigned m = e.rays; m; m &= m - 1) {
-                int k = tri_low_bit(m);
-                nt += (unsigned long long)leaf_closest(b, L, &tp[k], &r[k], &q[k], &best[k], &h[k]);
-                qt[k] = q[k].tmax * BVH_REACH;
-            }
+            if (lone_other(L, e.rays)) /* the rays together, as leaf_closest would one by one */
+                nt += leaf_closest_rays(b, L, r, q, e.rays, best, h, qt);
+            else
+                for (unsigned m = e.rays; m; m &= m - 1) {
+                    int k = tri_low_bit(m);
+                    nt += (unsigned long long)leaf_closest(b, L, &tp[k], &r[k], &q[k], &best[k], &h[k]);
+                    qt[k] = q[k].tmax * BVH_REACH;
+                }
             far = 0.0f;
             for (int k = 0; k < n; k++)
                 far = qt[k] > far ? qt[k] : far;
@@ -630,6 +659,12 @@ unsigned bvh_occluded_packet_avx2(const Bvh *b, const Ray *r, int n, unsigned lo
             continue;
         if (code < 0) {
             const BvhLeaf *L = &b->leaves[-1 - code];
+            if (lone_other(L, rays)) { /* the rays together, as leaf_any would one by one */
+                PrimHit cur[BVH_PACKET];
+                nt += (unsigned long long)__builtin_popcount(rays);
+                hit |= prim_intersect_rays(&b->prims[b->order[L->first]], r, rays, b->variant, cur);
+                continue;
+            }
             for (unsigned m = rays; m; m &= m - 1) {
                 int k = tri_low_bit(m);
                 nt += L->count;

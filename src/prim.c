@@ -230,6 +230,18 @@ __attribute__((target("avx"))) static inline __m256d ray_field(const Ray *r, int
     return _mm256_cvtps_pd(_mm_setr_ps(f[0], f[s], f[2 * s], f[3 * s]));
 }
 
+/* float_up for four lanes x >= 0, the same operations lane by lane (for
+ * such x, float_next(f, 1) is f's bits plus 1). */
+__attribute__((target("avx"))) static inline __m128 float_up4(__m256d x)
+{
+    __m128 f = _mm256_cvtpd_ps(x);
+    __m128 big = _mm_cmpge_ps(f, _mm_set1_ps(FLT_MIN));
+    __m128 g = _mm_or_ps(_mm_and_ps(big, _mm_mul_ps(f, _mm_set1_ps(1.0f + FLT_EPSILON))),
+                         _mm_andnot_ps(big, _mm_castsi128_ps(_mm_add_epi32(_mm_castps_si128(f), _mm_set1_epi32(1)))));
+    __m128 keep = mask_ps(_mm256_cmp_pd(_mm256_cvtps_pd(f), x, _CMP_GE_OQ));
+    return _mm_or_ps(_mm_and_ps(keep, f), _mm_andnot_ps(keep, g));
+}
+
 /* prim_plane_hit_robust for the rays r[k0 .. k0 + 3], lane by lane: the
  * same operations in the same order, each verdict a mask. */
 __attribute__((target("avx"))) static unsigned plane_hit4(const Plane *pl, const Ray *r, int k0, const float *tmax,
@@ -266,12 +278,7 @@ __attribute__((target("avx"))) static unsigned plane_hit4(const Plane *pl, const
     __m128 tf = _mm256_cvtpd_ps(t);
     __m256d x = _mm256_add_pd(err, ABS(_mm256_sub_pd(_mm256_cvtps_pd(tf), t)));
 #undef ABS
-    __m128 f = _mm256_cvtpd_ps(x); /* x >= 0: float_next(f, 1) is f's bits plus 1 */
-    __m128 big = _mm_cmpge_ps(f, _mm_set1_ps(FLT_MIN));
-    __m128 g = _mm_or_ps(_mm_and_ps(big, _mm_mul_ps(f, _mm_set1_ps(1.0f + FLT_EPSILON))),
-                         _mm_andnot_ps(big, _mm_castsi128_ps(_mm_add_epi32(_mm_castps_si128(f), _mm_set1_epi32(1)))));
-    __m128 keep = mask_ps(_mm256_cmp_pd(_mm256_cvtps_pd(f), x, _CMP_GE_OQ));
-    __m128 terr = _mm_or_ps(_mm_and_ps(keep, f), _mm_andnot_ps(keep, g));
+    __m128 terr = float_up4(x);
     __m128 in = _mm_and_ps(_mm_cmpgt_ps(tf, _mm_setzero_ps()), _mm_cmplt_ps(tf, _mm_loadu_ps(tmax + k0)));
     _mm_storeu_ps(t_out, tf);
     _mm_storeu_ps(terr_out, terr);
@@ -279,8 +286,8 @@ __attribute__((target("avx"))) static unsigned plane_hit4(const Plane *pl, const
 }
 #endif
 
-/* The processor runs plane_hit4: it has AVX. */
-static int plane_avx(void)
+/* The processor runs the four-lane routines: it has AVX. */
+static int prim_avx(void)
 {
 #ifdef PRIM_AVX
     return __builtin_cpu_supports("avx");
@@ -294,7 +301,7 @@ unsigned prim_plane_hit_robust_rays(const Plane *pl, const Ray *r, const float *
     unsigned hit = 0;
     int k = 0;
 #ifdef PRIM_AVX
-    if (plane_avx())
+    if (prim_avx())
         for (; k + 4 <= n; k += 4) {
             float t[4], terr[4];
             unsigned m = plane_hit4(pl, r, k, tmax, t, terr);
@@ -441,6 +448,94 @@ int prim_sphere_hit_robust(const Sphere *s, const Ray *r, PrimHit *h)
     const SphereG g = {f, d, (double)s->r * s->r}; /* r^2 is exact */
     return quadric_hit(f, dd, g.r2, sphere_gfn, &g, r, h);
 }
+
+#ifdef PRIM_AVX
+/* sphere_g for four lanes, the same operations lane by lane. */
+__attribute__((target("avx"))) static inline __m256d sphere_g4(const __m256d f[3], const __m256d d[3], __m256d r2,
+                                                              __m256d t, __m256d *err)
+{
+    const __m256d sign = _mm256_set1_pd(-0.0), g3 = _mm256_set1_pd(gamma_d(3));
+    __m256d g = _mm256_xor_pd(r2, sign), e = _mm256_setzero_pd(), mag = r2;
+    for (int i = 0; i < 3; i++) {
+        __m256d td = _mm256_mul_pd(t, d[i]);
+        __m256d p = _mm256_add_pd(f[i], td);
+        __m256d ep = _mm256_mul_pd(g3, _mm256_add_pd(_mm256_andnot_pd(sign, f[i]), _mm256_andnot_pd(sign, td)));
+        __m256d pp = _mm256_mul_pd(p, p);
+        g = _mm256_add_pd(g, pp);
+        e = _mm256_add_pd(e, _mm256_add_pd(_mm256_mul_pd(_mm256_mul_pd(_mm256_set1_pd(2.0), _mm256_andnot_pd(sign, p)), ep),
+                                           _mm256_mul_pd(ep, ep)));
+        mag = _mm256_add_pd(mag, pp);
+    }
+    *err = _mm256_add_pd(e, _mm256_mul_pd(_mm256_set1_pd(gamma_d(5)), mag));
+    return g;
+}
+
+/* prim_sphere_hit_robust for the rays r[k[0 .. 3]], lane by lane: the same
+ * operations in the same order (stable_roots, certify_root's brackets,
+ * round_t), each verdict a mask. Returns the lanes hit. */
+__attribute__((target("avx"))) static unsigned sphere_hit4(const Sphere *s, const Ray *r, const int k[4], float *t_out,
+                                                          float *terr_out)
+{
+    const __m256d zero = _mm256_setzero_pd(), sign = _mm256_set1_pd(-0.0);
+#define ABS(x) _mm256_andnot_pd(sign, x)
+#define LANES(field) _mm256_cvtps_pd(_mm_setr_ps(r[k[0]].field, r[k[1]].field, r[k[2]].field, r[k[3]].field))
+    const __m256d d[3] = {LANES(d.x), LANES(d.y), LANES(d.z)};
+    const __m256d f[3] = {_mm256_sub_pd(LANES(o.x), _mm256_set1_pd(s->c.x)), _mm256_sub_pd(LANES(o.y), _mm256_set1_pd(s->c.y)),
+                          _mm256_sub_pd(LANES(o.z), _mm256_set1_pd(s->c.z))};
+    const __m128 tmax = _mm_setr_ps(r[k[0]].tmax, r[k[1]].tmax, r[k[2]].tmax, r[k[3]].tmax);
+#undef LANES
+    const __m256d r2 = _mm256_set1_pd((double)s->r * s->r);
+    /* stable_roots */
+    __m256d a = zero, b = zero, ff = zero, l2 = zero;
+    for (int i = 0; i < 3; i++) {
+        a = _mm256_add_pd(a, _mm256_mul_pd(d[i], d[i]));
+        b = _mm256_add_pd(b, _mm256_mul_pd(f[i], d[i]));
+        ff = _mm256_add_pd(ff, _mm256_mul_pd(f[i], f[i]));
+    }
+    __m256d kk = _mm256_div_pd(b, a);
+    for (int i = 0; i < 3; i++) {
+        __m256d li = _mm256_sub_pd(f[i], _mm256_mul_pd(kk, d[i]));
+        l2 = _mm256_add_pd(l2, _mm256_mul_pd(li, li));
+    }
+    __m256d disc = _mm256_mul_pd(a, _mm256_sub_pd(r2, l2));
+    __m256d ok = _mm256_cmp_pd(disc, zero, _CMP_GE_OQ);
+    __m256d root = _mm256_or_pd(ABS(_mm256_sqrt_pd(disc)), _mm256_and_pd(sign, b)); /* copysign */
+    __m256d q = _mm256_xor_pd(_mm256_add_pd(b, root), sign);
+    __m256d t0 = _mm256_div_pd(_mm256_sub_pd(ff, r2), q), t1 = _mm256_div_pd(q, a);
+    __m256d swap = _mm256_cmp_pd(t0, t1, _CMP_GT_OQ);
+    __m256d lo = _mm256_blendv_pd(t0, t1, swap), hi = _mm256_blendv_pd(t1, t0, swap);
+    ok = _mm256_and_pd(ok, _mm256_cmp_pd(q, zero, _CMP_NEQ_UQ));
+    /* stable_root */
+    __m256d t = _mm256_blendv_pd(hi, lo, _mm256_cmp_pd(lo, zero, _CMP_GT_OQ));
+    ok = _mm256_and_pd(ok, _mm256_cmp_pd(t, zero, _CMP_GT_OQ));
+    /* certify_root: each lane's bracket widens until it is certain, as
+     * long as some lane's is not (none, when every lane missed) */
+    __m256d w = _mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(16.0 * UNIT_D), ABS(t)), _mm256_set1_pd(1e-300));
+    __m256d sure = zero, half = zero; /* half: the certain lanes' half-widths */
+    for (int it = 0; it < 24; it++, w = _mm256_mul_pd(w, _mm256_set1_pd(8.0))) {
+        __m256d need = _mm256_andnot_pd(sure, ok);
+        if (!_mm256_movemask_pd(need))
+            break;
+        __m256d e_lo, e_hi;
+        __m256d g_lo = sphere_g4(f, d, r2, _mm256_sub_pd(t, w), &e_lo);
+        __m256d g_hi = sphere_g4(f, d, r2, _mm256_add_pd(t, w), &e_hi);
+        __m256d now = _mm256_and_pd(_mm256_cmp_pd(ABS(g_lo), e_lo, _CMP_GT_OQ), _mm256_cmp_pd(ABS(g_hi), e_hi, _CMP_GT_OQ));
+        now = _mm256_and_pd(need, _mm256_and_pd(now, _mm256_xor_pd(_mm256_cmp_pd(g_lo, zero, _CMP_GT_OQ),
+                                                                  _mm256_cmp_pd(g_hi, zero, _CMP_GT_OQ))));
+        half = _mm256_blendv_pd(half, _mm256_add_pd(w, _mm256_mul_pd(_mm256_set1_pd(2.0 * UNIT_D), _mm256_add_pd(ABS(t), w))), now);
+        sure = _mm256_or_pd(sure, now);
+    }
+    ok = _mm256_and_pd(ok, sure); /* a bracket never certain: tangent to working precision, a miss */
+    /* round_t */
+    __m128 tf = _mm256_cvtpd_ps(t);
+    __m128 terr = float_up4(_mm256_add_pd(half, ABS(_mm256_sub_pd(_mm256_cvtps_pd(tf), t))));
+#undef ABS
+    __m128 in = _mm_and_ps(_mm_cmpgt_ps(tf, _mm_setzero_ps()), _mm_cmplt_ps(tf, tmax));
+    _mm_storeu_ps(t_out, tf);
+    _mm_storeu_ps(terr_out, terr);
+    return (unsigned)_mm_movemask_ps(_mm_and_ps(mask_ps(ok), in));
+}
+#endif
 
 /* ---- ellipsoid ---- */
 
@@ -760,6 +855,33 @@ int prim_intersect(const Prim *p, const Ray *r, PrimVariant v, PrimHit *h)
     }
     }
     return 0;
+}
+
+unsigned prim_intersect_rays(const Prim *p, const Ray *r, unsigned rays, PrimVariant v, PrimHit *h)
+{
+    unsigned hit = 0;
+#ifdef PRIM_AVX
+    if (p->kind == PRIM_SPHERE && v == PRIM_ROBUST && prim_avx())
+        while (rays & (rays - 1)) { /* two rays or more: four lanes, the last ones repeating the first */
+            int k[4] = {0, 0, 0, 0}, m = 0;
+            for (; m < 4 && rays; rays &= rays - 1)
+                k[m++] = __builtin_ctz(rays);
+            for (int j = m; j < 4; j++)
+                k[j] = k[0];
+            float t[4], terr[4];
+            unsigned got = sphere_hit4(&p->g.sphere, r, k, t, terr);
+            for (int j = 0; j < m; j++)
+                if (got >> j & 1) {
+                    h[k[j]] = (PrimHit){t[j], terr[j], 0.0f, 0.0f, 0};
+                    hit |= 1u << k[j];
+                }
+        }
+#endif
+    for (; rays; rays &= rays - 1) { /* the rest one by one */
+        int k = __builtin_ctz(rays);
+        hit |= (unsigned)prim_intersect(p, &r[k], v, &h[k]) << k;
+    }
+    return hit;
 }
 
 /* p = o + t d, evaluated in double and rounded once, and its error: terr

@@ -937,6 +937,76 @@ static void test_plane_rays_match_scalar(void **state)
     assert_true(hits > 2500 && misses > 10000);
 }
 
+/* prim_intersect_rays on robust spheres: the same verdicts and the same
+ * bits as prim_sphere_hit_robust one ray at a time, for rays through, past,
+ * grazing (whose root the first bracket cannot certify), from inside and
+ * from the surface, tiny, huge and not numbers, in masks with gaps. */
+static void test_sphere_rays_match_scalar(void **state)
+{
+    (void)state;
+    unsigned long long s = 0x2545F4914F6CDD1DULL;
+    int hits = 0, misses = 0, grazing = 0;
+    for (int round = 0; round < 6000; round++) {
+        Prim p = {0};
+        p.kind = PRIM_SPHERE;
+        float scale = round % 7 == 0 ? 1e-4f : round % 7 == 1 ? 1e4f : 1.0f;
+        p.g.sphere.c = vec_scale(vec3(test_uniform(&s, -5, 5), test_uniform(&s, -5, 5), test_uniform(&s, -5, 5)), scale);
+        p.g.sphere.r = test_uniform(&s, 0.01f, 3.0f) * scale;
+        const Sphere *sp = &p.g.sphere;
+        Ray r[8];
+        for (int k = 0; k < 8; k++) {
+            Vec3 o = vec_add(sp->c, vec_scale(vec3(test_uniform(&s, -20, 20), test_uniform(&s, -20, 20), test_uniform(&s, -20, 20)), scale));
+            Vec3 aim = vec_add(sp->c, vec_scale(vec3(test_uniform(&s, -1, 1), test_uniform(&s, -1, 1), test_uniform(&s, -1, 1)), sp->r));
+            int kind = (int)test_uniform(&s, 0, 12);
+            if (kind == 0) { /* grazing: toward a point of the silhouette seen from o */
+                Vec3 to = vec_normalize(vec_sub(sp->c, o)), side = vec_normalize(vec_cross(to, vec3(0.3f, 1, 0.2f)));
+                float dist = vec_length(vec_sub(sp->c, o)), rr = sp->r * sp->r;
+                aim = vec_add(vec_add(o, vec_scale(to, (dist * dist - rr) / dist)), vec_scale(side, sp->r * sqrtf(1 - rr / (dist * dist))));
+                grazing++;
+            } else if (kind == 1) /* from inside */
+                o = vec_add(sp->c, vec_scale(vec3(test_uniform(&s, -1, 1), test_uniform(&s, -1, 1), test_uniform(&s, -1, 1)), sp->r * 0.5f));
+            else if (kind == 2) /* on the surface, as a spawn leaves it */
+                o = vec_add(sp->c, vec_scale(vec_normalize(vec3(test_uniform(&s, -1, 1), test_uniform(&s, -1, 1), 0.5f)), sp->r));
+            Vec3 d = vec_normalize(vec_sub(aim, o));
+            if (kind == 3)
+                d = vec3(d.x * 1e-30f, d.y * 1e-41f, d.z * 1e-20f); /* tiny and subnormal */
+            else if (kind == 4)
+                o = vec_scale(o, 1e30f); /* huge */
+            else if (kind == 5)
+                o.y = (round & 1) ? INFINITY : NAN;
+            else if (kind == 6)
+                d.x = NAN;
+            else if (kind == 7)
+                d = vec_scale(d, -1.0f); /* away */
+            r[k] = ray_make(o, d, INFINITY);
+            int m = (int)test_uniform(&s, 0, 4);
+            PrimHit h;
+            if (m == 1)
+                r[k].tmax = test_uniform(&s, 0.01f, 40) * scale;
+            else if (m == 2 && prim_sphere_hit_robust(sp, &r[k], &h)) /* at the hit, or one float past it */
+                r[k].tmax = (round & 2) ? h.t : nextafterf(h.t, INFINITY);
+        }
+        unsigned rays = (unsigned)(round % 5 == 0 ? 0xff : test_uniform(&s, 0, 256)) & 0xff;
+        PrimHit got[8];
+        unsigned bits = prim_intersect_rays(&p, r, rays, PRIM_ROBUST, got);
+        assert_int_equal(bits & ~rays, 0);
+        for (int k = 0; k < 8; k++) {
+            if (!(rays >> k & 1))
+                continue;
+            PrimHit want;
+            int hit = prim_sphere_hit_robust(sp, &r[k], &want);
+            assert_int_equal((int)(bits >> k & 1), hit);
+            if (hit) {
+                assert_memory_equal(&got[k].t, &want.t, sizeof want.t);
+                assert_memory_equal(&got[k].terr, &want.terr, sizeof want.terr);
+                hits++;
+            } else
+                misses++;
+        }
+    }
+    assert_true(hits > 5000 && misses > 5000 && grazing > 3000);
+}
+
 /* ---- four triangles at once ---- */
 
 static unsigned long long rng = 0x2545F4914F6CDD1DULL;
@@ -1169,6 +1239,7 @@ int main(void)
         cmocka_unit_test(test_ellipsoid),
         cmocka_unit_test(test_plane),
         cmocka_unit_test(test_plane_rays_match_scalar),
+        cmocka_unit_test(test_sphere_rays_match_scalar),
         cmocka_unit_test(test_triangle),
         cmocka_unit_test(test_smooth_triangle_normal),
         cmocka_unit_test(test_box),
