@@ -1205,6 +1205,99 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
     s->ns = oriented ? s->ng : vec_dot(ns, r->d) > 0.0f ? vec_neg(ns) : ns;
 }
 
+#ifdef PRIM_AVX
+/* prim_surface for robust spheres, the hits k[0 .. 3] of rays r[k] at
+ * prims[best[k]]: the same operations lane by lane, the sphere's part in
+ * doubles and the normal's in floats, into out[0 .. 3]. */
+__attribute__((target("avx"))) static void sphere_surface4(const Prim *prims, const int *best, const Ray *r,
+                                                          const PrimHit *h, const int k[4], Surface out[4])
+{
+    const Sphere *sp[4] = {&prims[best[k[0]]].g.sphere, &prims[best[k[1]]].g.sphere, &prims[best[k[2]]].g.sphere,
+                           &prims[best[k[3]]].g.sphere};
+#define LANES(x) _mm256_cvtps_pd(_mm_setr_ps(x(0), x(1), x(2), x(3)))
+#define O(j) vec_comp(r[k[j]].o, i)
+#define D(j) vec_comp(r[k[j]].d, i)
+#define C(j) vec_comp(sp[j]->c, i)
+#define T(j) h[k[j]].t
+#define R(j) sp[j]->r
+    const __m256d sign = _mm256_set1_pd(-0.0), t = LANES(T), rr = LANES(R);
+    __m256d q[3], c[3], len = _mm256_setzero_pd();
+    for (int i = 0; i < 3; i++) {
+        c[i] = LANES(C);
+        q[i] = _mm256_add_pd(_mm256_sub_pd(LANES(O), c[i]), _mm256_mul_pd(t, LANES(D)));
+        len = _mm256_add_pd(len, _mm256_mul_pd(q[i], q[i]));
+    }
+    len = _mm256_sqrt_pd(len);
+    float pp[3][4], e[3][4], ng[3][4];
+    __m128 n[3];
+    for (int i = 0; i < 3; i++) {
+        __m256d u = _mm256_div_pd(q[i], len);
+        __m256d x = _mm256_add_pd(c[i], _mm256_mul_pd(rr, u));
+        _mm_storeu_ps(pp[i], _mm256_cvtpd_ps(x));
+        __m256d b = _mm256_mul_pd(_mm256_set1_pd(gamma_d(8)), _mm256_add_pd(_mm256_andnot_pd(sign, c[i]), rr));
+        _mm_storeu_ps(e[i], float_up4(_mm256_add_pd(b, _mm256_mul_pd(_mm256_set1_pd(UNIT_F), _mm256_andnot_pd(sign, x)))));
+        n[i] = _mm256_cvtpd_ps(u);
+    }
+#undef LANES
+#undef O
+#undef D
+#undef C
+#undef T
+#undef R
+    /* the tail of prim_surface: ng normalised, turned to face the ray */
+    __m128 len2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(n[0], n[0]), _mm_mul_ps(n[1], n[1])), _mm_mul_ps(n[2], n[2]));
+    __m128 nl = _mm_sqrt_ps(len2), pos = _mm_cmpgt_ps(nl, _mm_setzero_ps());
+    __m128 inv = _mm_div_ps(_mm_set1_ps(1.0f), nl);
+    __m128 dd[3];
+    for (int i = 0; i < 3; i++) {
+        n[i] = _mm_or_ps(_mm_and_ps(pos, _mm_mul_ps(n[i], inv)), _mm_andnot_ps(pos, n[i]));
+        dd[i] = _mm_setr_ps(vec_comp(r[k[0]].d, i), vec_comp(r[k[1]].d, i), vec_comp(r[k[2]].d, i), vec_comp(r[k[3]].d, i));
+    }
+    __m128 nd = _mm_add_ps(_mm_add_ps(_mm_mul_ps(n[0], dd[0]), _mm_mul_ps(n[1], dd[1])), _mm_mul_ps(n[2], dd[2]));
+    __m128 flip = _mm_and_ps(_mm_cmpgt_ps(nd, _mm_setzero_ps()), _mm_set1_ps(-0.0f));
+    for (int i = 0; i < 3; i++)
+        _mm_storeu_ps(ng[i], _mm_xor_ps(n[i], flip));
+    for (int j = 0; j < 4; j++) {
+        Surface *o = &out[j];
+        o->p = vec3(pp[0][j], pp[1][j], pp[2][j]);
+        o->perr = vec3(e[0][j], e[1][j], e[2][j]);
+        o->ng = o->noff = o->ns = vec3(ng[0][j], ng[1][j], ng[2][j]);
+        o->pin_side = 0;
+    }
+}
+#endif
+
+void prim_surface_hits(const Prim *prims, const int *best, const Ray *r, const PrimHit *h, int n, PrimVariant v,
+                       Surface *s)
+{
+    int k[4] = {0, 0, 0, 0}, m = 0; /* the robust spheres' hits gathered */
+#ifdef PRIM_AVX
+    const int lanes = v == PRIM_ROBUST && prim_avx() ? 4 : 0;
+#else
+    const int lanes = 0;
+#endif
+    for (int j = 0; j < n; j++) {
+        if (best[j] < 0)
+            continue;
+        if (!lanes || prims[best[j]].kind != PRIM_SPHERE) {
+            prim_surface(&prims[best[j]], &r[j], &h[j], v, &s[j]);
+            continue;
+        }
+        k[m++] = j;
+#ifdef PRIM_AVX
+        if (m == 4) {
+            Surface out[4];
+            sphere_surface4(prims, best, r, h, k, out);
+            for (int i = 0; i < 4; i++)
+                s[k[i]] = out[i];
+            m = 0;
+        }
+#endif
+    }
+    for (int i = 0; i < m; i++) /* fewer than four left */
+        prim_surface(&prims[best[k[i]]], &r[k[i]], &h[k[i]], v, &s[k[i]]);
+}
+
 Vec3 prim_spawn_side(const Surface *s, float nd)
 {
     if (s->pin_side && (nd > 0.0f) == (s->pin_side > 0))

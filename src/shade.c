@@ -64,22 +64,29 @@ static void filtered(const Ctx *c, const Ray *r, int n, const Vec3 *q, Vec3 *f)
     for (int cross = 0; cross < LIMIT_SHADOW_CROSSINGS && non; cross++) {
         int best[ACCEL_PACKET], m = 0;
         PrimHit h[ACCEL_PACKET];
+        int through[ACCEL_PACKET]; /* the transparent surfaces crossed, or -1 */
+        Surface sf[ACCEL_PACKET];
         accel_closest_packet(c->a, cur, non, h, best, c->st);
         for (int j = 0; j < non; j++) {
-            const int i = best[j], k = who[j];
+            const int i = best[j];
+            through[j] = -1;
             if (i < 0) /* through to q */
                 continue;
             const Material *mt = material_of(c, i);
-            if (mt->filter + mt->transmit <= 0.0f) {
-                f[k] = vec3(0, 0, 0);
+            if (mt->filter + mt->transmit <= 0.0f)
+                f[who[j]] = vec3(0, 0, 0);
+            else
+                through[j] = i;
+        }
+        prim_surface_hits(c->s->prims, through, cur, h, non, c->p->variant, sf);
+        for (int j = 0; j < non; j++) {
+            const int i = through[j], k = who[j];
+            if (i < 0)
                 continue;
-            }
-            f[k] = vec_mul(f[k], pass_factor(mt));
-            Surface sf;
-            prim_surface(&c->s->prims[i], &cur[j], &h[j], c->p->variant, &sf);
+            f[k] = vec_mul(f[k], pass_factor(material_of(c, i)));
             /* on past the surface, field by field: a Ray copied whole
              * from one built on the stack stalled on its reload */
-            const Vec3 d = cur[j].d, o = prim_spawn_origin(&sf, d);
+            const Vec3 d = cur[j].d, o = prim_spawn_origin(&sf[j], d);
             on[m].o = o; /* m <= j: cur[m] is done with */
             on[m].d = d;
             on[m].tmax = vec_length(vec_sub(q[k], o));
@@ -389,6 +396,7 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
     const Scene *s = c->s;
     const Material *m[ACCEL_PACKET];
     Surface sf[ACCEL_PACKET];
+    prim_surface_hits(s->prims, best, r, h, n, c->p->variant, sf);
     for (int k = 0; k < n; k++) {
         if (best[k] < 0) {
             m[k] = NULL;
@@ -396,7 +404,6 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
             continue;
         }
         m[k] = material_of(c, best[k]);
-        prim_surface(&s->prims[best[k]], &r[k], &h[k], c->p->variant, &sf[k]);
         out[k] = vec_scale(m[k]->color, m[k]->ambient * opacity_of(m[k]));
     }
     for (int i = 0; i < s->nlights; i++) {

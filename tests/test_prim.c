@@ -1007,6 +1007,71 @@ static void test_sphere_rays_match_scalar(void **state)
     assert_true(hits > 5000 && misses > 5000 && grazing > 3000);
 }
 
+/* The fields of a Surface that prim_surface sets, bit for bit. */
+static void assert_same_surface(const Surface *a, const Surface *b)
+{
+    assert_memory_equal(&a->p, &b->p, sizeof a->p);
+    assert_memory_equal(&a->perr, &b->perr, sizeof a->perr);
+    assert_memory_equal(&a->ng, &b->ng, sizeof a->ng);
+    assert_memory_equal(&a->ns, &b->ns, sizeof a->ns);
+    assert_memory_equal(&a->noff, &b->noff, sizeof a->noff);
+    assert_int_equal(a->pin_side, b->pin_side);
+}
+
+/* prim_surface_hits against prim_surface hit by hit: packets of 1 to 8
+ * hits on spheres of every scale (from outside and from inside) among
+ * boxes, with misses between them, robust and classic. */
+static void test_surface_hits_match_scalar(void **state)
+{
+    (void)state;
+    unsigned long long s = 0x9E3779B97F4A7C15ULL;
+    Prim prims[6];
+    int spheres = 0;
+    for (int round = 0; round < 3000; round++) {
+        for (int i = 0; i < 6; i++) {
+            Prim *p = &prims[i];
+            float scale = i == 4 ? 1e-3f : i == 5 ? 1e3f : 1.0f;
+            Vec3 c = vec_scale(vec3(test_uniform(&s, -5, 5), test_uniform(&s, -5, 5), test_uniform(&s, -5, 5)), scale);
+            float r = test_uniform(&s, 0.1f, 2.0f) * scale;
+            memset(p, 0, sizeof *p);
+            if (i == 3) {
+                p->kind = PRIM_BOX;
+                p->g.box = (Box){vec_sub(c, vec3(r, r, r)), vec_add(c, vec3(r, r, r))};
+            } else {
+                p->kind = PRIM_SPHERE;
+                p->g.sphere.c = c;
+                p->g.sphere.r = r;
+            }
+        }
+        PrimVariant v = round % 4 == 3 ? PRIM_CLASSIC : PRIM_ROBUST;
+        int n = 1 + round % 8, best[8];
+        Ray r[8];
+        PrimHit h[8];
+        for (int k = 0; k < n; k++) {
+            int i = (int)test_uniform(&s, 0, 6);
+            const Prim *p = &prims[i];
+            Vec3 c = p->kind == PRIM_BOX ? vec_scale(vec_add(p->g.box.lo, p->g.box.hi), 0.5f) : p->g.sphere.c;
+            float size = p->kind == PRIM_BOX ? p->g.box.hi.x - p->g.box.lo.x : p->g.sphere.r;
+            Vec3 o = vec_add(c, vec_scale(vec3(test_uniform(&s, -9, 9), test_uniform(&s, -9, 9), test_uniform(&s, -9, 9)), size));
+            if (k % 5 == 4) /* from inside */
+                o = vec_add(c, vec_scale(vec3(test_uniform(&s, -1, 1), test_uniform(&s, -1, 1), test_uniform(&s, -1, 1)), size * 0.4f));
+            Vec3 aim = vec_add(c, vec_scale(vec3(test_uniform(&s, -1, 1), test_uniform(&s, -1, 1), test_uniform(&s, -1, 1)), size * 0.6f));
+            r[k] = ray_make(o, vec_normalize(vec_sub(aim, o)), INFINITY);
+            best[k] = k % 7 != 6 && prim_intersect(p, &r[k], v, &h[k]) ? i : -1;
+            spheres += best[k] >= 0 && p->kind == PRIM_SPHERE;
+        }
+        Surface got[8];
+        prim_surface_hits(prims, best, r, h, n, v, got);
+        for (int k = 0; k < n; k++)
+            if (best[k] >= 0) {
+                Surface want;
+                prim_surface(&prims[best[k]], &r[k], &h[k], v, &want);
+                assert_same_surface(&got[k], &want);
+            }
+    }
+    assert_true(spheres > 8000);
+}
+
 /* ---- four triangles at once ---- */
 
 static unsigned long long rng = 0x2545F4914F6CDD1DULL;
@@ -1240,6 +1305,7 @@ int main(void)
         cmocka_unit_test(test_plane),
         cmocka_unit_test(test_plane_rays_match_scalar),
         cmocka_unit_test(test_sphere_rays_match_scalar),
+        cmocka_unit_test(test_surface_hits_match_scalar),
         cmocka_unit_test(test_triangle),
         cmocka_unit_test(test_smooth_triangle_normal),
         cmocka_unit_test(test_box),

@@ -304,6 +304,11 @@ int prim_inside(const Prim *p, Vec3 q);
  * heuristic (16 ulps of the larger of |p| and |ray origin|); the robust
  * one's is proven. */
 void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, Surface *s);
+/* prim_surface for the hits j < n of rays r[j] at prims[best[j]], into
+ * s[j], skipping those with best[j] < 0: the same surfaces, bit for bit;
+ * with AVX, robust spheres four at a time. */
+void prim_surface_hits(const Prim *prims, const int *best, const Ray *r, const PrimHit *h, int n, PrimVariant v,
+                       Surface *s);
 
 /* The origin for a ray leaving surface point s->p in direction dir: p moved
  * along the geometric normal, to dir's side, by more than s->perr projected
