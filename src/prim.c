@@ -390,6 +390,11 @@ static inline int stable_roots(const double f[3], const double d[3], double r2, 
         b += f[i] * d[i];
         ff += f[i] * f[i];
     }
+    /* From outside and moving away (a ray leaving the surface outwards):
+     * below, q < 0, so t1 < 0 and t0 < 0, and there is no usable root.
+     * Said here, before the divisions and the square root. */
+    if (b > 0.0 && ff - r2 > 0.0)
+        return 0;
     double k = b / a, l2 = 0.0;
     for (int i = 0; i < 3; i++) {
         double li = f[i] - k * d[i];
@@ -492,6 +497,10 @@ __attribute__((target("avx"))) static unsigned sphere_hit4(const Sphere *s, cons
         b = _mm256_add_pd(b, _mm256_mul_pd(f[i], d[i]));
         ff = _mm256_add_pd(ff, _mm256_mul_pd(f[i], f[i]));
     }
+    /* every lane from outside and moving away: none has a root (stable_roots) */
+    if (_mm256_movemask_pd(_mm256_and_pd(_mm256_cmp_pd(b, zero, _CMP_GT_OQ),
+                                         _mm256_cmp_pd(_mm256_sub_pd(ff, r2), zero, _CMP_GT_OQ))) == 15)
+        return 0;
     __m256d kk = _mm256_div_pd(b, a);
     for (int i = 0; i < 3; i++) {
         __m256d li = _mm256_sub_pd(f[i], _mm256_mul_pd(kk, d[i]));
