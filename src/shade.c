@@ -361,12 +361,20 @@ static int refracts(const Ctx *c, Vec3 f)
     return (y < 1.0f ? y : 1.0f) > c->p->adc_bailout; /* fminf(1, y), NaN included, without the libm call */
 }
 
-/* The mirror ray of r at sf. */
-static Ray mirror_ray(const Ctx *c, const Ray *r, const Surface *sf)
+/* prim_spawn_origin(sf, d), given sf's origin for every d on ng's side,
+ * front (prim_spawn_side(sf, 1)): the side is all the origin depends on. */
+static Vec3 spawn_front(const Surface *sf, Vec3 front, Vec3 d)
+{
+    float nd = vec_dot(sf->ng, d);
+    return nd > 0.0f ? front : prim_spawn_side(sf, nd);
+}
+
+/* The mirror ray of r at sf, whose front origin is front. */
+static Ray mirror_ray(const Ctx *c, const Ray *r, const Surface *sf, Vec3 front)
 {
     Vec3 d = vec_reflect(r->d, sf->ns);
     c->st->reflection++;
-    return ray_make(prim_spawn_origin(sf, d), d, INFINITY);
+    return ray_make(spawn_front(sf, front, d), d, INFINITY);
 }
 
 Vec3 shade_trace(const RenderPlan *p, const Accel *a, const Ray *r, RayStats *st)
@@ -396,6 +404,7 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
     const Scene *s = c->s;
     const Material *m[ACCEL_PACKET];
     Surface sf[ACCEL_PACKET];
+    Vec3 front[ACCEL_PACKET]; /* each hit's origin for the rays that leave on ng's side: most do */
     prim_surface_hits(s->prims, best, r, h, n, c->p->variant, sf);
     for (int k = 0; k < n; k++) {
         if (best[k] < 0) {
@@ -405,6 +414,7 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
         }
         m[k] = material_of(c, best[k]);
         out[k] = vec_scale(m[k]->color, m[k]->ambient * opacity_of(m[k]));
+        front[k] = prim_spawn_side(&sf[k], 1.0f);
     }
     for (int i = 0; i < s->nlights; i++) {
         const Light *l = &s->lights[i];
@@ -423,7 +433,7 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
             if (!lit[k] || mode == PLAN_SHADOW_NONE || mode == PLAN_SHADOW_CLEAR)
                 continue; /* the light reaches the point whole */
             if (together) { /* as transmittance() */
-                sr[ns] = ray_make(prim_spawn_origin(&sf[k], L), L, dist);
+                sr[ns] = ray_make(spawn_front(&sf[k], front[k], L), L, dist);
                 c->st->shadow++;
                 who[ns++] = k;
             } else
@@ -487,7 +497,7 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
         rmul[k] = tir ? 1.0f : m[k]->reflection;
         if (worth(c, w)) {
             rw[nr] = w;
-            rr[nr] = mirror_ray(c, &r[k], &sf[k]);
+            rr[nr] = mirror_ray(c, &r[k], &sf[k], front[k]);
             rin[nr] = in[k];
             rwho[nr++] = k;
         }
