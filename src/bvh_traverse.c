@@ -525,19 +525,39 @@ typedef struct {
     unsigned rays;
 } PacketEntry;
 
-/* Leaf L holds one primitive, not a triangle, and two rays or more enter
- * it: prim_intersect_rays tests them together (a sphere's four at once). */
-static inline int lone_other(const BvhLeaf *L, unsigned rays)
+/* Two rays or more enter leaf L, which holds one primitive that is not a
+ * triangle: prim_intersect_rays tests them together (a sphere's four at
+ * once). With triangles beside it, not when it is a PN patch, whose t
+ * depends a little on the ray's tmax: the others' do not, so the nearest
+ * hit does not depend on the order of the tests (prim_hit_wins). */
+static inline int other_together(const Bvh *b, const BvhLeaf *L, unsigned rays)
 {
-    return L->count == 1 && !L->tris && (rays & (rays - 1));
+    const unsigned others = ((1u << L->count) - 1) & ~(unsigned)L->tris;
+    if (!(rays & (rays - 1)) || !others || (others & (others - 1)))
+        return 0;
+    return L->count == 1 || b->prims[b->order[L->first + tri_low_bit(others)]].kind != PRIM_PN;
 }
 
-/* leaf_closest for the rays in the mask together, at such a leaf: q[k],
- * best[k], h[k] and qt[k] as it leaves them for each. Returns the tests. */
-static unsigned long long leaf_closest_rays(const Bvh *b, const BvhLeaf *L, const Ray *r, Ray *q, unsigned rays,
-                                            int *best, PrimHit *h, float *qt)
+/* leaf_closest for the rays in the mask together, at such a leaf: each
+ * ray's triangles, then the other primitive for all of them; q[k], best[k],
+ * h[k] and qt[k] as leaf_closest leaves them. Returns the tests. */
+static unsigned long long leaf_closest_rays(const Bvh *b, const BvhLeaf *L, TriPre *tp, const Ray *r, Ray *q,
+                                            unsigned rays, int *best, PrimHit *h, float *qt)
 {
-    const int id = b->order[L->first];
+    const unsigned others = ((1u << L->count) - 1) & ~(unsigned)L->tris;
+    for (unsigned m = L->tris ? rays : 0; m; m &= m - 1) {
+        int k = tri_low_bit(m);
+        LeafHits lh;
+        for (unsigned t = (unsigned)leaf_tris(L, &tp[k], &q[k], &lh); t; t &= t - 1) {
+            int i = tri_low_bit(t), id = b->order[L->first + i];
+            if (prim_hit_wins(lh.t[i], id, h[k].t, best[k])) {
+                best[k] = id;
+                h[k] = (PrimHit){lh.t[i], lh.terr[i], lh.u[i], lh.v[i], 0};
+                q[k].tmax = prim_tmax_past(lh.t[i], r[k].tmax);
+            }
+        }
+    }
+    const int id = b->order[L->first + tri_low_bit(others)];
     PrimHit cur[BVH_PACKET];
     for (unsigned m = prim_intersect_rays(&b->prims[id], q, rays, b->variant, cur); m; m &= m - 1) {
         int k = tri_low_bit(m);
@@ -545,10 +565,11 @@ static unsigned long long leaf_closest_rays(const Bvh *b, const BvhLeaf *L, cons
             best[k] = id;
             h[k] = cur[k];
             q[k].tmax = prim_tmax_past(cur[k].t, r[k].tmax);
-            qt[k] = q[k].tmax * BVH_REACH;
         }
     }
-    return (unsigned long long)__builtin_popcount(rays);
+    for (unsigned m = rays; m; m &= m - 1)
+        qt[tri_low_bit(m)] = q[tri_low_bit(m)].tmax * BVH_REACH;
+    return (unsigned long long)L->count * (unsigned long long)__builtin_popcount(rays);
 }
 
 void bvh_closest_packet_avx2(const Bvh *b, const Ray *r, int n, PrimHit *h, int *best, unsigned long long *tests)
@@ -584,8 +605,8 @@ void bvh_closest_packet_avx2(const Bvh *b, const Ray *r, int n, PrimHit *h, int 
             continue;
         if (e.code < 0) {
             const BvhLeaf *L = &b->leaves[-1 - e.code];
-            if (lone_other(L, e.rays)) /* the rays together, as leaf_closest would one by one */
-                nt += leaf_closest_rays(b, L, r, q, e.rays, best, h, qt);
+            if (other_together(b, L, e.rays)) /* as leaf_closest would one by one */
+                nt += leaf_closest_rays(b, L, tp, r, q, e.rays, best, h, qt);
             else
                 for (unsigned m = e.rays; m; m &= m - 1) {
                     int k = tri_low_bit(m);
@@ -659,7 +680,7 @@ unsigned bvh_occluded_packet_avx2(const Bvh *b, const Ray *r, int n, unsigned lo
             continue;
         if (code < 0) {
             const BvhLeaf *L = &b->leaves[-1 - code];
-            if (lone_other(L, rays)) { /* the rays together, as leaf_any would one by one */
+            if (L->count == 1 && !L->tris && (rays & (rays - 1))) { /* as leaf_any would one by one */
                 PrimHit cur[BVH_PACKET];
                 nt += (unsigned long long)__builtin_popcount(rays);
                 hit |= prim_intersect_rays(&b->prims[b->order[L->first]], r, rays, b->variant, cur);
