@@ -475,21 +475,58 @@ __attribute__((target("avx"))) static inline __m256d sphere_g4(const __m256d f[3
     return g;
 }
 
-/* prim_sphere_hit_robust for the rays r[k[0 .. 3]], lane by lane: the same
- * operations in the same order (stable_roots, certify_root's brackets,
- * round_t), each verdict a mask. Returns the lanes hit. */
-__attribute__((target("avx"))) static unsigned sphere_hit4(const Sphere *s, const Ray *r, const int k[4], float *t_out,
-                                                          float *terr_out)
+/* ell_g for four lanes at o + t d (o and d the floats of the rays, in
+ * double), the same operations lane by lane. */
+__attribute__((target("avx"))) static inline __m256d ell_g4(const double *a, const __m256d o[3], const __m256d d[3],
+                                                           __m256d t, __m256d *err)
+{
+    const __m256d sign = _mm256_set1_pd(-0.0), g4 = _mm256_set1_pd(gamma_d(4));
+    __m256d y[3], ey[3];
+    for (int j = 0; j < 3; j++) {
+        __m256d td = _mm256_mul_pd(t, d[j]);
+        y[j] = _mm256_add_pd(o[j], td);
+        ey[j] = _mm256_mul_pd(_mm256_set1_pd(gamma_d(2)), _mm256_add_pd(_mm256_andnot_pd(sign, o[j]), _mm256_andnot_pd(sign, td)));
+    }
+    __m256d g = _mm256_set1_pd(-1.0), e = _mm256_setzero_pd(), mag = _mm256_set1_pd(1.0);
+    for (int i = 0; i < 3; i++) {
+        __m256d x = _mm256_set1_pd(a[9 + i]), m = _mm256_set1_pd(fabs(a[9 + i])), ex = _mm256_setzero_pd();
+        for (int j = 0; j < 3; j++) {
+            __m256d ay = _mm256_mul_pd(_mm256_set1_pd(a[3 * i + j]), y[j]);
+            x = _mm256_add_pd(x, ay);
+            m = _mm256_add_pd(m, _mm256_andnot_pd(sign, ay));
+            ex = _mm256_add_pd(ex, _mm256_mul_pd(_mm256_set1_pd(fabs(a[3 * i + j])), ey[j]));
+        }
+        ex = _mm256_add_pd(_mm256_mul_pd(ex, _mm256_set1_pd(1.0 + gamma_d(4))), _mm256_mul_pd(g4, m));
+        __m256d xx = _mm256_mul_pd(x, x);
+        g = _mm256_add_pd(g, xx);
+        e = _mm256_add_pd(e, _mm256_add_pd(_mm256_mul_pd(_mm256_mul_pd(_mm256_set1_pd(2.0), _mm256_andnot_pd(sign, x)), ex),
+                                           _mm256_mul_pd(ex, ex)));
+        mag = _mm256_add_pd(mag, xx);
+    }
+    *err = _mm256_mul_pd(_mm256_add_pd(e, _mm256_mul_pd(_mm256_set1_pd(gamma_d(5)), mag)), _mm256_set1_pd(1.0 + gamma_d(8)));
+    return g;
+}
+
+/* A quadric's exact g along four rays: a sphere's (ell NULL, f = o - c)
+ * or an ellipsoid's (ell its inverse map a, f = o), d the rays'. */
+__attribute__((target("avx"), always_inline)) static inline __m256d quad_g4(const double *ell, const __m256d f[3],
+                                                                           const __m256d d[3], __m256d r2, __m256d t,
+                                                                           __m256d *err)
+{
+    return ell ? ell_g4(ell, f, d, t, err) : sphere_g4(f, d, r2, t, err);
+}
+
+/* quadric_hit for four rays (their tmax), lane by lane: the same operations
+ * in the same order (stable_roots from f and d, certify_root's brackets on
+ * quad_g4(ell, gf, gd, r2), round_t), each verdict a mask. Returns the
+ * lanes hit. */
+__attribute__((target("avx"), always_inline)) static inline unsigned quadric_hit4(const __m256d f[3], const __m256d d[3],
+                                                                                 __m256d r2, const double *ell,
+                                                                                 const __m256d gf[3], const __m256d gd[3],
+                                                                                 __m128 tmax, float *t_out, float *terr_out)
 {
     const __m256d zero = _mm256_setzero_pd(), sign = _mm256_set1_pd(-0.0);
 #define ABS(x) _mm256_andnot_pd(sign, x)
-#define LANES(field) _mm256_cvtps_pd(_mm_setr_ps(r[k[0]].field, r[k[1]].field, r[k[2]].field, r[k[3]].field))
-    const __m256d d[3] = {LANES(d.x), LANES(d.y), LANES(d.z)};
-    const __m256d f[3] = {_mm256_sub_pd(LANES(o.x), _mm256_set1_pd(s->c.x)), _mm256_sub_pd(LANES(o.y), _mm256_set1_pd(s->c.y)),
-                          _mm256_sub_pd(LANES(o.z), _mm256_set1_pd(s->c.z))};
-    const __m128 tmax = _mm_setr_ps(r[k[0]].tmax, r[k[1]].tmax, r[k[2]].tmax, r[k[3]].tmax);
-#undef LANES
-    const __m256d r2 = _mm256_set1_pd((double)s->r * s->r);
     /* stable_roots */
     __m256d a = zero, b = zero, ff = zero, l2 = zero;
     for (int i = 0; i < 3; i++) {
@@ -526,8 +563,8 @@ __attribute__((target("avx"))) static unsigned sphere_hit4(const Sphere *s, cons
         if (!_mm256_movemask_pd(need))
             break;
         __m256d e_lo, e_hi;
-        __m256d g_lo = sphere_g4(f, d, r2, _mm256_sub_pd(t, w), &e_lo);
-        __m256d g_hi = sphere_g4(f, d, r2, _mm256_add_pd(t, w), &e_hi);
+        __m256d g_lo = quad_g4(ell, gf, gd, r2, _mm256_sub_pd(t, w), &e_lo);
+        __m256d g_hi = quad_g4(ell, gf, gd, r2, _mm256_add_pd(t, w), &e_hi);
         __m256d now = _mm256_and_pd(_mm256_cmp_pd(ABS(g_lo), e_lo, _CMP_GT_OQ), _mm256_cmp_pd(ABS(g_hi), e_hi, _CMP_GT_OQ));
         now = _mm256_and_pd(need, _mm256_and_pd(now, _mm256_xor_pd(_mm256_cmp_pd(g_lo, zero, _CMP_GT_OQ),
                                                                   _mm256_cmp_pd(g_hi, zero, _CMP_GT_OQ))));
@@ -543,6 +580,36 @@ __attribute__((target("avx"))) static unsigned sphere_hit4(const Sphere *s, cons
     _mm_storeu_ps(t_out, tf);
     _mm_storeu_ps(terr_out, terr);
     return (unsigned)_mm_movemask_ps(_mm_and_ps(mask_ps(ok), in));
+}
+
+/* prim_sphere_hit_robust or prim_ellipsoid_hit_robust for the rays
+ * r[k[0 .. 3]] (p a sphere or an ellipsoid), lane by lane. Returns the
+ * lanes hit. */
+__attribute__((target("avx"))) static unsigned quadric_rays4(const Prim *p, const Ray *r, const int k[4], float *t_out,
+                                                            float *terr_out)
+{
+#define LANES(field) _mm256_cvtps_pd(_mm_setr_ps(r[k[0]].field, r[k[1]].field, r[k[2]].field, r[k[3]].field))
+    const __m128 tmax = _mm_setr_ps(r[k[0]].tmax, r[k[1]].tmax, r[k[2]].tmax, r[k[3]].tmax);
+    const __m256d o[3] = {LANES(o.x), LANES(o.y), LANES(o.z)}, d[3] = {LANES(d.x), LANES(d.y), LANES(d.z)};
+#undef LANES
+    __m256d f[3];
+    if (p->kind == PRIM_SPHERE) {
+        const Sphere *s = &p->g.sphere;
+        const __m256d r2 = _mm256_set1_pd((double)s->r * s->r); /* r^2 is exact */
+        for (int i = 0; i < 3; i++)
+            f[i] = _mm256_sub_pd(o[i], _mm256_set1_pd(vec_comp(s->c, i)));
+        return quadric_hit4(f, d, r2, NULL, f, d, tmax, t_out, terr_out);
+    }
+    /* ell_ray: f = A o + b, and A d */
+    const double *a = p->g.ell.e->a;
+    __m256d dd[3];
+    for (int i = 0; i < 3; i++) {
+        const __m256d a0 = _mm256_set1_pd(a[3 * i]), a1 = _mm256_set1_pd(a[3 * i + 1]), a2 = _mm256_set1_pd(a[3 * i + 2]);
+        f[i] = _mm256_add_pd(_mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(a0, o[0]), _mm256_mul_pd(a1, o[1])), _mm256_mul_pd(a2, o[2])),
+                             _mm256_set1_pd(a[9 + i]));
+        dd[i] = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(a0, d[0]), _mm256_mul_pd(a1, d[1])), _mm256_mul_pd(a2, d[2]));
+    }
+    return quadric_hit4(f, dd, _mm256_set1_pd(1.0), a, o, d, tmax, t_out, terr_out);
 }
 #endif
 
@@ -870,7 +937,7 @@ unsigned prim_intersect_rays(const Prim *p, const Ray *r, unsigned rays, PrimVar
 {
     unsigned hit = 0;
 #ifdef PRIM_AVX
-    if (p->kind == PRIM_SPHERE && v == PRIM_ROBUST && prim_avx())
+    if ((p->kind == PRIM_SPHERE || p->kind == PRIM_ELLIPSOID) && v == PRIM_ROBUST && prim_avx())
         while (rays & (rays - 1)) { /* two rays or more: four lanes, the last ones repeating the first */
             int k[4] = {0, 0, 0, 0}, m = 0;
             for (; m < 4 && rays; rays &= rays - 1)
@@ -878,7 +945,7 @@ unsigned prim_intersect_rays(const Prim *p, const Ray *r, unsigned rays, PrimVar
             for (int j = m; j < 4; j++)
                 k[j] = k[0];
             float t[4], terr[4];
-            unsigned got = sphere_hit4(&p->g.sphere, r, k, t, terr);
+            unsigned got = quadric_rays4(p, r, k, t, terr);
             for (int j = 0; j < m; j++)
                 if (got >> j & 1) {
                     h[k[j]] = (PrimHit){t[j], terr[j], 0.0f, 0.0f, 0};

@@ -937,28 +937,50 @@ static void test_plane_rays_match_scalar(void **state)
     assert_true(hits > 2500 && misses > 10000);
 }
 
-/* prim_intersect_rays on robust spheres: the same verdicts and the same
- * bits as prim_sphere_hit_robust one ray at a time, for rays through, past,
- * grazing (whose root the first bracket cannot certify), from inside and
- * from the surface, tiny, huge and not numbers, in masks with gaps. */
-static void test_sphere_rays_match_scalar(void **state)
+/* prim_intersect_rays on robust spheres and ellipsoids: the same verdicts
+ * and the same bits as prim_intersect one ray at a time, for rays through,
+ * past, grazing (whose root the first bracket cannot certify), from inside
+ * and from the surface, tiny, huge and not numbers, in masks with gaps. */
+static void test_quadric_rays_match_scalar(void **state)
 {
     (void)state;
     unsigned long long s = 0x2545F4914F6CDD1DULL;
-    int hits = 0, misses = 0, grazing = 0;
-    for (int round = 0; round < 6000; round++) {
+    int hits = 0, misses = 0, grazing = 0, ellipsoids = 0;
+    for (int round = 0; round < 9000; round++) {
         Prim p = {0};
         p.kind = PRIM_SPHERE;
         float scale = round % 7 == 0 ? 1e-4f : round % 7 == 1 ? 1e4f : 1.0f;
         p.g.sphere.c = vec_scale(vec3(test_uniform(&s, -5, 5), test_uniform(&s, -5, 5), test_uniform(&s, -5, 5)), scale);
         p.g.sphere.r = test_uniform(&s, 0.01f, 3.0f) * scale;
         const Sphere *sp = &p.g.sphere;
+        Ellipsoid e;
+        if (round % 3 == 2) { /* a map of the unit sphere about the same size, sheared */
+            for (int i = 0; i < 9; i++)
+                e.m[i] = (i % 4 == 0 ? 1.0 : 0.0) * sp->r + test_uniform(&s, -0.5f, 0.5f) * sp->r;
+            e.m[9] = sp->c.x, e.m[10] = sp->c.y, e.m[11] = sp->c.z;
+            if (prim_ellipsoid_init(&e) != 0)
+                continue;
+            p.kind = PRIM_ELLIPSOID;
+            p.g.ell.e = &e;
+            ellipsoids++;
+        }
         Ray r[8];
         for (int k = 0; k < 8; k++) {
             Vec3 o = vec_add(sp->c, vec_scale(vec3(test_uniform(&s, -20, 20), test_uniform(&s, -20, 20), test_uniform(&s, -20, 20)), scale));
             Vec3 aim = vec_add(sp->c, vec_scale(vec3(test_uniform(&s, -1, 1), test_uniform(&s, -1, 1), test_uniform(&s, -1, 1)), sp->r));
             int kind = (int)test_uniform(&s, 0, 12);
-            if (kind == 0) { /* grazing: toward a point of the silhouette seen from o */
+            if (kind == 0 && p.kind == PRIM_ELLIPSOID) { /* grazing, made in the unit sphere's space and mapped */
+                Vec3 y = vec3(test_uniform(&s, -4, 4), test_uniform(&s, -4, 4), 3.0f);
+                Vec3 to = vec_normalize(vec_neg(y)), side = vec_normalize(vec_cross(to, vec3(0.3f, 1, 0.2f)));
+                float dist = vec_length(y);
+                Vec3 at = vec_add(vec_add(y, vec_scale(to, (dist * dist - 1) / dist)), vec_scale(side, sqrtf(1 - 1 / (dist * dist))));
+                const double *m = e.m;
+                o = vec3((float)(m[0] * y.x + m[1] * y.y + m[2] * y.z + m[9]), (float)(m[3] * y.x + m[4] * y.y + m[5] * y.z + m[10]),
+                         (float)(m[6] * y.x + m[7] * y.y + m[8] * y.z + m[11]));
+                aim = vec3((float)(m[0] * at.x + m[1] * at.y + m[2] * at.z + m[9]), (float)(m[3] * at.x + m[4] * at.y + m[5] * at.z + m[10]),
+                           (float)(m[6] * at.x + m[7] * at.y + m[8] * at.z + m[11]));
+                grazing++;
+            } else if (kind == 0) { /* grazing: toward a point of the silhouette seen from o */
                 Vec3 to = vec_normalize(vec_sub(sp->c, o)), side = vec_normalize(vec_cross(to, vec3(0.3f, 1, 0.2f)));
                 float dist = vec_length(vec_sub(sp->c, o)), rr = sp->r * sp->r;
                 aim = vec_add(vec_add(o, vec_scale(to, (dist * dist - rr) / dist)), vec_scale(side, sp->r * sqrtf(1 - rr / (dist * dist))));
@@ -983,7 +1005,7 @@ static void test_sphere_rays_match_scalar(void **state)
             PrimHit h;
             if (m == 1)
                 r[k].tmax = test_uniform(&s, 0.01f, 40) * scale;
-            else if (m == 2 && prim_sphere_hit_robust(sp, &r[k], &h)) /* at the hit, or one float past it */
+            else if (m == 2 && prim_intersect(&p, &r[k], PRIM_ROBUST, &h)) /* at the hit, or one float past it */
                 r[k].tmax = (round & 2) ? h.t : nextafterf(h.t, INFINITY);
         }
         unsigned rays = (unsigned)(round % 5 == 0 ? 0xff : test_uniform(&s, 0, 256)) & 0xff;
@@ -994,7 +1016,7 @@ static void test_sphere_rays_match_scalar(void **state)
             if (!(rays >> k & 1))
                 continue;
             PrimHit want;
-            int hit = prim_sphere_hit_robust(sp, &r[k], &want);
+            int hit = prim_intersect(&p, &r[k], PRIM_ROBUST, &want);
             assert_int_equal((int)(bits >> k & 1), hit);
             if (hit) {
                 assert_memory_equal(&got[k].t, &want.t, sizeof want.t);
@@ -1004,7 +1026,7 @@ static void test_sphere_rays_match_scalar(void **state)
                 misses++;
         }
     }
-    assert_true(hits > 5000 && misses > 5000 && grazing > 3000);
+    assert_true(hits > 7000 && misses > 7000 && grazing > 4000 && ellipsoids > 2500);
 }
 
 /* The fields of a Surface that prim_surface sets, bit for bit. */
@@ -1304,7 +1326,7 @@ int main(void)
         cmocka_unit_test(test_ellipsoid),
         cmocka_unit_test(test_plane),
         cmocka_unit_test(test_plane_rays_match_scalar),
-        cmocka_unit_test(test_sphere_rays_match_scalar),
+        cmocka_unit_test(test_quadric_rays_match_scalar),
         cmocka_unit_test(test_surface_hits_match_scalar),
         cmocka_unit_test(test_triangle),
         cmocka_unit_test(test_smooth_triangle_normal),
