@@ -20,7 +20,7 @@ typedef struct {
     void *progress_ctx;
     const volatile sig_atomic_t *stop;
     unsigned char *rows_done; /* per row of the region */
-    pthread_mutex_t lock;     /* guards next, progress_done, stats and progress */
+    pthread_mutex_t lock;     /* guards stats and progress (and next and progress_done without atomics) */
     int next, progress_done, progress_total;
     RayStats stats;
     /* The pass: 0 the spp x spp grid of every pixel; with adaptive
@@ -180,23 +180,52 @@ static long aa_mask(const Job *job)
     return n;
 }
 
+/* The pass's next row for a thread (an index into rows), or -1. The rows
+ * are counted out atomically where the compiler can: a thread that finds
+ * a lock taken sleeps, and a virtual machine's processor that sleeps may
+ * take longer to wake than a short frame's row takes to render. */
+static int claim_row(Job *job)
+{
+    if (stopped(job))
+        return -1;
+#ifdef __GNUC__
+    int i = __atomic_fetch_add(&job->next, 1, __ATOMIC_RELAXED);
+#else
+    pthread_mutex_lock(&job->lock);
+    int i = job->next++;
+    pthread_mutex_unlock(&job->lock);
+#endif
+    return i < job->nrows ? i : -1;
+}
+
+/* Counts a finished row, and reports it to the progress callback (under
+ * the lock, one call at a time, in order). */
+static void finish_row(Job *job)
+{
+#ifdef __GNUC__
+    if (!job->progress) {
+        __atomic_fetch_add(&job->progress_done, 1, __ATOMIC_RELAXED);
+        return;
+    }
+#endif
+    pthread_mutex_lock(&job->lock);
+    job->progress_done++;
+    if (job->progress)
+        job->progress(job->progress_ctx, job->progress_done, job->progress_total);
+    pthread_mutex_unlock(&job->lock);
+}
+
 static void *worker(void *arg)
 {
     Job *job = arg;
     RayStats st = {0, 0, 0, 0, 0, 0, 0};
     for (;;) {
-        pthread_mutex_lock(&job->lock);
-        int i = job->next < job->nrows && !stopped(job) ? job->next++ : -1;
-        pthread_mutex_unlock(&job->lock);
+        int i = claim_row(job);
         if (i < 0 || !pass_row(job, job->rows[i], &st))
             break;
-        pthread_mutex_lock(&job->lock);
-        if (job->pass != 1) /* a row is done after its last pass */
+        if (job->pass != 1) /* a row is done after its last pass (read once the threads are joined) */
             job->rows_done[job->rows[i] - job->p->y0] = 1;
-        job->progress_done++;
-        if (job->progress)
-            job->progress(job->progress_ctx, job->progress_done, job->progress_total);
-        pthread_mutex_unlock(&job->lock);
+        finish_row(job);
     }
     pthread_mutex_lock(&job->lock);
     raystats_add(&job->stats, &st);
