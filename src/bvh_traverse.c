@@ -236,6 +236,17 @@ TRI_INLINE int leaf_tris(const BvhLeaf *L, TriPre *p, const Ray *r, LeafHits *h)
 #endif
 }
 
+/* A hit cur of primitive id becomes *best (h) when it wins (prim_hit_wins),
+ * and q's tmax moves just past it (r: the ray as given). */
+TRI_INLINE void keep_nearer(int id, const PrimHit *cur, const Ray *r, Ray *q, int *best, PrimHit *h)
+{
+    if (prim_hit_wins(cur->t, id, h->t, *best)) {
+        *best = id;
+        *h = *cur;
+        q->tmax = prim_tmax_past(cur->t, r->tmax);
+    }
+}
+
 /* Leaf L for closest-hit: its triangles' lanes hit, then the primitives
  * that are not triangles (most leaves have neither). A hit nearer than
  * *best's h->t, or as near with a lower index, becomes *best, and q's tmax
@@ -252,11 +263,7 @@ TRI_INLINE int leaf_closest(const Bvh *b, const BvhLeaf *L, TriPre *tp, const Ra
             cur = (PrimHit){lh.t[i], lh.terr[i], lh.u[i], lh.v[i], 0};
         else if (!prim_intersect(&b->prims[id], q, b->variant, &cur))
             continue;
-        if (prim_hit_wins(cur.t, id, h->t, *best)) {
-            *best = id;
-            *h = cur;
-            q->tmax = prim_tmax_past(cur.t, r->tmax);
-        }
+        keep_nearer(id, &cur, r, q, best, h);
     }
     return L->count;
 }
@@ -549,23 +556,16 @@ static unsigned long long leaf_closest_rays(const Bvh *b, const BvhLeaf *L, TriP
         int k = tri_low_bit(m);
         LeafHits lh;
         for (unsigned t = (unsigned)leaf_tris(L, &tp[k], &q[k], &lh); t; t &= t - 1) {
-            int i = tri_low_bit(t), id = b->order[L->first + i];
-            if (prim_hit_wins(lh.t[i], id, h[k].t, best[k])) {
-                best[k] = id;
-                h[k] = (PrimHit){lh.t[i], lh.terr[i], lh.u[i], lh.v[i], 0};
-                q[k].tmax = prim_tmax_past(lh.t[i], r[k].tmax);
-            }
+            int i = tri_low_bit(t);
+            PrimHit cur = {lh.t[i], lh.terr[i], lh.u[i], lh.v[i], 0};
+            keep_nearer(b->order[L->first + i], &cur, &r[k], &q[k], &best[k], &h[k]);
         }
     }
     const int id = b->order[L->first + tri_low_bit(others)];
     PrimHit cur[BVH_PACKET];
     for (unsigned m = prim_intersect_rays(&b->prims[id], q, rays, b->variant, cur); m; m &= m - 1) {
         int k = tri_low_bit(m);
-        if (prim_hit_wins(cur[k].t, id, h[k].t, best[k])) {
-            best[k] = id;
-            h[k] = cur[k];
-            q[k].tmax = prim_tmax_past(cur[k].t, r[k].tmax);
-        }
+        keep_nearer(id, &cur[k], &r[k], &q[k], &best[k], &h[k]);
     }
     for (unsigned m = rays; m; m &= m - 1)
         qt[tri_low_bit(m)] = q[tri_low_bit(m)].tmax * BVH_REACH;

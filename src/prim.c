@@ -455,6 +455,17 @@ int prim_sphere_hit_robust(const Sphere *s, const Ray *r, PrimHit *h)
 }
 
 #ifdef PRIM_AVX
+/* One coordinate's term of sphere_g and ell_g for four lanes: p (the
+ * coordinate in the sphere's space) and ep (its error bound) added to g,
+ * to their error e and to the magnitude mag, in their order. */
+__attribute__((target("avx"))) static inline void g_term4(__m256d p, __m256d ep, __m256d *g, __m256d *e, __m256d *mag)
+{
+    const __m256d pp = _mm256_mul_pd(p, p), two_abs = _mm256_mul_pd(_mm256_set1_pd(2.0), _mm256_andnot_pd(_mm256_set1_pd(-0.0), p));
+    *g = _mm256_add_pd(*g, pp);
+    *e = _mm256_add_pd(*e, _mm256_add_pd(_mm256_mul_pd(two_abs, ep), _mm256_mul_pd(ep, ep)));
+    *mag = _mm256_add_pd(*mag, pp);
+}
+
 /* sphere_g for four lanes, the same operations lane by lane. */
 __attribute__((target("avx"))) static inline __m256d sphere_g4(const __m256d f[3], const __m256d d[3], __m256d r2,
                                                               __m256d t, __m256d *err)
@@ -464,12 +475,7 @@ __attribute__((target("avx"))) static inline __m256d sphere_g4(const __m256d f[3
     for (int i = 0; i < 3; i++) {
         __m256d td = _mm256_mul_pd(t, d[i]);
         __m256d p = _mm256_add_pd(f[i], td);
-        __m256d ep = _mm256_mul_pd(g3, _mm256_add_pd(_mm256_andnot_pd(sign, f[i]), _mm256_andnot_pd(sign, td)));
-        __m256d pp = _mm256_mul_pd(p, p);
-        g = _mm256_add_pd(g, pp);
-        e = _mm256_add_pd(e, _mm256_add_pd(_mm256_mul_pd(_mm256_mul_pd(_mm256_set1_pd(2.0), _mm256_andnot_pd(sign, p)), ep),
-                                           _mm256_mul_pd(ep, ep)));
-        mag = _mm256_add_pd(mag, pp);
+        g_term4(p, _mm256_mul_pd(g3, _mm256_add_pd(_mm256_andnot_pd(sign, f[i]), _mm256_andnot_pd(sign, td))), &g, &e, &mag);
     }
     *err = _mm256_add_pd(e, _mm256_mul_pd(_mm256_set1_pd(gamma_d(5)), mag));
     return g;
@@ -496,12 +502,7 @@ __attribute__((target("avx"))) static inline __m256d ell_g4(const double *a, con
             m = _mm256_add_pd(m, _mm256_andnot_pd(sign, ay));
             ex = _mm256_add_pd(ex, _mm256_mul_pd(_mm256_set1_pd(fabs(a[3 * i + j])), ey[j]));
         }
-        ex = _mm256_add_pd(_mm256_mul_pd(ex, _mm256_set1_pd(1.0 + gamma_d(4))), _mm256_mul_pd(g4, m));
-        __m256d xx = _mm256_mul_pd(x, x);
-        g = _mm256_add_pd(g, xx);
-        e = _mm256_add_pd(e, _mm256_add_pd(_mm256_mul_pd(_mm256_mul_pd(_mm256_set1_pd(2.0), _mm256_andnot_pd(sign, x)), ex),
-                                           _mm256_mul_pd(ex, ex)));
-        mag = _mm256_add_pd(mag, xx);
+        g_term4(x, _mm256_add_pd(_mm256_mul_pd(ex, _mm256_set1_pd(1.0 + gamma_d(4))), _mm256_mul_pd(g4, m)), &g, &e, &mag);
     }
     *err = _mm256_mul_pd(_mm256_add_pd(e, _mm256_mul_pd(_mm256_set1_pd(gamma_d(5)), mag)), _mm256_set1_pd(1.0 + gamma_d(8)));
     return g;

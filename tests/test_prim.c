@@ -872,6 +872,21 @@ static void test_spawn_leaves_triangle(void **state)
 
 /* ---- planes, rays at once ---- */
 
+/* A routine for several rays against the scalar one for one of them: the
+ * same verdict, and for a hit the same t and bound, bit for bit; counts
+ * the hits and misses. */
+static void same_hit(unsigned got_bit, const PrimHit *got, int hit, const PrimHit *want, int *hits, int *misses)
+{
+    assert_int_equal((int)got_bit, hit);
+    if (!hit) {
+        (*misses)++;
+        return;
+    }
+    assert_memory_equal(&got->t, &want->t, sizeof want->t);
+    assert_memory_equal(&got->terr, &want->terr, sizeof want->terr);
+    (*hits)++;
+}
+
 /* prim_plane_hit_robust_rays against prim_plane_hit_robust, ray by ray:
  * the same verdicts and, for hits, the same t and terr, bit for bit, on
  * random and axis-aligned planes, for rays from all around, from on the
@@ -924,14 +939,7 @@ static void test_plane_rays_match_scalar(void **state)
             Ray q = r[k];
             q.tmax = tmax[k];
             PrimHit want;
-            int hit = prim_plane_hit_robust(&pl, &q, &want);
-            assert_int_equal((int)(bits >> k & 1), hit);
-            if (hit) {
-                assert_memory_equal(&got[k].t, &want.t, sizeof want.t);
-                assert_memory_equal(&got[k].terr, &want.terr, sizeof want.terr);
-                hits++;
-            } else
-                misses++;
+            same_hit(bits >> k & 1, &got[k], prim_plane_hit_robust(&pl, &q, &want), &want, &hits, &misses);
         }
     }
     assert_true(hits > 2500 && misses > 10000);
@@ -1016,14 +1024,7 @@ static void test_quadric_rays_match_scalar(void **state)
             if (!(rays >> k & 1))
                 continue;
             PrimHit want;
-            int hit = prim_intersect(&p, &r[k], PRIM_ROBUST, &want);
-            assert_int_equal((int)(bits >> k & 1), hit);
-            if (hit) {
-                assert_memory_equal(&got[k].t, &want.t, sizeof want.t);
-                assert_memory_equal(&got[k].terr, &want.terr, sizeof want.terr);
-                hits++;
-            } else
-                misses++;
+            same_hit(bits >> k & 1, &got[k], prim_intersect(&p, &r[k], PRIM_ROBUST, &want), &want, &hits, &misses);
         }
     }
     assert_true(hits > 7000 && misses > 7000 && grazing > 4000 && ellipsoids > 2500);
