@@ -143,14 +143,44 @@ void plan_area_weights(int n, float *w)
         area_rec(0, n - 1, 1.0f, w);
 }
 
+/* Marks the corners of the cell u1..u2 x v1..v2 at level lv, and of the
+ * cells it is split into whatever its corners let through: as shade.c's
+ * area_cell, up to the test of its samples. */
+static void area_mark(int n1, int u1, int v1, int u2, int v2, int lv, int adaptive, unsigned char *mark)
+{
+    mark[v1 * n1 + u1] = mark[v1 * n1 + u2] = mark[v2 * n1 + u1] = mark[v2 * n1 + u2] = 1;
+    if ((u2 - u1 > 1 || v2 - v1 > 1) && lv < adaptive - 1) {
+        int ul = (u1 + u2) / 2, uh = (u1 + u2 + 1) / 2, vl = (v1 + v2) / 2, vh = (v1 + v2 + 1) / 2;
+        area_mark(n1, u1, v1, ul, vl, lv + 1, adaptive, mark);
+        area_mark(n1, uh, v1, u2, vl, lv + 1, adaptive, mark);
+        area_mark(n1, u1, vh, ul, v2, lv + 1, adaptive, mark);
+        area_mark(n1, uh, vh, u2, v2, lv + 1, adaptive, mark);
+    }
+}
+
+int plan_area_first(int n1, int n2, int adaptive, int *first)
+{
+    unsigned char mark[LIMIT_AREA_SAMPLES * LIMIT_AREA_SAMPLES];
+    int n = 0;
+    memset(mark, adaptive == 0, (size_t)(n1 * n2));
+    if (adaptive > 0)
+        area_mark(n1, 0, 0, n1 - 1, n2 - 1, 0, adaptive, mark);
+    for (int k = 0; k < n1 * n2; k++)
+        if (mark[k])
+            first[n++] = k;
+    return n;
+}
+
 /* The samples of area light l, once for every shadow ray that needs them. */
 static int area_table(const Light *l, PlanArea *a)
 {
     int n1 = l->area_n1, n2 = l->area_n2;
-    a->point = malloc((sizeof(Vec3) + sizeof(float)) * (size_t)(n1 * n2));
+    a->point = malloc((sizeof(Vec3) + sizeof(float) + sizeof(int)) * (size_t)(n1 * n2));
     if (!a->point)
         return -1;
     a->weight = (float *)(void *)(a->point + n1 * n2);
+    a->first = (int *)(void *)(a->weight + n1 * n2);
+    a->nfirst = plan_area_first(n1, n2, l->adaptive, a->first);
     float w1[LIMIT_AREA_SAMPLES], w2[LIMIT_AREA_SAMPLES];
     plan_area_weights(n1, w1);
     plan_area_weights(n2, w2);

@@ -123,6 +123,32 @@ static Vec3 spawn_toward(const Surface *sf, const Vec3 o[2], Vec3 d)
     return nd < 0.0f ? o[0] : nd > 0.0f ? o[1] : prim_spawn_side(sf, nd);
 }
 
+/* The light that the samples idx[0 .. n-1] (n <= ACCEL_PACKET) of an area
+ * light's grid let through to sf, into t[k]: their rays leave one point
+ * for one small patch, and go through the BVH together. o: sf's spawn
+ * origins (prim_spawn_origins). */
+static void area_packet(const Ctx *c, PlanShadow mode, const Surface *sf, const Vec3 o[2], const PlanArea *area,
+                        const int *idx, int n, Vec3 *t)
+{
+    Ray sr[ACCEL_PACKET];
+    for (int k = 0; k < n; k++) {
+        Vec3 d;
+        float qd = toward(sf->p, area->point[idx[k]], &d);
+        sr[k] = ray_make(spawn_toward(sf, o, d), d, qd);
+    }
+    c->st->shadow += (unsigned long long)n;
+    if (mode == PLAN_SHADOW_OPAQUE) {
+        unsigned dark = accel_occluded_packet(c->a, sr, n, c->st);
+        for (int k = 0; k < n; k++)
+            t[k] = dark >> k & 1 ? vec3(0, 0, 0) : vec3(1, 1, 1);
+    } else {
+        Vec3 q[ACCEL_PACKET]; /* gathered here: copied in the loop above, it stalled the reads of it */
+        for (int k = 0; k < n; k++)
+            q[k] = area->point[idx[k]];
+        filtered(c, sr, n, q, t);
+    }
+}
+
 /* An area light's sample grid, each sample traced at most once, for
  * POV-Ray's adaptive subdivision (area_cell). */
 typedef struct {
@@ -131,22 +157,24 @@ typedef struct {
     const Surface *sf;
     Vec3 o[2]; /* sf's spawn origins (prim_spawn_origins) */
     const Light *l;
-    const Vec3 *point; /* its samples (PlanArea) */
+    const PlanArea *area; /* its samples */
     Vec3 lc; /* the light's colour at the point, faded by the centre's distance */
     Vec3 t[LIMIT_AREA_SAMPLES * LIMIT_AREA_SAMPLES];
     unsigned char traced[LIMIT_AREA_SAMPLES * LIMIT_AREA_SAMPLES];
 } AreaGrid;
 
-static Vec3 area_sample(AreaGrid *g, int i, int j)
+/* Traces the samples idx[0 .. n-1], ACCEL_PACKET at a time. */
+static void area_trace(AreaGrid *g, const int *idx, int n)
 {
-    int k = j * g->l->area_n1 + i;
-    if (!g->traced[k]) {
-        Vec3 d, q = g->point[k];
-        float qd = toward(g->sf->p, q, &d);
-        g->t[k] = transmittance(g->c, g->mode, spawn_toward(g->sf, g->o, d), q, d, qd);
-        g->traced[k] = 1;
+    Vec3 t[ACCEL_PACKET];
+    for (int k0 = 0; k0 < n; k0 += ACCEL_PACKET) {
+        const int ns = n - k0 < ACCEL_PACKET ? n - k0 : ACCEL_PACKET;
+        area_packet(g->c, g->mode, g->sf, g->o, g->area, idx + k0, ns, t);
+        for (int k = 0; k < ns; k++) {
+            g->t[idx[k0 + k]] = t[k];
+            g->traced[idx[k0 + k]] = 1;
+        }
     }
-    return g->t[k];
 }
 
 /* POV-Ray's colour distance, |dr| + |dg| + |db| in double, of the light
@@ -163,14 +191,28 @@ static double area_distance(const AreaGrid *g, Vec3 a, Vec3 b)
  * sample wide and either lv is below the light's adaptive level or two
  * corners along an edge differ by more than 0.1 in the light they let
  * through; then it is the mean of its four halves, split at the floor and
- * the ceiling of the middle. */
+ * the ceiling of the middle. Its corners have been traced: the grid's by
+ * light_visibility, the halves' here, together, before they are looked
+ * at. */
 static Vec3 area_cell(AreaGrid *g, int u1, int v1, int u2, int v2, int lv)
 {
-    Vec3 s[4] = {area_sample(g, u1, v1), area_sample(g, u2, v1), area_sample(g, u1, v2), area_sample(g, u2, v2)};
+    const int n1 = g->l->area_n1;
+    Vec3 s[4] = {g->t[v1 * n1 + u1], g->t[v1 * n1 + u2], g->t[v2 * n1 + u1], g->t[v2 * n1 + u2]};
     if ((u2 - u1 > 1 || v2 - v1 > 1) &&
         (lv < g->l->adaptive - 1 || area_distance(g, s[0], s[1]) > 0.1 || area_distance(g, s[1], s[3]) > 0.1 ||
          area_distance(g, s[3], s[2]) > 0.1 || area_distance(g, s[2], s[0]) > 0.1)) {
         int ul = (u1 + u2) / 2, uh = (u1 + u2 + 1) / 2, vl = (v1 + v2) / 2, vh = (v1 + v2 + 1) / 2;
+        const int us[4] = {u1, ul, uh, u2}, vs[4] = {v1, vl, vh, v2};
+        int idx[16], n = 0;
+        for (int b = 0; b < 4; b++) /* the halves' corners not yet traced (once each), in the grid's order */
+            for (int a = 0; a < 4; a++) {
+                int k = vs[b] * n1 + us[a];
+                if (!g->traced[k]) {
+                    idx[n++] = k;
+                    g->traced[k] = 1;
+                }
+            }
+        area_trace(g, idx, n);
         s[0] = area_cell(g, u1, v1, ul, vl, lv + 1);
         s[1] = area_cell(g, uh, v1, u2, vl, lv + 1);
         s[2] = area_cell(g, u1, vh, ul, v2, lv + 1);
@@ -188,38 +230,24 @@ static Vec3 light_visibility(const Ctx *c, int li, const Surface *sf, Vec3 L, fl
     PlanShadow mode = c->p->shadow[li];
     if (l->area_n1 * l->area_n2 == 1)
         return transmittance(c, mode, prim_spawn_origin(sf, L), l->pos, L, dist);
+    const PlanArea *area = &c->p->area[li];
+    Vec3 o[2], t[ACCEL_PACKET];
+    prim_spawn_origins(sf, o);
     if (l->adaptive > 0) {
         AreaGrid g;
-        g.c = c, g.mode = mode, g.sf = sf, g.l = l, g.point = c->p->area[li].point, g.lc = lc;
-        prim_spawn_origins(sf, g.o);
+        g.c = c, g.mode = mode, g.sf = sf, g.l = l, g.area = area, g.lc = lc;
+        g.o[0] = o[0], g.o[1] = o[1];
         memset(g.traced, 0, (size_t)(l->area_n1 * l->area_n2));
+        area_trace(&g, area->first, area->nfirst); /* what every point traces, then what its cells ask for */
         return area_cell(&g, 0, 0, l->area_n1 - 1, l->area_n2 - 1, 0);
     }
-    const PlanArea *area = &c->p->area[li];
-    const int n = l->area_n1 * l->area_n2;
-    Vec3 vis = vec3(0, 0, 0), o[2];
-    prim_spawn_origins(sf, o);
-    /* The samples' rays leave one point for one small patch: they go
-     * through the BVH together, and are summed in the same order. */
-    for (int k0 = 0; k0 < n; k0 += ACCEL_PACKET) {
-        Ray sr[ACCEL_PACKET];
-        Vec3 t[ACCEL_PACKET];
-        const Vec3 *q = &area->point[k0];
-        int ns = n - k0 < ACCEL_PACKET ? n - k0 : ACCEL_PACKET;
-        for (int k = 0; k < ns; k++) {
-            Vec3 d;
-            float qd = toward(sf->p, q[k], &d);
-            sr[k] = ray_make(spawn_toward(sf, o, d), d, qd);
-        }
-        c->st->shadow += (unsigned long long)ns;
-        if (mode == PLAN_SHADOW_OPAQUE) {
-            unsigned dark = accel_occluded_packet(c->a, sr, ns, c->st);
-            for (int k = 0; k < ns; k++)
-                t[k] = dark >> k & 1 ? vec3(0, 0, 0) : vec3(1, 1, 1);
-        } else
-            filtered(c, sr, ns, q, t);
+    /* every sample (area->first is 0 .. n - 1), summed in order */
+    Vec3 vis = vec3(0, 0, 0);
+    for (int k0 = 0; k0 < area->nfirst; k0 += ACCEL_PACKET) {
+        const int ns = area->nfirst - k0 < ACCEL_PACKET ? area->nfirst - k0 : ACCEL_PACKET;
+        area_packet(c, mode, sf, o, area, &area->first[k0], ns, t);
         for (int k = 0; k < ns; k++)
-            vis = vec_madd(vis, t[k], area->weight[k0 + k]);
+            vis = vec_madd(vis, t[k], area->weight[area->first[k0 + k]]);
     }
     return vis;
 }

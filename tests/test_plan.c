@@ -131,6 +131,39 @@ static void test_area_samples(void **state)
     done(&s, &p);
 }
 
+/* The samples an adaptive light traces at every point: the corners of the
+ * cells it splits for its level alone, worked out by hand from POV-Ray's
+ * split at the floor and the ceiling of the middle; every sample when the
+ * light is not adaptive. */
+static void test_area_first(void **state)
+{
+    (void)state;
+    static const struct {
+        int n1, n2, adaptive, n;
+        int first[24];
+    } cases[] = {
+        {3, 2, 0, 6, {0, 1, 2, 3, 4, 5}},
+        {9, 9, 1, 4, {0, 8, 72, 80}},                       /* POV-Ray's adaptive 0: the corners */
+        {5, 5, 2, 9, {0, 2, 4, 10, 12, 14, 20, 22, 24}},    /* adaptive 1: split at 2 */
+        {6, 4, 2, 16, {0, 2, 3, 5, 6, 8, 9, 11, 12, 14, 15, 17, 18, 20, 21, 23}}, /* at 2 | 3 and 1 | 2 */
+        {6, 4, 3, 24, {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 22, 23}},
+        {2, 2, 17, 4, {0, 1, 2, 3}},                        /* one cell, one sample wide */
+        {1, 5, 2, 3, {0, 2, 4}},                            /* a line of samples */
+    };
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        int first[LIMIT_AREA_SAMPLES * LIMIT_AREA_SAMPLES];
+        assert_int_equal(plan_area_first(cases[c].n1, cases[c].n2, cases[c].adaptive, first), cases[c].n);
+        for (int k = 0; k < cases[c].n; k++)
+            assert_int_equal(first[k], cases[c].first[k]);
+    }
+    /* the largest grid at the deepest level: every sample, once */
+    int first[LIMIT_AREA_SAMPLES * LIMIT_AREA_SAMPLES];
+    assert_int_equal(plan_area_first(LIMIT_AREA_SAMPLES, LIMIT_AREA_SAMPLES, LIMIT_AREA_ADAPTIVE + 1, first),
+                     LIMIT_AREA_SAMPLES * LIMIT_AREA_SAMPLES);
+    for (int k = 0; k < LIMIT_AREA_SAMPLES * LIMIT_AREA_SAMPLES; k++)
+        assert_int_equal(first[k], k);
+}
+
 static void test_errors(void **state)
 {
     (void)state;
@@ -396,6 +429,7 @@ int main(void)
         cmocka_unit_test(test_skips),
         cmocka_unit_test(test_settings),
         cmocka_unit_test(test_area_samples),
+        cmocka_unit_test(test_area_first),
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_coordinates),
         cmocka_unit_test(test_decisions),

@@ -88,6 +88,9 @@ typedef enum {
 typedef struct {
     Vec3 *point;   /* POV-Ray's grid, corners included */
     float *weight; /* its weight in the plain (not adaptive) average, w1[i] * w2[j] of plan_area_weights */
+    int *first;    /* the samples traced at every point, ascending: all of them, or for an adaptive
+                      light those that its levels below the adaptive one reach (plan_area_first) */
+    int nfirst;
 } PlanArea;
 
 typedef struct {
@@ -125,6 +128,14 @@ void plan_free(RenderPlan *p);
  * leaves of its recursive halving of the grid, which is a plain mean only
  * when n is a power of two. Writes n weights summing to 1. */
 void plan_area_weights(int n, float *w);
+
+/* The samples of an n1 x n2 grid (n1, n2 <= 64) that POV-Ray's adaptive
+ * subdivision traces at every point, whatever they let through: the
+ * corners of every cell it splits for its level alone (Light.adaptive, 1 +
+ * POV-Ray's level; 0 for a light that is not adaptive: every sample).
+ * Writes their indices j * n1 + i into first, ascending, and returns how
+ * many. */
+int plan_area_first(int n1, int n2, int adaptive, int *first);
 
 /* One decision of the plan, for a person (render --explain) and for
  * --stats: a part of the work, whether it is skipped, and why. */
