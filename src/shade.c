@@ -123,17 +123,18 @@ static Vec3 spawn_toward(const Surface *sf, const Vec3 o[2], Vec3 d)
     return nd < 0.0f ? o[0] : nd > 0.0f ? o[1] : prim_spawn_side(sf, nd);
 }
 
-/* The light that the samples idx[0 .. n-1] (n <= ACCEL_PACKET) of an area
- * light's grid let through to sf, into t[k]: their rays leave one point
- * for one small patch, and go through the BVH together. o: sf's spawn
- * origins (prim_spawn_origins). */
-static void area_packet(const Ctx *c, PlanShadow mode, const Surface *sf, const Vec3 o[2], const PlanArea *area,
-                        const int *idx, int n, Vec3 *t)
+/* The light that n <= ACCEL_PACKET samples of an area light let through
+ * to sf, into t[k]: sample k is point[idx[k]], or point[k] when idx is
+ * NULL. Their rays leave one point for one small patch, and go through the
+ * BVH together. o: sf's spawn origins (prim_spawn_origins). Inline, so
+ * that a NULL idx costs nothing. */
+static inline void area_packet(const Ctx *c, PlanShadow mode, const Surface *sf, const Vec3 o[2], const Vec3 *point,
+                               const int *idx, int n, Vec3 *t)
 {
     Ray sr[ACCEL_PACKET];
     for (int k = 0; k < n; k++) {
         Vec3 d;
-        float qd = toward(sf->p, area->point[idx[k]], &d);
+        float qd = toward(sf->p, point[idx ? idx[k] : k], &d);
         sr[k] = ray_make(spawn_toward(sf, o, d), d, qd);
     }
     c->st->shadow += (unsigned long long)n;
@@ -143,9 +144,9 @@ static void area_packet(const Ctx *c, PlanShadow mode, const Surface *sf, const 
             t[k] = dark >> k & 1 ? vec3(0, 0, 0) : vec3(1, 1, 1);
     } else {
         Vec3 q[ACCEL_PACKET]; /* gathered here: copied in the loop above, it stalled the reads of it */
-        for (int k = 0; k < n; k++)
-            q[k] = area->point[idx[k]];
-        filtered(c, sr, n, q, t);
+        for (int k = 0; idx && k < n; k++)
+            q[k] = point[idx[k]];
+        filtered(c, sr, n, idx ? q : point, t);
     }
 }
 
@@ -169,7 +170,7 @@ static void area_trace(AreaGrid *g, const int *idx, int n)
     Vec3 t[ACCEL_PACKET];
     for (int k0 = 0; k0 < n; k0 += ACCEL_PACKET) {
         const int ns = n - k0 < ACCEL_PACKET ? n - k0 : ACCEL_PACKET;
-        area_packet(g->c, g->mode, g->sf, g->o, g->area, idx + k0, ns, t);
+        area_packet(g->c, g->mode, g->sf, g->o, g->area->point, idx + k0, ns, t);
         for (int k = 0; k < ns; k++) {
             g->t[idx[k0 + k]] = t[k];
             g->traced[idx[k0 + k]] = 1;
@@ -241,13 +242,14 @@ static Vec3 light_visibility(const Ctx *c, int li, const Surface *sf, Vec3 L, fl
         area_trace(&g, area->first, area->nfirst); /* what every point traces, then what its cells ask for */
         return area_cell(&g, 0, 0, l->area_n1 - 1, l->area_n2 - 1, 0);
     }
-    /* every sample (area->first is 0 .. n - 1), summed in order */
+    /* every sample, summed in the grid's order */
     Vec3 vis = vec3(0, 0, 0);
-    for (int k0 = 0; k0 < area->nfirst; k0 += ACCEL_PACKET) {
-        const int ns = area->nfirst - k0 < ACCEL_PACKET ? area->nfirst - k0 : ACCEL_PACKET;
-        area_packet(c, mode, sf, o, area, &area->first[k0], ns, t);
+    const int n = l->area_n1 * l->area_n2;
+    for (int k0 = 0; k0 < n; k0 += ACCEL_PACKET) {
+        const int ns = n - k0 < ACCEL_PACKET ? n - k0 : ACCEL_PACKET;
+        area_packet(c, mode, sf, o, &area->point[k0], NULL, ns, t);
         for (int k = 0; k < ns; k++)
-            vis = vec_madd(vis, t[k], area->weight[area->first[k0 + k]]);
+            vis = vec_madd(vis, t[k], area->weight[k0 + k]);
     }
     return vis;
 }

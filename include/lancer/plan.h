@@ -88,8 +88,7 @@ typedef enum {
 typedef struct {
     Vec3 *point;   /* POV-Ray's grid, corners included */
     float *weight; /* its weight in the plain (not adaptive) average, w1[i] * w2[j] of plan_area_weights */
-    int *first;    /* the samples traced at every point, ascending: all of them, or for an adaptive
-                      light those that its levels below the adaptive one reach (plan_area_first) */
+    int *first;    /* the samples an adaptive light traces at every point, ascending (plan_area_first) */
     int nfirst;
 } PlanArea;
 
