@@ -49,9 +49,11 @@ static float toward(Vec3 p, Vec3 q, Vec3 *dir)
     return dist;
 }
 
-/* transmittance() with filtered shadows, for the shadow rays r[k] towards
- * points q[k], k < n <= ACCEL_PACKET, into f[k]: the rays still on their
- * way go through the BVH together, surface after surface. */
+/* The light that filtered shadows let through along the shadow rays r[k]
+ * towards points q[k], k < n <= ACCEL_PACKET, into f[k]: the product of
+ * pass_factor over every transparent surface crossed, 0 behind an opaque
+ * one (refraction is ignored, as in POV-Ray). The rays still on their way
+ * go through the BVH together, surface after surface. */
 static void filtered(const Ctx *c, const Ray *r, int n, const Vec3 *q, Vec3 *f)
 {
     Ray on[ACCEL_PACKET]; /* the rays on their way past a surface */
@@ -100,22 +102,6 @@ static void filtered(const Ctx *c, const Ray *r, int n, const Vec3 *q, Vec3 *f)
         f[who[j]] = vec3(0, 0, 0);
 }
 
-/* The light arriving at a surface point from point q, at distance dist in
- * unit direction d, along a ray from o (the point's spawn origin toward
- * d): 1 when nothing is in between, 0 behind an opaque object, and, when
- * shadows are filtered, the product of pass_factor over every transparent
- * surface crossed (refraction is ignored, as in POV-Ray). */
-static Vec3 transmittance(const Ctx *c, PlanShadow mode, Vec3 o, Vec3 q, Vec3 d, float dist)
-{
-    Ray r = ray_make(o, d, dist);
-    c->st->shadow++;
-    if (mode == PLAN_SHADOW_OPAQUE) /* any hit will do */
-        return accel_occluded(c->a, &r, c->st) ? vec3(0, 0, 0) : vec3(1, 1, 1);
-    Vec3 f;
-    filtered(c, &r, 1, &q, &f);
-    return f;
-}
-
 /* prim_spawn_origin(sf, d) from sf's two spawn origins o. */
 static Vec3 spawn_toward(const Surface *sf, const Vec3 o[2], Vec3 d)
 {
@@ -124,10 +110,11 @@ static Vec3 spawn_toward(const Surface *sf, const Vec3 o[2], Vec3 d)
 }
 
 /* The light that n <= ACCEL_PACKET samples of an area light let through
- * to sf, into t[k]: sample k is point[idx[k]], or point[k] when idx is
- * NULL. Their rays leave one point for one small patch, and go through the
- * BVH together. o: sf's spawn origins (prim_spawn_origins). Inline, so
- * that a NULL idx costs nothing. */
+ * to sf, into t[k]: 1 when nothing is in between, 0 behind an opaque
+ * object, or filtered(). Sample k is point[idx[k]], or point[k] when idx is NULL.
+ * Their rays leave one point for one small patch, and go through the BVH
+ * together. o: sf's spawn origins (prim_spawn_origins). Inline, so that a
+ * NULL idx costs nothing. */
 static inline void area_packet(const Ctx *c, PlanShadow mode, const Surface *sf, const Vec3 o[2], const Vec3 *point,
                                const int *idx, int n, Vec3 *t)
 {
@@ -222,15 +209,13 @@ static Vec3 area_cell(AreaGrid *g, int u1, int v1, int u2, int v2, int lv)
     return vec_scale(vec_add(vec_add(s[0], s[1]), vec_add(s[2], s[3])), 0.25f);
 }
 
-/* The visible fraction of light li from p, per channel; L and dist: the
- * unit direction and distance from p to the light's position, and lc its
- * colour there, which light_term() has. */
-static Vec3 light_visibility(const Ctx *c, int li, const Surface *sf, Vec3 L, float dist, Vec3 lc)
+/* The visible fraction of area light li from sf's point, per channel; lc:
+ * the light's colour there, which light_term() has. (A point light's
+ * shadow rays go in shade_packet's packets.) */
+static Vec3 light_visibility(const Ctx *c, int li, const Surface *sf, Vec3 lc)
 {
     const Light *l = &c->s->lights[li];
     PlanShadow mode = c->p->shadow[li];
-    if (l->area_n1 * l->area_n2 == 1)
-        return transmittance(c, mode, prim_spawn_origin(sf, L), l->pos, L, dist);
     const PlanArea *area = &c->p->area[li];
     Vec3 o[2], t[ACCEL_PACKET];
     prim_spawn_origins(sf, o);
@@ -462,12 +447,12 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
             lit[k] = best[k] >= 0 && light_term(m[k], &sf[k], &r[k], l, &L, &dist, &term[k], &lc[k]);
             if (!lit[k] || mode == PLAN_SHADOW_NONE || mode == PLAN_SHADOW_CLEAR)
                 continue; /* the light reaches the point whole */
-            if (together) { /* as transmittance() */
+            if (together) { /* a point light: one shadow ray, in a packet below */
                 sr[ns] = ray_make(spawn_front(&sf[k], front[k], L), L, dist);
                 c->st->shadow++;
                 who[ns++] = k;
             } else
-                lc[k] = vec_mul(lc[k], light_visibility(c, i, &sf[k], L, dist, lc[k]));
+                lc[k] = vec_mul(lc[k], light_visibility(c, i, &sf[k], lc[k]));
         }
         if (mode == PLAN_SHADOW_FILTERED && ns) {
             Vec3 vis[ACCEL_PACKET], at[ACCEL_PACKET];
