@@ -26,6 +26,7 @@
 #include <string.h>
 
 #include "lancer/pntri.h"
+#include "lancer/thread.h"
 
 /* 8 bins: Wald reports SAH quality within a few percent of a full sweep
  * from 8-32 bins, and more bins cost build time without saving node visits
@@ -485,7 +486,7 @@ static int build_tree(Builder *B, int n, int threads)
     right.begin = mid;
     right.end = n;
     pthread_t tid;
-    int threaded = right.b.nodes && pthread_create(&tid, NULL, build_task, &right) == 0;
+    int threaded = right.b.nodes && thread_start(&tid, build_task, &right) == 0;
     if (right.b.nodes && !threaded)
         build_task(&right);
     int rc = build_node(B, c, 0, mid, 1);

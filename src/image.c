@@ -8,6 +8,7 @@
 #include "lancer/image.h"
 
 #include "lancer/afile.h"
+#include "lancer/thread.h"
 
 #include <errno.h>
 #include <math.h>
@@ -258,7 +259,7 @@ static exr_result_t image_exr_encode(exr_context_t ctx, int part, const Image *i
     }
     if (tids && pthread_mutex_init(&msg_lock, NULL) == 0) {
         e->lock = &msg_lock;
-        while (started < extra && pthread_create(&tids[started], NULL, exr_encode_chunks, &j) == 0)
+        while (started < extra && thread_start(&tids[started], exr_encode_chunks, &j) == 0)
             started++;
     }
     exr_encode_chunks(&j); /* the calling thread takes chunks too */

@@ -16,6 +16,7 @@
 #include <string.h>
 
 #include "lancer/afile.h"
+#include "lancer/thread.h"
 
 /* ---- public ---- */
 
@@ -119,7 +120,7 @@ int mesh_load(const char *path, Mesh *m, char *err, size_t errlen)
     unsigned char digest[SHA256_BYTES];
     HashJob job = {buf, len, digest};
     pthread_t tid;
-    int threaded = pthread_create(&tid, NULL, hash_bytes, &job) == 0;
+    int threaded = thread_start(&tid, hash_bytes, &job) == 0;
     if (!threaded)
         hash_bytes(&job);
     int rc = mesh_parse(path, buf, len, fmt, m, err, errlen);

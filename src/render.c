@@ -1,9 +1,6 @@
 /*
  * render.c - parallel render loop (see render.h for the determinism contract).
  */
-#if defined(__linux__)
-#define _GNU_SOURCE /* pthread_attr_setaffinity_np, sched_getcpu */
-#endif
 #include "lancer/render.h"
 
 #include <math.h>
@@ -13,6 +10,7 @@
 
 #include "lancer/camera.h"
 #include "lancer/shade.h"
+#include "lancer/thread.h"
 
 typedef struct {
     const RenderPlan *p;
@@ -236,45 +234,6 @@ static void *worker(void *arg)
     return NULL;
 }
 
-#if defined(__linux__) && defined(__GLIBC__) && defined(CPU_COUNT)
-#define RENDER_PLACE 1
-/* Linux may start a new thread on its creator's processor; the creator
- * then waits until the scheduler moves one of them to an idle processor,
- * at its next tick: milliseconds, which a short frame feels. So each
- * extra thread starts on the processors the caller may use but its own,
- * and takes back the caller's set once it runs (worker_away). */
-typedef struct {
-    Job *job;
-    cpu_set_t cpus; /* the caller's */
-} Away;
-
-static void *worker_away(void *arg)
-{
-    Away *a = arg;
-    pthread_setaffinity_np(pthread_self(), sizeof a->cpus, &a->cpus);
-    return worker(a->job);
-}
-
-/* attr for threads that start away from the caller, or 0 when there is no
- * processor to start them on. */
-static int start_away(pthread_attr_t *attr, Away *a)
-{
-    cpu_set_t away;
-    int self = sched_getcpu();
-    if (self < 0 || self >= CPU_SETSIZE || pthread_getaffinity_np(pthread_self(), sizeof a->cpus, &a->cpus) != 0)
-        return 0;
-    away = a->cpus;
-    CPU_CLR(self, &away);
-    if (CPU_COUNT(&away) == 0 || pthread_attr_init(attr) != 0)
-        return 0;
-    if (pthread_attr_setaffinity_np(attr, sizeof away, &away) != 0) {
-        pthread_attr_destroy(attr);
-        return 0;
-    }
-    return 1;
-}
-#endif
-
 /* Runs the job's pass over rows[0..n-1] on `threads` threads, the calling
  * one among them. Returns 0 when every row of the pass is done, 1 when
  * stopped. */
@@ -286,18 +245,8 @@ static int run_pass(Job *job, int pass, const int *rows, int n, int threads)
     job->next = 0;
     int extra = threads > 1 ? threads - 1 : 0, started = 0, before = job->progress_done;
     pthread_t *tids = extra ? malloc(sizeof(pthread_t) * (size_t)extra) : NULL;
-#ifdef RENDER_PLACE
-    Away away;
-    away.job = job;
-    pthread_attr_t attr;
-    if (tids && start_away(&attr, &away)) {
-        while (started < extra && pthread_create(&tids[started], &attr, worker_away, &away) == 0)
-            started++;
-        pthread_attr_destroy(&attr);
-    }
-#endif
     if (tids)
-        while (started < extra && pthread_create(&tids[started], NULL, worker, job) == 0)
+        while (started < extra && thread_start(&tids[started], worker, job) == 0)
             started++;
     worker(job); /* the calling thread works too */
     for (int i = 0; i < started; i++)

@@ -1,10 +1,6 @@
 /* Tests for render.c: the image does not depend on the thread count, every
- * pixel gets one camera ray, progress reaches every row in order, the
- * packets of camera rays change no pixel, and the render's threads run
- * where the caller may. */
-#if defined(__linux__)
-#define _GNU_SOURCE /* pthread_getaffinity_np */
-#endif
+ * pixel gets one camera ray, progress reaches every row in order, and the
+ * packets of camera rays change no pixel. */
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -12,9 +8,6 @@
 #include <math.h>
 #include <string.h>
 #include <cmocka.h>
-#include <pthread.h>
-#include <sched.h>
-#include <time.h>
 
 #include "lancer/camera.h"
 #include "lancer/render.h"
@@ -410,93 +403,6 @@ static void test_resumed_render_is_the_whole_render(void **state)
     image_free(&full);
 }
 
-#if defined(__linux__) && defined(__GLIBC__) && defined(CPU_COUNT)
-typedef struct {
-    cpu_set_t want;          /* the caller's processors */
-    pthread_t caller;
-    int calls, others, wrong; /* progress calls, those from another thread, those with another set */
-} Where;
-
-/* Each row's progress call, on the thread that did the row: its
- * processors, and a moment's wait under render.c's lock, so that every
- * thread gets rows. */
-static void check_where(void *ctx, int done, int total)
-{
-    (void)done;
-    (void)total;
-    Where *w = ctx;
-    cpu_set_t now;
-    assert_int_equal(pthread_getaffinity_np(pthread_self(), sizeof now, &now), 0);
-    w->calls++;
-    w->others += !pthread_equal(pthread_self(), w->caller);
-    w->wrong += !CPU_EQUAL(&now, &w->want);
-    const struct timespec ms = {0, 1000000};
-    nanosleep(&ms, NULL);
-}
-
-static void render_where(Where *w, int threads)
-{
-    Scene s;
-    RenderPlan p;
-    char err[512];
-    assert_int_equal(scene_load("scenes/default.scn", &s, err, sizeof err), 0);
-    PlanOptions o = plan_options();
-    o.width = 16;
-    o.height = 60;
-    o.threads = threads;
-    assert_int_equal(plan_build(&p, &s, &o, err, sizeof err), 0);
-    Accel *a = accel_build(&s, p.variant, 1);
-    assert_non_null(a);
-    Image img;
-    assert_int_equal(image_init(&img, 16, 60), 0);
-    RayStats st;
-    memset(&st, 0, sizeof st);
-    RenderOptions opt = {check_where, w, NULL, NULL};
-    assert_int_equal(render_image(&p, a, &opt, &img, &st), 0);
-    image_free(&img);
-    accel_free(a);
-    plan_free(&p);
-    scene_free(&s);
-}
-
-/* render.c starts its extra threads away from the caller's processor, and
- * each takes back the caller's whole set once it runs: no thread stays
- * pinned. Pinned to one processor, the caller's threads stay on it. */
-static void test_threads_keep_the_callers_processors(void **state)
-{
-    (void)state;
-    Where w;
-    memset(&w, 0, sizeof w);
-    w.caller = pthread_self();
-    assert_int_equal(pthread_getaffinity_np(w.caller, sizeof w.want, &w.want), 0);
-    const cpu_set_t all = w.want;
-    if (CPU_COUNT(&all) < 2)
-        skip();
-    render_where(&w, 3);
-    assert_int_equal(w.calls, 60);
-    assert_true(w.others > 0); /* the started threads' rows were checked too */
-    assert_int_equal(w.wrong, 0);
-    /* one processor */
-    int one = sched_getcpu();
-    assert_true(one >= 0);
-    memset(&w, 0, sizeof w);
-    w.caller = pthread_self();
-    CPU_ZERO(&w.want);
-    CPU_SET(one, &w.want);
-    assert_int_equal(pthread_setaffinity_np(w.caller, sizeof w.want, &w.want), 0);
-    render_where(&w, 2);
-    assert_int_equal(pthread_setaffinity_np(w.caller, sizeof all, &all), 0);
-    assert_int_equal(w.calls, 60);
-    assert_int_equal(w.wrong, 0);
-}
-#else
-static void test_threads_keep_the_callers_processors(void **state)
-{
-    (void)state;
-    skip();
-}
-#endif
-
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -507,7 +413,6 @@ int main(void)
         cmocka_unit_test(test_adaptive_antialiasing),
         cmocka_unit_test(test_regions_are_the_whole_renders_pixels),
         cmocka_unit_test(test_resumed_render_is_the_whole_render),
-        cmocka_unit_test(test_threads_keep_the_callers_processors),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -15,6 +15,7 @@
 #include "clock.h"
 #include "lancer/afile.h"
 #include "lancer/render.h"
+#include "lancer/thread.h"
 #include "outputs.h"
 #include "stamp.h"
 
@@ -391,7 +392,7 @@ static int write_outputs(const Args *a, const Paths *pp, const char *scene, cons
      * threads the PNG leaves. */
     PngJob pj = {img, png, pp->png, 0, ""};
     pthread_t tid;
-    int beside = rc == 0 && png && plan->threads > 1 && pthread_create(&tid, NULL, write_png, &pj) == 0;
+    int beside = rc == 0 && png && plan->threads > 1 && thread_start(&tid, write_png, &pj) == 0;
     if (rc == 0 && image_write_exr_file(img, exr, pp->exr, a->use_float ? IMAGE_FLOAT : IMAGE_HALF, attrs, nattrs,
                                         plan->threads - beside, err, sizeof err) != 0) {
         fprintf(stderr, "lancer: %s\n", err);
