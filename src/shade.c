@@ -111,10 +111,10 @@ static Vec3 spawn_toward(const Surface *sf, const Vec3 o[2], Vec3 d)
 
 /* The light that n <= ACCEL_PACKET samples of an area light let through
  * to sf, into t[k]: 1 when nothing is in between, 0 behind an opaque
- * object, or filtered(). Sample k is point[idx[k]], or point[k] when idx is NULL.
- * Their rays leave one point for one small patch, and go through the BVH
- * together. o: sf's spawn origins (prim_spawn_origins). Inline, so that a
- * NULL idx costs nothing. */
+ * object, or filtered(). Sample k is point[idx[k]], or point[k] when idx
+ * is NULL. Their rays leave one point for one small patch, and go through
+ * the BVH together. o: sf's spawn origins (prim_spawn_origins). Inline, so
+ * that a NULL idx costs nothing. */
 static inline void area_packet(const Ctx *c, PlanShadow mode, const Surface *sf, const Vec3 o[2], const Vec3 *point,
                                const int *idx, int n, Vec3 *t)
 {
