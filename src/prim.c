@@ -221,13 +221,27 @@ __attribute__((target("avx"))) static inline __m128 mask_ps(__m256d m)
     return _mm_shuffle_ps(_mm256_castps256_ps128(f), _mm256_extractf128_ps(f, 1), _MM_SHUFFLE(2, 0, 2, 0));
 }
 
-/* Field at (in floats) of the rays r[k0 .. k0 + 3] in double. */
+/* A ray's fields, in floats from its start: the origin's axis a at RAY_O +
+ * a, the direction's at RAY_D + a, then tmax. */
 typedef char ray_is_floats[sizeof(Ray) % sizeof(float) == 0 ? 1 : -1];
-__attribute__((target("avx"))) static inline __m256d ray_field(const Ray *r, int k0, int at)
+enum {
+    RAY_O = (int)(offsetof(Ray, o) / sizeof(float)),
+    RAY_D = (int)(offsetof(Ray, d) / sizeof(float)),
+    RAY_TMAX = (int)(offsetof(Ray, tmax) / sizeof(float))
+};
+
+/* Field at of the rays r[k[0 .. 3]], a lane each. */
+__attribute__((target("avx"))) static inline __m128 ray_lanes(const Ray *r, const int k[4], int at)
 {
-    const float *f = (const float *)&r[k0] + at;
+    const float *f = (const float *)r + at;
     const int s = (int)(sizeof(Ray) / sizeof(float));
-    return _mm256_cvtps_pd(_mm_setr_ps(f[0], f[s], f[2 * s], f[3 * s]));
+    return _mm_setr_ps(f[k[0] * s], f[k[1] * s], f[k[2] * s], f[k[3] * s]);
+}
+
+/* The same in double. */
+__attribute__((target("avx"))) static inline __m256d ray_lanes_pd(const Ray *r, const int k[4], int at)
+{
+    return _mm256_cvtps_pd(ray_lanes(r, k, at));
 }
 
 /* float_up for four lanes x >= 0, the same operations lane by lane (for
@@ -249,12 +263,12 @@ __attribute__((target("avx"))) static unsigned plane_hit4(const Plane *pl, const
 {
     const __m256d zero = _mm256_setzero_pd(), sign = _mm256_set1_pd(-0.0);
     const __m256d nx = _mm256_set1_pd(pl->n.x), ny = _mm256_set1_pd(pl->n.y), nz = _mm256_set1_pd(pl->n.z);
-    const int o = (int)(offsetof(Ray, o) / sizeof(float)), d = (int)(offsetof(Ray, d) / sizeof(float));
-    __m256d dx = _mm256_mul_pd(nx, ray_field(r, k0, d)), dy = _mm256_mul_pd(ny, ray_field(r, k0, d + 1));
-    __m256d dz = _mm256_mul_pd(nz, ray_field(r, k0, d + 2));
+    const int k[4] = {k0, k0 + 1, k0 + 2, k0 + 3};
+    __m256d dx = _mm256_mul_pd(nx, ray_lanes_pd(r, k, RAY_D)), dy = _mm256_mul_pd(ny, ray_lanes_pd(r, k, RAY_D + 1));
+    __m256d dz = _mm256_mul_pd(nz, ray_lanes_pd(r, k, RAY_D + 2));
     __m256d den = _mm256_add_pd(_mm256_add_pd(dx, dy), dz);
-    __m256d ox = _mm256_mul_pd(nx, ray_field(r, k0, o)), oy = _mm256_mul_pd(ny, ray_field(r, k0, o + 1));
-    __m256d oz = _mm256_mul_pd(nz, ray_field(r, k0, o + 2));
+    __m256d ox = _mm256_mul_pd(nx, ray_lanes_pd(r, k, RAY_O)), oy = _mm256_mul_pd(ny, ray_lanes_pd(r, k, RAY_O + 1));
+    __m256d oz = _mm256_mul_pd(nz, ray_lanes_pd(r, k, RAY_O + 2));
     __m256d num = _mm256_sub_pd(_mm256_set1_pd(pl->d), _mm256_add_pd(_mm256_add_pd(ox, oy), oz));
 #define ABS(x) _mm256_andnot_pd(sign, x)
     /* num == 0 || (num < 0) != (den < 0) */
@@ -589,10 +603,9 @@ __attribute__((target("avx"), always_inline)) static inline unsigned quadric_hit
 __attribute__((target("avx"))) static unsigned quadric_rays4(const Prim *p, const Ray *r, const int k[4], float *t_out,
                                                             float *terr_out)
 {
-#define LANES(field) _mm256_cvtps_pd(_mm_setr_ps(r[k[0]].field, r[k[1]].field, r[k[2]].field, r[k[3]].field))
-    const __m128 tmax = _mm_setr_ps(r[k[0]].tmax, r[k[1]].tmax, r[k[2]].tmax, r[k[3]].tmax);
-    const __m256d o[3] = {LANES(o.x), LANES(o.y), LANES(o.z)}, d[3] = {LANES(d.x), LANES(d.y), LANES(d.z)};
-#undef LANES
+    const __m128 tmax = ray_lanes(r, k, RAY_TMAX);
+    const __m256d o[3] = {ray_lanes_pd(r, k, RAY_O), ray_lanes_pd(r, k, RAY_O + 1), ray_lanes_pd(r, k, RAY_O + 2)};
+    const __m256d d[3] = {ray_lanes_pd(r, k, RAY_D), ray_lanes_pd(r, k, RAY_D + 1), ray_lanes_pd(r, k, RAY_D + 2)};
     __m256d f[3];
     if (p->kind == PRIM_SPHERE) {
         const Sphere *s = &p->g.sphere;
@@ -1292,8 +1305,6 @@ __attribute__((target("avx"))) static void sphere_surface4(const Prim *prims, co
     const Sphere *sp[4] = {&prims[best[k[0]]].g.sphere, &prims[best[k[1]]].g.sphere, &prims[best[k[2]]].g.sphere,
                            &prims[best[k[3]]].g.sphere};
 #define LANES(x) _mm256_cvtps_pd(_mm_setr_ps(x(0), x(1), x(2), x(3)))
-#define O(j) vec_comp(r[k[j]].o, i)
-#define D(j) vec_comp(r[k[j]].d, i)
 #define C(j) vec_comp(sp[j]->c, i)
 #define T(j) h[k[j]].t
 #define R(j) sp[j]->r
@@ -1301,7 +1312,8 @@ __attribute__((target("avx"))) static void sphere_surface4(const Prim *prims, co
     __m256d q[3], c[3], len = _mm256_setzero_pd();
     for (int i = 0; i < 3; i++) {
         c[i] = LANES(C);
-        q[i] = _mm256_add_pd(_mm256_sub_pd(LANES(O), c[i]), _mm256_mul_pd(t, LANES(D)));
+        const __m256d o = ray_lanes_pd(r, k, RAY_O + i), d = ray_lanes_pd(r, k, RAY_D + i);
+        q[i] = _mm256_add_pd(_mm256_sub_pd(o, c[i]), _mm256_mul_pd(t, d));
         len = _mm256_add_pd(len, _mm256_mul_pd(q[i], q[i]));
     }
     len = _mm256_sqrt_pd(len);
@@ -1316,8 +1328,6 @@ __attribute__((target("avx"))) static void sphere_surface4(const Prim *prims, co
         n[i] = _mm256_cvtpd_ps(u);
     }
 #undef LANES
-#undef O
-#undef D
 #undef C
 #undef T
 #undef R
@@ -1328,7 +1338,7 @@ __attribute__((target("avx"))) static void sphere_surface4(const Prim *prims, co
     __m128 dd[3];
     for (int i = 0; i < 3; i++) {
         n[i] = _mm_or_ps(_mm_and_ps(pos, _mm_mul_ps(n[i], inv)), _mm_andnot_ps(pos, n[i]));
-        dd[i] = _mm_setr_ps(vec_comp(r[k[0]].d, i), vec_comp(r[k[1]].d, i), vec_comp(r[k[2]].d, i), vec_comp(r[k[3]].d, i));
+        dd[i] = ray_lanes(r, k, RAY_D + i);
     }
     __m128 nd = _mm_add_ps(_mm_add_ps(_mm_mul_ps(n[0], dd[0]), _mm_mul_ps(n[1], dd[1])), _mm_mul_ps(n[2], dd[2]));
     __m128 flip = _mm_and_ps(_mm_cmpgt_ps(nd, _mm_setzero_ps()), _mm_set1_ps(-0.0f));
