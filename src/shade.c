@@ -217,18 +217,17 @@ static Vec3 light_visibility(const Ctx *c, int li, const Surface *sf, Vec3 lc)
     const Light *l = &c->s->lights[li];
     PlanShadow mode = c->p->shadow[li];
     const PlanArea *area = &c->p->area[li];
-    Vec3 o[2], t[ACCEL_PACKET];
-    prim_spawn_origins(sf, o);
     if (l->adaptive > 0) {
         AreaGrid g;
         g.c = c, g.mode = mode, g.sf = sf, g.l = l, g.area = area, g.lc = lc;
-        g.o[0] = o[0], g.o[1] = o[1];
+        prim_spawn_origins(sf, g.o);
         memset(g.traced, 0, (size_t)(l->area_n1 * l->area_n2));
         area_trace(&g, area->first, area->nfirst); /* what every point traces, then what its cells ask for */
         return area_cell(&g, 0, 0, l->area_n1 - 1, l->area_n2 - 1, 0);
     }
     /* every sample, summed in the grid's order */
-    Vec3 vis = vec3(0, 0, 0);
+    Vec3 vis = vec3(0, 0, 0), o[2], t[ACCEL_PACKET];
+    prim_spawn_origins(sf, o);
     const int n = l->area_n1 * l->area_n2;
     for (int k0 = 0; k0 < n; k0 += ACCEL_PACKET) {
         const int ns = n - k0 < ACCEL_PACKET ? n - k0 : ACCEL_PACKET;
