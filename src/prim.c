@@ -375,12 +375,19 @@ static double sphere_gfn(const void *ctx, double t, double *err)
  * across it with certainty (then exactly one root lies inside). Returns the
  * bracket's half-width, or -1 when no certain sign change was found (a
  * near-double root: the ray is tangent to working precision). */
+/* certify_root's first half-width, in double ulps of t */
+#define CERTIFY_START 128.0
+
 static double certify_root(GFn g, const void *ctx, double t)
 {
-    /* Start from the double computation's own accuracy, a few double ulps:
+    /* Start from the double computation's own accuracy, some double ulps:
      * starting at float ulps would swallow both roots of a sphere less than
-     * a few float ulps deep along the ray (a small sphere far away). */
-    double w = 16.0 * UNIT_D * fabs(t) + 1e-300;
+     * a few float ulps deep along the ray (a small sphere far away). g's
+     * error bound along a ray from afar is about 10 u t r, the slope at
+     * the root 2 r cos(angle of incidence): a half-width of 128 u t is
+     * certain from cos 0.1 up, where 16 u t needed about 0.5 and most hits
+     * took a second round. */
+    double w = CERTIFY_START * UNIT_D * fabs(t) + 1e-300;
     for (int k = 0; k < 24; k++, w *= 8.0) {
         double e_lo, e_hi;
         double g_lo = g(ctx, t - w, &e_lo);
@@ -571,7 +578,7 @@ __attribute__((target("avx"), always_inline)) static inline unsigned quadric_hit
     ok = _mm256_and_pd(ok, _mm256_cmp_pd(t, zero, _CMP_GT_OQ));
     /* certify_root: each lane's bracket widens until it is certain, as
      * long as some lane's is not (none, when every lane missed) */
-    __m256d w = _mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(16.0 * UNIT_D), ABS(t)), _mm256_set1_pd(1e-300));
+    __m256d w = _mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(CERTIFY_START * UNIT_D), ABS(t)), _mm256_set1_pd(1e-300));
     __m256d sure = zero, half = zero; /* half: the certain lanes' half-widths */
     for (int it = 0; it < 24; it++, w = _mm256_mul_pd(w, _mm256_set1_pd(8.0))) {
         __m256d need = _mm256_andnot_pd(sure, ok);
