@@ -1400,8 +1400,8 @@ Vec3 prim_spawn_side(const Surface *s, float nd)
     float dist = fabsf(n.x) * s->perr.x + fabsf(n.y) * s->perr.y + fabsf(n.z) * s->perr.z;
     Vec3 po = vec_madd(s->p, n, dist);
 #ifdef PRIM_AVX
-    /* SSE2, the x86-64 baseline: the same steps as below on three lanes
-     * at once, where each lane's branches were mispredicted. */
+    /* SSE2, the x86-64 baseline: the steps below on three lanes at once,
+     * by masks instead of a branch per lane (infinities and NaNs below) */
     const __m128 zero = _mm_setzero_ps(), vn = _mm_setr_ps(n.x, n.y, n.z, 0.0f);
     const __m128 vp = _mm_setr_ps(po.x, po.y, po.z, 0.0f);
     if (_mm_movemask_ps(_mm_cmple_ps(_mm_andnot_ps(_mm_set1_ps(-0.0f), vp), _mm_set1_ps(FLT_MAX))) == 15) {
