@@ -371,13 +371,13 @@ static double sphere_gfn(const void *ctx, double t, double *err)
     return sphere_g(c->f, c->d, c->r2, t, err);
 }
 
+/* certify_root's first half-width, in units of double roundoff of t */
+#define CERTIFY_START 128.0
+
 /* Certifies a root of g near t: widens a bracket until g changes sign
  * across it with certainty (then exactly one root lies inside). Returns the
  * bracket's half-width, or -1 when no certain sign change was found (a
  * near-double root: the ray is tangent to working precision). */
-/* certify_root's first half-width, in double ulps of t */
-#define CERTIFY_START 128.0
-
 static double certify_root(GFn g, const void *ctx, double t)
 {
     /* Start from the double computation's own accuracy, some double ulps:
@@ -385,8 +385,8 @@ static double certify_root(GFn g, const void *ctx, double t)
      * a few float ulps deep along the ray (a small sphere far away). g's
      * error bound along a ray from afar is about 10 u t r, the slope at
      * the root 2 r cos(angle of incidence): a half-width of 128 u t is
-     * certain from cos 0.1 up, where 16 u t needed about 0.5 and most hits
-     * took a second round. */
+     * certain from cos 0.1 up, where 16 u t needed about 0.5, and hits
+     * from afar took a second round. */
     double w = CERTIFY_START * UNIT_D * fabs(t) + 1e-300;
     for (int k = 0; k < 24; k++, w *= 8.0) {
         double e_lo, e_hi;
