@@ -1399,9 +1399,12 @@ Vec3 prim_spawn_side(const Surface *s, float nd)
     Vec3 n = nd < 0.0f ? vec_neg(s->noff) : s->noff; /* the side dir leaves to */
     float dist = fabsf(n.x) * s->perr.x + fabsf(n.y) * s->perr.y + fabsf(n.z) * s->perr.z;
     Vec3 po = vec_madd(s->p, n, dist);
+    /* One float further along each component the normal moves, so that the
+     * rounding of po itself cannot undo the offset, even when dist is 0 (a
+     * box face, where p is exact). */
 #ifdef PRIM_AVX
-    /* SSE2, the x86-64 baseline: the steps below on three lanes at once,
-     * by masks instead of a branch per lane (infinities and NaNs below) */
+    /* SSE2, the x86-64 baseline: the three steps at once, by masks instead
+     * of a branch per lane; infinities and NaNs take float_next below */
     const __m128 zero = _mm_setzero_ps(), vn = _mm_setr_ps(n.x, n.y, n.z, 0.0f);
     const __m128 vp = _mm_setr_ps(po.x, po.y, po.z, 0.0f);
     if (_mm_movemask_ps(_mm_cmple_ps(_mm_andnot_ps(_mm_set1_ps(-0.0f), vp), _mm_set1_ps(FLT_MAX))) == 15) {
@@ -1421,10 +1424,8 @@ Vec3 prim_spawn_side(const Surface *s, float nd)
         return vec3(out[0], out[1], out[2]);
     }
 #endif
-    /* One float further along each component the normal moves, so that the
-     * rounding of po itself cannot undo the offset, even when dist is 0 (a
-     * box face, where p is exact). Three scalars, not an array: the
-     * array's stores, a lane at a time, stalled its reload as a Vec3. */
+    /* Three scalars, not an array: the array's stores, a lane at a time,
+     * stalled its reload as a Vec3. */
     float x = n.x != 0.0f ? float_next(po.x, n.x > 0.0f) : po.x;
     float y = n.y != 0.0f ? float_next(po.y, n.y > 0.0f) : po.y;
     float z = n.z != 0.0f ? float_next(po.z, n.z > 0.0f) : po.z;
