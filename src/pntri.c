@@ -799,7 +799,8 @@ static int flat_piece(const PnNet *net, const PnFrame *f, const double d[3], dou
 }
 
 typedef struct {
-    PnNet net;
+    const PnNet *net; /* own, or the start piece's (the root's: not copied) */
+    PnNet own;
     double lo[3], hi[3]; /* pn_net_box of net */
     double tn, tf;       /* the ray's interval in that box */
     int depth;
@@ -1129,10 +1130,10 @@ static int trace(const PnPatch *pn, const PnPiece *start, const Ray *ray, PnMode
     int top = 0;
     PnBest best = {r.tmax, 0.0, 0.0, 0.0};
     PnNode *root = &stack[top];
-    /* its box first: the net is copied only for a ray that enters it */
+    /* its box first (the root reads the start's net where it lies) */
     if (!slab(start->lo, start->hi, r.o, r.d, r.inv, best.t, &root->tn, &root->tf))
         return 0;
-    root->net = start->net;
+    root->net = &start->net;
     memcpy(root->lo, start->lo, sizeof root->lo);
     memcpy(root->hi, start->hi, sizeof root->hi);
     double mroot = start->mag; /* the patch's largest coordinate */
@@ -1149,7 +1150,7 @@ static int trace(const PnPatch *pn, const PnPiece *start, const Ray *ray, PnMode
         kept = NULL;
         if (node->tn >= best.t)
             continue;
-        const PnNet *net = &node->net;
+        const PnNet *net = node->net;
         double m = max2(maxabs3(node->lo), maxabs3(node->hi)); /* the box's largest coordinate */
         int only;
         PnFrame frame;
@@ -1232,7 +1233,8 @@ static int trace(const PnPatch *pn, const PnPiece *start, const Ray *ray, PnMode
         for (int i = 0; i < n; i++) {
             int c = order[i];
             PnNode *k = &stack[top++];
-            split_child_net(&dom, pool, err, c, &k->net);
+            split_child_net(&dom, pool, err, c, &k->own);
+            k->net = &k->own;
             memcpy(k->lo, lo[c], sizeof k->lo);
             memcpy(k->hi, hi[c], sizeof k->hi);
             k->tn = tn[c];
