@@ -1075,8 +1075,15 @@ static void best_keep(PnBest *b, double t, double err, double u, double v)
     }
 }
 
-static int trace(const PnPatch *pn, const PnPiece *start, const Ray *ray, PnMode mode, int proofs, PnHit *h,
-                 long *proven);
+/* What pn_hit_piece_rays settled of a ray at its start piece: the flat
+ * test and the proof, which left a split to do (flat_piece's only) and
+ * whether the proof's Newton point fell outside the piece. */
+typedef struct {
+    int only, tried;
+} PnStartLeft;
+
+static int trace(const PnPatch *pn, const PnPiece *start, const Ray *ray, PnMode mode, int proofs,
+                 const PnStartLeft *left, PnHit *h, long *proven);
 
 int pn_hit(const PnPatch *pn, const Ray *ray, PnMode mode, PnHit *h) { return pn_hit_with(pn, ray, mode, 1, h, NULL); }
 
@@ -1084,7 +1091,7 @@ int pn_hit_with(const PnPatch *pn, const Ray *ray, PnMode mode, int proofs, PnHi
 {
     PnPiece w;
     whole_piece(pn, &w);
-    return trace(pn, &w, ray, mode, proofs, h, proven);
+    return trace(pn, &w, ray, mode, proofs, NULL, h, proven);
 }
 
 void pn_piece_init(PnPiece *pc, const PnPatch *pn)
@@ -1108,14 +1115,30 @@ void pn_piece_init(PnPiece *pc, const PnPatch *pn)
 
 int pn_hit_piece(const PnPatch *pn, const PnPiece *piece, const Ray *ray, PnMode mode, PnHit *h)
 {
-    return trace(pn, piece, ray, mode, 1, h, NULL);
+    return trace(pn, piece, ray, mode, 1, NULL, h, NULL);
+}
+
+/* The hit that trace returns for the nearest crossing kept, if any: 1 and
+ * h when its t, rounded to a float, lies in (0, ray->tmax). */
+static int best_hit(const PnBest *best, const Ray *ray, PnHit *h)
+{
+    if (!(best->t < ray->tmax)) /* none found */
+        return 0;
+    h->t = (float)best->t;
+    if (!(h->t < ray->tmax) || !(h->t > 0.0f))
+        return 0;
+    h->terr = best->err > 0.0 ? float_up(best->err + fabs(best->t - (double)h->t)) : 0.0f;
+    h->u = (float)best->u;
+    h->v = (float)best->v;
+    return 1;
 }
 
 /* Visits the sub-patches of the piece start (the whole patch, or a piece
  * split ahead of rays) whose box the ray enters, nearest first, and keeps
- * the nearest hit. */
-static int trace(const PnPatch *pn, const PnPiece *start, const Ray *ray, PnMode mode, int proofs, PnHit *h,
-                 long *proven)
+ * the nearest hit. With left, the start's own flat test and proof are
+ * done, and left says what they left. */
+static int trace(const PnPatch *pn, const PnPiece *start, const Ray *ray, PnMode mode, int proofs,
+                 const PnStartLeft *left, PnHit *h, long *proven)
 {
     PnRay r;
     to_d(ray->o, r.o);
@@ -1152,37 +1175,42 @@ static int trace(const PnPatch *pn, const PnPiece *start, const Ray *ray, PnMode
             continue;
         const PnNet *net = node->net;
         double m = max2(maxabs3(node->lo), maxabs3(node->hi)); /* the box's largest coordinate */
-        int only;
-        PnFrame frame;
-        piece_frame(net, r.o, r.d, &frame);
-        { /* culls a piece the ray misses before Newton's steps are spent on it */
-            double t, e, u, v, own[3];
-            const double *len = shaped ? shaped->len : own;
-            double dev = shaped ? shaped->dev : piece_dev(net, &frame, m);
-            if (!shaped)
-                piece_lengths(&frame, own);
-            int f = flat_piece(net, &frame, r.d, dd, best.t, m, dev, len, &t, &e, &u, &v, &only);
-            if (f == 1) /* (its interval starts before best, its midpoint may not) */
-                best_keep(&best, t, e, u, v);
-            if (f >= 0)
-                continue;
-        }
-        /* A proof of the piece's only crossing, in exact mode, and of none
-         * ahead for a ray leaving the surface (an origin in the box), in
-         * both modes (fast mode's Newton below waits for the origin to
-         * leave the box) */
-        int tried = node->tried;
-        if (!tried && proofs && (mode == PN_EXACT || node->tn <= 0.0)) {
-            double t, e, u, v;
-            int c = pn_certify(pn, &r, net, &frame, shaped, dd, best.t, mroot, &t, &e, &u, &v);
-            if (c == PN_CERT_MISS || (c == PN_CERT_HIT && mode == PN_EXACT)) {
-                if (proven)
-                    ++*proven;
-                if (c == PN_CERT_HIT)
+        int only, tried = node->tried;
+        if (left) { /* the start's tests, done */
+            only = left->only;
+            tried = left->tried;
+            left = NULL;
+        } else {
+            PnFrame frame;
+            piece_frame(net, r.o, r.d, &frame);
+            { /* culls a piece the ray misses before Newton's steps are spent on it */
+                double t, e, u, v, own[3];
+                const double *len = shaped ? shaped->len : own;
+                double dev = shaped ? shaped->dev : piece_dev(net, &frame, m);
+                if (!shaped)
+                    piece_lengths(&frame, own);
+                int f = flat_piece(net, &frame, r.d, dd, best.t, m, dev, len, &t, &e, &u, &v, &only);
+                if (f == 1) /* (its interval starts before best, its midpoint may not) */
                     best_keep(&best, t, e, u, v);
-                continue;
+                if (f >= 0)
+                    continue;
             }
-            tried = c == PN_UNSURE_OUTSIDE;
+            /* A proof of the piece's only crossing, in exact mode, and of
+             * none ahead for a ray leaving the surface (an origin in the
+             * box), in both modes (fast mode's Newton below waits for the
+             * origin to leave the box) */
+            if (!tried && proofs && (mode == PN_EXACT || node->tn <= 0.0)) {
+                double t, e, u, v;
+                int c = pn_certify(pn, &r, net, &frame, shaped, dd, best.t, mroot, &t, &e, &u, &v);
+                if (c == PN_CERT_MISS || (c == PN_CERT_HIT && mode == PN_EXACT)) {
+                    if (proven)
+                        ++*proven;
+                    if (c == PN_CERT_HIT)
+                        best_keep(&best, t, e, u, v);
+                    continue;
+                }
+                tried = c == PN_UNSURE_OUTSIDE;
+            }
         }
         /* Newton's method, from outside the start's box: a ray that starts
          * in it (a spawned ray, leaving the surface) needs the split that
@@ -1243,13 +1271,350 @@ static int trace(const PnPatch *pn, const PnPiece *start, const Ray *ray, PnMode
             k->tried = tried;
         }
     }
-    if (!(best.t < r.tmax)) /* none found */
-        return 0;
-    h->t = (float)best.t;
-    if (!(h->t < ray->tmax) || !(h->t > 0.0f))
-        return 0;
-    h->terr = best.err > 0.0 ? float_up(best.err + fabs(best.t - (double)h->t)) : 0.0f;
-    h->u = (float)best.u;
-    h->v = (float)best.v;
-    return 1;
+    return best_hit(&best, ray, h);
+}
+
+/* ---- four rays at a piece ---- */
+
+#ifdef PN_AVX
+/* The scalar code's operations on four doubles, one ray in each lane. */
+#define PN_ADD(a, b) _mm256_add_pd(a, b)
+#define PN_SUB(a, b) _mm256_sub_pd(a, b)
+#define PN_MUL(a, b) _mm256_mul_pd(a, b)
+#define PN_DIV(a, b) _mm256_div_pd(a, b)
+#define PN_SET(x) _mm256_set1_pd(x)
+#define PN_CMP(a, b, op) _mm256_cmp_pd(a, b, op)
+#define PN_AND(a, b) _mm256_and_pd(a, b)
+#define PN_OR(a, b) _mm256_or_pd(a, b)
+#define PN_NOT_AND(a, b) _mm256_andnot_pd(a, b) /* b and not a */
+/* a . b of three lanes each, summed as the scalar code sums them */
+#define PN_DOT(a, b) PN_ADD(PN_ADD(PN_MUL((a)[0], (b)[0]), PN_MUL((a)[1], (b)[1])), PN_MUL((a)[2], (b)[2]))
+
+__attribute__((target("avx"))) static inline __m256d abs4(__m256d x)
+{
+    return _mm256_andnot_pd(_mm256_set1_pd(-0.0), x);
+}
+
+/* max2 and its like lane by lane: MAXPD and MINPD return their second
+ * operand unless the first is greater (less), as a > b ? a : b does. */
+__attribute__((target("avx"))) static inline __m256d maxabs3_4(const __m256d v[3])
+{
+    return _mm256_max_pd(abs4(v[0]), _mm256_max_pd(abs4(v[1]), abs4(v[2])));
+}
+
+/* pn_eval for the four points (u, v) in lanes, one axis at a time: the same
+ * operations as pn_eval's loop, lane by lane. */
+__attribute__((target("avx"))) static inline void eval_lanes(const PnPatch *pn, __m256d u, __m256d v, __m256d pt[3],
+                                                             __m256d du[3], __m256d dv[3])
+{
+    const float *bf = &pn->b[0].x;
+    const __m256d w = PN_SUB(PN_SUB(PN_SET(1.0), u), v), three = PN_SET(3.0);
+#define STEP(x, y, z) PN_ADD(PN_ADD(PN_MUL(w, x), PN_MUL(u, y)), PN_MUL(v, z))
+    for (int a = 0; a < 3; a++) {
+        __m256d b[10];
+        for (int i = 0; i < 10; i++)
+            b[i] = PN_SET((double)bf[3 * i + a]);
+        __m256d q0 = STEP(b[0], b[1], b[2]), q1 = STEP(b[1], b[3], b[4]), q2 = STEP(b[2], b[4], b[5]);
+        __m256d q3 = STEP(b[3], b[6], b[7]), q4 = STEP(b[4], b[7], b[8]), q5 = STEP(b[5], b[8], b[9]);
+        __m256d rw = STEP(q0, q1, q2), ru = STEP(q1, q3, q4), rv = STEP(q2, q4, q5);
+        if (pt)
+            pt[a] = STEP(rw, ru, rv);
+        if (du)
+            du[a] = PN_MUL(three, PN_SUB(ru, rw));
+        if (dv)
+            dv[a] = PN_MUL(three, PN_SUB(rv, rw));
+    }
+#undef STEP
+}
+
+/* newton_uv for the rays in lanes, from (lu0, lv0) of the net's domain:
+ * each lane stops where the scalar loop would. Returns the mask of lanes
+ * that converged, with (u, v) there. */
+__attribute__((target("avx"))) static __m256d newton_lanes(const PnPatch *pn, const __m256d o[3], const __m256d d[3],
+                                                           const PnNet *net, __m256d lu0, __m256d lv0, __m256d active,
+                                                           __m256d *uo, __m256d *vo)
+{
+    const __m256d zero = _mm256_setzero_pd(), sign = PN_SET(-0.0), big = PN_SET(DBL_MAX);
+    /* ax = (d1, -d0, 0) where |d0| is the largest, else (0, d2, -d1) */
+    __m256d x0 = PN_AND(PN_CMP(abs4(d[0]), abs4(d[1]), _CMP_GT_OQ), PN_CMP(abs4(d[0]), abs4(d[2]), _CMP_GT_OQ));
+    __m256d ax[3] = {_mm256_blendv_pd(zero, d[1], x0), _mm256_blendv_pd(d[2], _mm256_xor_pd(d[0], sign), x0),
+                     _mm256_blendv_pd(_mm256_xor_pd(d[1], sign), zero, x0)};
+    __m256d la = _mm256_sqrt_pd(PN_DOT(ax, ax));
+    for (int c = 0; c < 3; c++)
+        ax[c] = PN_DIV(ax[c], la);
+    __m256d bx[3] = {PN_SUB(PN_MUL(ax[1], d[2]), PN_MUL(ax[2], d[1])), PN_SUB(PN_MUL(ax[2], d[0]), PN_MUL(ax[0], d[2])),
+                     PN_SUB(PN_MUL(ax[0], d[1]), PN_MUL(ax[1], d[0]))};
+    __m256d lb = _mm256_sqrt_pd(PN_DOT(bx, bx));
+    for (int c = 0; c < 3; c++)
+        bx[c] = PN_DIV(bx[c], lb);
+    const double sg = net->flip ? -net->s : net->s;
+    __m256d u = PN_ADD(PN_SET(net->u0), PN_MUL(PN_SET(sg), lu0));
+    __m256d v = PN_ADD(PN_SET(net->v0), PN_MUL(PN_SET(sg), lv0));
+    const __m256d tol = PN_SET(1e-7 * net->s);
+    __m256d done = zero;
+    for (int it = 0; it < PN_NEWTON_STEPS && _mm256_movemask_pd(active); it++) {
+        __m256d p[3], du[3], dv[3], q[3];
+        eval_lanes(pn, u, v, p, du, dv);
+        for (int c = 0; c < 3; c++)
+            q[c] = PN_SUB(p[c], o[c]);
+        __m256d f1 = PN_DOT(ax, q), f2 = PN_DOT(bx, q);
+        __m256d j11 = PN_DOT(ax, du), j12 = PN_DOT(ax, dv), j21 = PN_DOT(bx, du), j22 = PN_DOT(bx, dv);
+        __m256d det = PN_SUB(PN_MUL(j11, j22), PN_MUL(j12, j21));
+        __m256d go = PN_AND(active, PN_CMP(abs4(det), zero, _CMP_GT_OQ)); /* else the scalar loop fails */
+        __m256d su = PN_DIV(PN_SUB(PN_MUL(j22, f1), PN_MUL(j12, f2)), det);
+        __m256d sv = PN_DIV(PN_SUB(PN_MUL(j11, f2), PN_MUL(j21, f1)), det);
+        u = _mm256_blendv_pd(u, PN_SUB(u, su), go);
+        v = _mm256_blendv_pd(v, PN_SUB(v, sv), go);
+        __m256d finite = PN_AND(PN_CMP(abs4(u), big, _CMP_LE_OQ), PN_CMP(abs4(v), big, _CMP_LE_OQ));
+        __m256d conv = PN_AND(PN_AND(go, finite), PN_CMP(PN_ADD(abs4(su), abs4(sv)), tol, _CMP_LE_OQ));
+        done = PN_OR(done, conv);
+        active = PN_NOT_AND(conv, PN_AND(go, finite));
+    }
+    *uo = u;
+    *vo = v;
+    return done;
+}
+
+/* What start_lanes settled of a ray at its start piece. */
+enum { PN_LANE_MISS, PN_LANE_HIT, PN_LANE_LEFT, PN_LANE_ALONE };
+
+/* slab for the rays in lanes: the lanes that enter the box before tmax,
+ * with their entry distances in tn. */
+__attribute__((target("avx"))) static inline __m256d slab_lanes(const double lo[3], const double hi[3],
+                                                                const __m256d o[3], const __m256d d[3],
+                                                                const __m256d inv[3], __m256d tmax, __m256d *tn)
+{
+    const __m256d zero = _mm256_setzero_pd(), pad = PN_SET(4.0 * DBL_EPSILON);
+    __m256d n = PN_SET(-INFINITY), f = PN_SET(INFINITY), out = zero;
+    for (int a = 0; a < 3; a++) {
+        __m256d l = PN_SET(lo[a]), h = PN_SET(hi[a]);
+        /* parallel to the slab: outside it, a miss; inside, no bound */
+        __m256d par = PN_CMP(d[a], zero, _CMP_EQ_OQ);
+        out = PN_OR(out, PN_AND(par, PN_OR(PN_CMP(o[a], l, _CMP_LT_OQ), PN_CMP(o[a], h, _CMP_GT_OQ))));
+        __m256d t0 = PN_MUL(PN_SUB(l, o[a]), inv[a]), t1 = PN_MUL(PN_SUB(h, o[a]), inv[a]);
+        __m256d sw = PN_CMP(t0, t1, _CMP_GT_OQ), a0 = _mm256_blendv_pd(t0, t1, sw), a1 = _mm256_blendv_pd(t1, t0, sw);
+        n = _mm256_blendv_pd(_mm256_max_pd(a0, n), n, par);
+        f = _mm256_blendv_pd(_mm256_min_pd(a1, f), f, par);
+    }
+    n = PN_SUB(n, PN_MUL(abs4(n), pad));
+    f = PN_ADD(f, PN_MUL(abs4(f), pad));
+    *tn = n;
+    __m256d miss = PN_OR(PN_OR(PN_CMP(n, f, _CMP_GT_OQ), PN_CMP(f, zero, _CMP_LE_OQ)), PN_CMP(n, tmax, _CMP_GE_OQ));
+    return PN_NOT_AND(PN_OR(out, miss), _mm256_castsi256_pd(_mm256_set1_epi64x(-1)));
+}
+
+/* trace's first steps for the rays ray[k[0..3]] at a shaped piece pc:
+ * slab, piece_frame, flat_piece and pn_certify, the same operations lane
+ * by lane. state[j] for ray k[j]: a miss; a hit (best[j]); the split left
+ * (left[j]); or PN_LANE_ALONE, a piece flat to float precision, which
+ * trace settles. */
+__attribute__((target("avx"))) static void start_lanes(const PnPatch *pn, const PnPiece *pc, const Ray *ray,
+                                                        const int k[4], PnMode mode, int state[4], PnBest best[4],
+                                                        PnStartLeft left[4])
+{
+    const PnNet *net = &pc->net;
+    const __m256d zero = _mm256_setzero_pd(), S = PN_SET(PN_SLACK), one = PN_SET(1.0);
+    __m256d o[3], d[3], inv[3];
+    for (int a = 0; a < 3; a++) {
+        const float *of = &ray[0].o.x + a, *df = &ray[0].d.x + a;
+        const size_t st = sizeof(Ray) / sizeof(float);
+        o[a] = _mm256_cvtps_pd(_mm_setr_ps(of[k[0] * st], of[k[1] * st], of[k[2] * st], of[k[3] * st]));
+        d[a] = _mm256_cvtps_pd(_mm_setr_ps(df[k[0] * st], df[k[1] * st], df[k[2] * st], df[k[3] * st]));
+        inv[a] = PN_DIV(one, d[a]);
+    }
+    const __m256d tmax = _mm256_cvtps_pd(_mm_setr_ps(ray[k[0]].tmax, ray[k[1]].tmax, ray[k[2]].tmax, ray[k[3]].tmax));
+    __m256d tn, enter = slab_lanes(pc->lo, pc->hi, o, d, inv, tmax, &tn);
+    const __m256d dd = _mm256_sqrt_pd(PN_DOT(d, d));
+    /* piece_frame: all but q and n.d the piece's own */
+    const double zo[3] = {0.0, 0.0, 0.0};
+    PnFrame f;
+    piece_frame(net, zo, zo, &f);
+    const double m = max2(maxabs3(pc->lo), maxabs3(pc->hi)), dev = pc->dev;
+    __m256d q[3], e1[3], e2[3], n[3];
+    for (int a = 0; a < 3; a++) {
+        q[a] = PN_SUB(o[a], PN_SET(f.A[a]));
+        e1[a] = PN_SET(f.e1[a]);
+        e2[a] = PN_SET(f.e2[a]);
+        n[a] = PN_SET(f.n[a]);
+    }
+    const __m256d nd = PN_DOT(n, d), nn2 = PN_SET(f.nn2);
+    const double nns = sqrt(f.nn2);
+    const __m256d nn = PN_SET(nns);
+    const int me = _mm256_movemask_pd(enter);
+    for (int j = 0; j < 4; j++) {
+        state[j] = me >> j & 1 ? PN_LANE_LEFT : PN_LANE_MISS;
+        left[j] = (PnStartLeft){-1, 0};
+        best[j] = (PnBest){ray[k[j]].tmax, 0.0, 0.0, 0.0};
+    }
+    if (!me)
+        return;
+    /* flat_piece */
+    __m256d undecided = enter; /* lanes neither culled nor flat */
+    __m256d only = PN_SET(-1.0);
+    __m256d nq = PN_DOT(n, q);
+    if (nns > 0.0) {
+        const int flat = dev <= m * (double)FLT_EPSILON;
+        __m256d steep = PN_CMP(abs4(nd), PN_MUL(PN_MUL(PN_SET(0.25), nn), dd), _CMP_GE_OQ);
+        __m256d qm = maxabs3_4(q);
+        __m256d h = PN_MUL(PN_SET(norm1(f.n)), PN_ADD(PN_SET(dev), PN_MUL(S, PN_ADD(PN_SET(m), qm))));
+        __m256d t1 = PN_DIV(PN_SUB(_mm256_xor_pd(h, PN_SET(-0.0)), nq), nd), t2 = PN_DIV(PN_SUB(h, nq), nd);
+        __m256d sw = PN_CMP(t1, t2, _CMP_GT_OQ), lo1 = _mm256_blendv_pd(t1, t2, sw), hi2 = _mm256_blendv_pd(t2, t1, sw);
+        t1 = PN_SUB(lo1, PN_MUL(abs4(lo1), S));
+        t2 = PN_ADD(hi2, PN_MUL(abs4(hi2), S));
+        __m256d cull = PN_OR(PN_CMP(t2, zero, _CMP_LE_OQ), PN_CMP(t1, tmax, _CMP_GE_OQ));
+        if (flat)
+            cull = PN_OR(cull, PN_AND(steep, PN_CMP(t1, zero, _CMP_LE_OQ)));
+        __m256d ta = _mm256_max_pd(t1, zero), tb = _mm256_min_pd(t2, tmax);
+        __m256d tm = PN_MUL(PN_SET(0.5), PN_ADD(ta, tb)), p[3];
+        for (int a = 0; a < 3; a++)
+            p[a] = PN_ADD(q[a], PN_MUL(tm, d[a]));
+        __m256d c2[3] = {PN_SUB(PN_MUL(p[1], e2[2]), PN_MUL(p[2], e2[1])), PN_SUB(PN_MUL(p[2], e2[0]), PN_MUL(p[0], e2[2])),
+                         PN_SUB(PN_MUL(p[0], e2[1]), PN_MUL(p[1], e2[0]))};
+        __m256d c1[3] = {PN_SUB(PN_MUL(e1[1], p[2]), PN_MUL(e1[2], p[1])), PN_SUB(PN_MUL(e1[2], p[0]), PN_MUL(e1[0], p[2])),
+                         PN_SUB(PN_MUL(e1[0], p[1]), PN_MUL(e1[1], p[0]))};
+        __m256d lb = PN_DIV(PN_DOT(c2, n), nn2), lc = PN_DIV(PN_DOT(c1, n), nn2);
+        __m256d la = PN_SUB(PN_SUB(one, lb), lc);
+        __m256d pm = maxabs3_4(p);
+        __m256d rad = PN_ADD(PN_ADD(PN_MUL(PN_SET(dev), PN_SET(1.7320508075688774)),
+                                    PN_MUL(PN_MUL(PN_SET(0.5), PN_SUB(tb, ta)), dd)),
+                             PN_MUL(S, PN_ADD(pm, PN_SET(m))));
+        __m256d g = PN_DIV(PN_MUL(PN_SET(1.0 + PN_SLACK), rad), nn), ng = _mm256_xor_pd(g, PN_SET(-0.0));
+        const __m256d l1 = PN_SET(pc->len[0]), l2 = PN_SET(pc->len[1]), l3 = PN_SET(pc->len[2]);
+        cull = PN_OR(cull, PN_OR(PN_CMP(la, PN_MUL(ng, l3), _CMP_LT_OQ),
+                                 PN_OR(PN_CMP(lb, PN_MUL(ng, l2), _CMP_LT_OQ), PN_CMP(lc, PN_MUL(ng, l1), _CMP_LT_OQ))));
+        __m256d gl3 = PN_MUL(g, l3), gl2 = PN_MUL(g, l2), gl1 = PN_MUL(g, l1), half = PN_SET(0.5);
+        /* flat_piece's only, picked in its order: the first that holds */
+        __m256d o0 = PN_CMP(PN_SUB(la, half), gl3, _CMP_GT_OQ), o1 = PN_CMP(PN_SUB(lb, half), gl2, _CMP_GT_OQ);
+        __m256d o2 = PN_CMP(PN_SUB(lc, half), gl1, _CMP_GT_OQ);
+        __m256d o3 = PN_AND(PN_CMP(PN_SUB(half, la), gl3, _CMP_GT_OQ),
+                            PN_AND(PN_CMP(PN_SUB(half, lb), gl2, _CMP_GT_OQ), PN_CMP(PN_SUB(half, lc), gl1, _CMP_GT_OQ)));
+        only = _mm256_blendv_pd(only, PN_SET(3.0), o3);
+        only = _mm256_blendv_pd(only, PN_SET(2.0), o2);
+        only = _mm256_blendv_pd(only, PN_SET(1.0), o1);
+        only = _mm256_blendv_pd(only, zero, o0);
+        __m256d alone = flat ? PN_NOT_AND(cull, steep) : zero; /* flat to float precision: a hit */
+        undecided = PN_NOT_AND(PN_OR(cull, alone), undecided);
+        int mc = _mm256_movemask_pd(cull), ma = _mm256_movemask_pd(alone);
+        for (int j = 0; j < 4; j++) {
+            if (mc >> j & 1)
+                state[j] = PN_LANE_MISS;
+            else if ((ma & me) >> j & 1)
+                state[j] = PN_LANE_ALONE;
+        }
+    }
+    double onl[4];
+    _mm256_storeu_pd(onl, only);
+    for (int j = 0; j < 4; j++)
+        left[j].only = (int)onl[j];
+    /* pn_certify, where trace tries it */
+    __m256d act = mode == PN_EXACT ? undecided : PN_AND(undecided, PN_CMP(tn, zero, _CMP_LE_OQ));
+    if (!_mm256_movemask_pd(act) || !(pc->kappa > 0.0))
+        return;
+    const double L = pc->slope, kappa = pc->kappa;
+    __m256d tp = PN_DIV(_mm256_xor_pd(nq, PN_SET(-0.0)), nd), qq[3];
+    for (int a = 0; a < 3; a++)
+        qq[a] = PN_ADD(q[a], PN_MUL(tp, d[a]));
+    __m256d c2[3] = {PN_SUB(PN_MUL(qq[1], e2[2]), PN_MUL(qq[2], e2[1])), PN_SUB(PN_MUL(qq[2], e2[0]), PN_MUL(qq[0], e2[2])),
+                     PN_SUB(PN_MUL(qq[0], e2[1]), PN_MUL(qq[1], e2[0]))};
+    __m256d c1[3] = {PN_SUB(PN_MUL(e1[1], qq[2]), PN_MUL(e1[2], qq[1])), PN_SUB(PN_MUL(e1[2], qq[0]), PN_MUL(e1[0], qq[2])),
+                     PN_SUB(PN_MUL(e1[0], qq[1]), PN_MUL(e1[1], qq[0]))};
+    __m256d lu0 = PN_DIV(PN_DOT(c2, n), nn2), lv0 = PN_DIV(PN_DOT(c1, n), nn2);
+    __m256d go = PN_AND(act, PN_AND(PN_AND(PN_CMP(lu0, PN_SET(-0.5), _CMP_GT_OQ), PN_CMP(lv0, PN_SET(-0.5), _CMP_GT_OQ)),
+                                    PN_CMP(PN_ADD(lu0, lv0), PN_SET(1.5), _CMP_LT_OQ)));
+    __m256d nxd[3] = {PN_SUB(PN_MUL(n[1], d[2]), PN_MUL(n[2], d[1])), PN_SUB(PN_MUL(n[2], d[0]), PN_MUL(n[0], d[2])),
+                      PN_SUB(PN_MUL(n[0], d[1]), PN_MUL(n[1], d[0]))};
+    __m256d dxi = PN_ADD(PN_MUL(PN_DIV(_mm256_sqrt_pd(PN_DOT(nxd, nxd)), nn), PN_SET(1.0 + PN_SLACK)), PN_MUL(S, dd));
+    __m256d rate = PN_SUB(PN_SUB(PN_DIV(abs4(nd), nn), PN_MUL(PN_SET(L), dxi)), PN_MUL(PN_MUL(S, dd), PN_SET(1.0 + L)));
+    go = PN_AND(go, PN_CMP(rate, zero, _CMP_GT_OQ));
+    if (!_mm256_movemask_pd(go))
+        return;
+    __m256d nu, nv;
+    go = newton_lanes(pn, o, d, net, lu0, lv0, go, &nu, &nv);
+    if (!_mm256_movemask_pd(go))
+        return;
+    const double sg = net->flip ? -net->s : net->s;
+    __m256d lu = PN_DIV(PN_SUB(nu, PN_SET(net->u0)), PN_SET(sg)), lv = PN_DIV(PN_SUB(nv, PN_SET(net->v0)), PN_SET(sg));
+    __m256d edge = _mm256_min_pd(lu, lv), far = PN_MUL(PN_SUB(PN_SUB(one, lu), lv), PN_SET(0.7071067811865476));
+    edge = PN_SUB(PN_SUB(_mm256_min_pd(far, edge), PN_SET(4.0 * DBL_EPSILON / net->s)), S);
+    __m256d outside = PN_NOT_AND(PN_CMP(edge, zero, _CMP_GT_OQ), go);
+    go = PN_NOT_AND(outside, go);
+    __m256d P[3];
+    eval_lanes(pn, nu, nv, P, NULL, NULL);
+    __m256d ts = PN_DIV(PN_ADD(PN_ADD(PN_MUL(PN_SUB(P[0], o[0]), d[0]), PN_MUL(PN_SUB(P[1], o[1]), d[1])),
+                               PN_MUL(PN_SUB(P[2], o[2]), d[2])),
+                        PN_MUL(dd, dd));
+    __m256d rho = zero;
+    for (int a = 0; a < 3; a++) {
+        __m256d x = PN_SUB(PN_ADD(o[a], PN_MUL(ts, d[a])), P[a]);
+        rho = a ? PN_ADD(rho, PN_MUL(x, x)) : PN_MUL(x, x); /* 0.0 + x * x is x * x */
+    }
+    rho = PN_ADD(PN_MUL(_mm256_sqrt_pd(rho), PN_SET(1.0 + PN_SLACK)),
+                 PN_MUL(PN_SET(1.7320508075688774 * PN_SLACK),
+                        PN_ADD(PN_ADD(PN_SET(pc->mag), maxabs3_4(o)), PN_MUL(abs4(ts), dd))));
+    __m256d w = PN_MUL(PN_DIV(PN_MUL(PN_SET(1.0 + L), rho), rate), PN_SET(1.0 + PN_SLACK));
+    __m256d tlo = PN_SUB(ts, w), thi = PN_ADD(ts, w);
+    __m256d miss = PN_AND(go, PN_OR(PN_CMP(thi, zero, _CMP_LT_OQ), PN_CMP(tlo, tmax, _CMP_GT_OQ)));
+    __m256d hit = PN_AND(PN_CMP(tlo, zero, _CMP_GT_OQ), PN_CMP(thi, tmax, _CMP_LT_OQ));
+    hit = PN_AND(hit, PN_CMP(w, PN_MUL(ts, PN_SET(0.5 * (double)FLT_EPSILON)), _CMP_LE_OQ));
+    hit = PN_AND(hit, PN_CMP(PN_ADD(PN_MUL(dxi, w), rho), PN_MUL(PN_MUL(PN_SET(kappa), edge), PN_SET(1.0 - PN_SLACK)),
+                             _CMP_LT_OQ));
+    hit = PN_NOT_AND(miss, PN_AND(go, hit));
+    int mm = _mm256_movemask_pd(miss), mh = _mm256_movemask_pd(hit), mo = _mm256_movemask_pd(outside);
+    double tsv[4], wv[4], uv[4], vv[4];
+    _mm256_storeu_pd(tsv, ts);
+    _mm256_storeu_pd(wv, w);
+    _mm256_storeu_pd(uv, nu);
+    _mm256_storeu_pd(vv, nv);
+    for (int j = 0; j < 4; j++) {
+        if (mm >> j & 1)
+            state[j] = PN_LANE_MISS;
+        else if ((mh >> j & 1) && mode == PN_EXACT) {
+            state[j] = PN_LANE_HIT;
+            best[j] = (PnBest){tsv[j], wv[j], uv[j], vv[j]};
+        } else if (mo >> j & 1)
+            left[j].tried = 1;
+    }
+}
+#endif
+
+unsigned pn_hit_piece_rays(const PnPatch *pn, const PnPiece *piece, const Ray *ray, unsigned rays, PnMode mode,
+                           PnHit *h)
+{
+    unsigned hit = 0;
+#ifdef PN_AVX
+    PnPiece whole;
+    if (!piece && (rays & (rays - 1)) && split_avx()) { /* the whole patch, its shape measured once for all */
+        pn_net_root(pn, &whole.net);
+        whole.depth = 0;
+        pn_piece_init(&whole, pn);
+        piece = &whole;
+    }
+    if (piece && piece->shaped && split_avx())
+        while (rays & (rays - 1)) { /* two rays or more: up to four at a time (lanes past n repeat the first) */
+            int k[4] = {0, 0, 0, 0}, n = 0;
+            for (; n < 4 && rays; rays &= rays - 1)
+                k[n++] = __builtin_ctz(rays);
+            for (int j = n; j < 4; j++)
+                k[j] = k[0];
+            int state[4];
+            PnBest best[4];
+            PnStartLeft left[4];
+            start_lanes(pn, piece, ray, k, mode, state, best, left);
+            for (int j = 0; j < n; j++) {
+                int got = 0;
+                if (state[j] == PN_LANE_HIT)
+                    got = best_hit(&best[j], &ray[k[j]], &h[k[j]]);
+                else if (state[j] != PN_LANE_MISS)
+                    got = trace(pn, piece, &ray[k[j]], mode, 1, state[j] == PN_LANE_LEFT ? &left[j] : NULL, &h[k[j]],
+                                NULL);
+                hit |= (unsigned)got << k[j];
+            }
+        }
+#endif
+    for (; rays; rays &= rays - 1) { /* the rest one by one */
+        int j = __builtin_ctz(rays);
+        hit |= (unsigned)(piece ? trace(pn, piece, &ray[j], mode, 1, NULL, &h[j], NULL) : pn_hit(pn, &ray[j], mode, &h[j]))
+               << j;
+    }
+    return hit;
 }

@@ -974,6 +974,16 @@ unsigned prim_intersect_rays(const Prim *p, const Ray *r, unsigned rays, PrimVar
                 }
         }
 #endif
+    if (p->kind == PRIM_PN && (rays & (rays - 1))) { /* as prim_intersect picks the mode */
+        PnHit ph[32];
+        unsigned got = pn_hit_piece_rays(p->g.pn.patch, p->g.pn.piece, r, rays,
+                                         v == PRIM_ROBUST ? (PnMode)p->g.pn.mode : PN_FAST, ph);
+        for (unsigned m = got; m; m &= m - 1) {
+            int k = __builtin_ctz(m);
+            h[k] = (PrimHit){ph[k].t, ph[k].terr, ph[k].u, ph[k].v, 0};
+        }
+        return got;
+    }
     for (; rays; rays &= rays - 1) { /* the rest one by one */
         int k = __builtin_ctz(rays);
         hit |= (unsigned)prim_intersect(p, &r[k], v, &h[k]) << k;

@@ -1054,6 +1054,97 @@ static void test_pieces_keep_their_shape(void **state)
     assert_true(hits > 3000);
 }
 
+/* pn_hit_piece_rays against pn_hit_piece (pn_hit for the whole patch) ray
+ * by ray, bit for bit, in both modes and for masks of two rays or more,
+ * which the lanes take four at a time: rays aimed at points of the piece
+ * from outside, rays leaving those points (spawned off the surface), rays
+ * stopped short of them, rays along an axis, and rays aimed past the
+ * piece; on whole patches and on pieces one, two and twelve splits down
+ * (the last flat to float precision). */
+static void test_piece_rays_are_one_by_one(void **state)
+{
+    (void)state;
+    unsigned long long seed = 43;
+    long compared = 0, hits = 0, leaving = 0;
+    for (int k = 0; k < 300; k++) {
+        float sc = k % 3 == 0 ? 1.0f : k % 3 == 1 ? 1e-3f : 1e4f;
+        Vec3 c = vec_scale(test_rvec(&seed, -10, 10), sc);
+        PnPatch pn;
+        random_patch(&pn, &seed, c, sc);
+        PnNet net, kids[4];
+        pn_net_root(&pn, &net);
+        int depth = k % 4 == 3 ? 12 : k % 4;
+        for (int l = 0; l < depth; l++) {
+            pn_net_split(&net, kids);
+            net = kids[test_uniform(&seed, 0, 1) < 0.5 ? 3 : (int)test_uniform(&seed, 0, 2.99)];
+        }
+        PnPiece pc;
+        pc.net = net;
+        pc.depth = depth;
+        pn_piece_init(&pc, &pn);
+        Ray r[8];
+        for (int j = 0; j < 8; j++) {
+            double u = test_uniform(&seed, 0, 1), v = test_uniform(&seed, 0, 1), pt[3], du[3], dv[3];
+            if (u + v > 1)
+                u = 1 - u, v = 1 - v;
+            double sg = net.flip ? -net.s : net.s;
+            pn_eval(&pn, net.u0 + sg * u, net.v0 + sg * v, pt, du, dv);
+            Vec3 p = vec3((float)pt[0], (float)pt[1], (float)pt[2]);
+            Vec3 n = unit(vec3((float)(du[1] * dv[2] - du[2] * dv[1]), (float)(du[2] * dv[0] - du[0] * dv[2]),
+                               (float)(du[0] * dv[1] - du[1] * dv[0])));
+            Vec3 d = unit(test_rvec(&seed, -1, 1));
+            int kind = (j + k) % 5;
+            if (kind == 3) { /* along an axis */
+                d = vec3(0, 0, 0);
+                if (j % 3 == 0)
+                    d.x = 1;
+                else if (j % 3 == 1)
+                    d.y = -1;
+                else
+                    d.z = 1;
+            }
+            if (kind == 1) { /* leaving its point, off the surface as a spawned ray is */
+                if (vec_dot(d, n) < 0)
+                    d = vec_neg(d);
+                Surface sf;
+                memset(&sf, 0, sizeof sf);
+                sf.p = p;
+                float e = 16.0f * FLT_EPSILON * vec_max_abs(p);
+                sf.perr = vec3(e, e, e);
+                sf.ng = sf.noff = sf.ns = n;
+                r[j] = ray_make(prim_spawn_origin(&sf, d), d, j % 2 ? INFINITY : 3.0f * sc);
+                leaving++;
+                continue;
+            }
+            Vec3 aim = kind == 4 ? vec_add(p, vec_scale(test_rvec(&seed, -0.5f, 0.5f), sc)) : p;
+            Vec3 o = vec_sub(aim, vec_scale(d, 2.0f * sc));
+            r[j] = ray_make(o, d, kind == 2 ? 1.0f * sc : INFINITY); /* kind 2: stopped short */
+        }
+        for (int mode = 0; mode <= 1; mode++) {
+            PnHit one[8], lanes[8];
+            unsigned want = 0;
+            for (int j = 0; j < 8; j++)
+                want |= (unsigned)(depth ? pn_hit_piece(&pn, &pc, &r[j], mode ? PN_FAST : PN_EXACT, &one[j])
+                                         : pn_hit(&pn, &r[j], mode ? PN_FAST : PN_EXACT, &one[j]))
+                        << j;
+            for (unsigned mask = 3; mask < 256; mask += 1 + (unsigned)(test_uniform(&seed, 0, 1) * 20)) {
+                if (!(mask & (mask - 1)))
+                    continue;
+                memset(lanes, 0xa5, sizeof lanes);
+                unsigned got = pn_hit_piece_rays(&pn, depth ? &pc : NULL, r, mask, mode ? PN_FAST : PN_EXACT, lanes);
+                assert_int_equal(got, want & mask);
+                for (int j = 0; j < 8; j++)
+                    if (got >> j & 1)
+                        assert_memory_equal(&lanes[j], &one[j], sizeof one[j]);
+                compared += __builtin_popcount(mask);
+            }
+            hits += __builtin_popcount(want);
+        }
+    }
+    assert_true(compared > 50000);
+    assert_true(hits > 1500 && leaving > 400);
+}
+
 static void test_cgal_meshes_do_not_leak(void **state)
 {
     (void)state;
@@ -1160,6 +1251,7 @@ int main(void)
         cmocka_unit_test(test_proofs_agree_with_subdivision),
         cmocka_unit_test(test_slope_and_pieces),
         cmocka_unit_test(test_pieces_keep_their_shape),
+        cmocka_unit_test(test_piece_rays_are_one_by_one),
         cmocka_unit_test(test_cgal_meshes_do_not_leak),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -163,6 +163,13 @@ void pn_piece_init(PnPiece *pc, const PnPatch *pn);
  * method starts from its centre and keeps any root on the patch). */
 int pn_hit_piece(const PnPatch *pn, const PnPiece *piece, const Ray *ray, PnMode mode, PnHit *h);
 
+/* pn_hit_piece for the rays ray[k], k in the mask rays (k < 32), or pn_hit
+ * when piece is NULL: bit k of the result when ray k hits, at h[k] (the
+ * other entries are not to be read). The same answers, bit for bit; with
+ * AVX, the first tests of up to four rays at a time. */
+unsigned pn_hit_piece_rays(const PnPatch *pn, const PnPiece *piece, const Ray *ray, unsigned rays, PnMode mode,
+                           PnHit *h);
+
 /* For tests: pn_hit with its proofs of a piece's only crossing (proofs 1)
  * or by subdivision alone (0), adding to *proven (when not NULL) how many
  * pieces a proof settled. */

@@ -292,7 +292,8 @@ int prim_intersect(const Prim *p, const Ray *r, PrimVariant v, PrimHit *h);
 /* prim_intersect for the rays r[k], k in the mask rays (k < 32), each up
  * to its own tmax: bit k of the result when ray k hits, at h[k] (the other
  * entries are not to be read). The same answers, bit for bit; with AVX, a
- * robust sphere or ellipsoid takes four rays at once. */
+ * robust sphere or ellipsoid takes four rays at once, and a PN patch's
+ * first tests take four (pn_hit_piece_rays). */
 unsigned prim_intersect_rays(const Prim *p, const Ray *r, unsigned rays, PrimVariant v, PrimHit *h);
 
 /* 1 when q lies strictly inside a solid primitive (sphere, ellipsoid, box,
