@@ -14,7 +14,8 @@
 // exact sub-patch.
 //
 // Case 10, the rays: pn_hit in each mode, and exact mode through pieces
-// split ahead of rays (pn_hit_piece), against the exact patch. The exact
+// split ahead of rays (pn_hit_piece, and for every other ray
+// pn_hit_piece_rays), against the exact patch. The exact
 // side subdivides down to boxes half the band wide (the band, beta, is one
 // float spacing of the patch's largest coordinate), keeping the sub-patches
 // whose box, grown by 8 beta, the ray meets. It certifies a hit
@@ -563,7 +564,11 @@ void pn_box_ray(int rid, Rng &g, Stats &st, uint64_t ray, bool verbose)
 
 // pn_hit_piece as the BVH uses it: the patch split twice ahead of rays, as
 // accel.c splits a steep one, and the nearest of the sixteen pieces' hits.
-static int hit_by_pieces(const PnPatch &pn, const Ray &r, PnHit &fh)
+// Every other ray goes through pn_hit_piece_rays instead, in lane 1 of a
+// group of four beside three other rays (its reverse from twice as far,
+// and itself from half and twice as far back), as a packet's rays meet a
+// piece together.
+static int hit_by_pieces(const PnPatch &pn, const Ray &r, PnHit &fh, bool lanes)
 {
     PnNet root, one[4], two[16];
     pn_net_root(&pn, &root);
@@ -577,7 +582,19 @@ static int hit_by_pieces(const PnPatch &pn, const Ray &r, PnHit &fh)
         pc.depth = 2;
         pn_piece_init(&pc, &pn);
         PnHit h;
-        if (pn_hit_piece(&pn, &pc, &r, PN_EXACT, &h) && (!got || h.t < fh.t)) {
+        int hit;
+        if (lanes) {
+            Ray four[4] = {r, r, r, r};
+            four[0].o = vec_madd(r.o, r.d, 2.0f);
+            four[0].d = vec_neg(r.d);
+            four[2].o = vec_madd(r.o, r.d, -0.5f);
+            four[3].o = vec_madd(r.o, r.d, -2.0f);
+            PnHit hs[4];
+            hit = (int)(pn_hit_piece_rays(&pn, &pc, four, 15u, PN_EXACT, hs) >> 1 & 1u);
+            h = hs[1];
+        } else
+            hit = pn_hit_piece(&pn, &pc, &r, PN_EXACT, &h);
+        if (hit && (!got || h.t < fh.t)) {
             fh = h;
             got = 1;
         }
@@ -663,7 +680,8 @@ void pn_ray(int rid, Rng &g, Stats &st, uint64_t ray, bool verbose)
     }
 
     PnHit fh;
-    int got = rid == R_PN_PIECES ? hit_by_pieces(pn, r, fh) : pn_hit(&pn, &r, rid == R_PN_FAST ? PN_FAST : PN_EXACT, &fh);
+    int got = rid == R_PN_PIECES ? hit_by_pieces(pn, r, fh, ray & 1)
+                                 : pn_hit(&pn, &r, rid == R_PN_FAST ? PN_FAST : PN_EXACT, &fh);
     mpq_class beta = q_of(beta_d), grow = q_of(grow_d), keep;
     if (got)
         keep = q_of((double)fh.t) + q_of((double)fh.terr);
