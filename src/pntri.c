@@ -1375,6 +1375,20 @@ __attribute__((target("avx"))) static __m256d newton_lanes(const PnPatch *pn, co
     return done;
 }
 
+/* The barycentrics of B and C (flat_piece's lb and lc, pn_certify's lu0
+ * and lv0) of p's projection on the plane of A, A + e1, A + e2, p from A. */
+__attribute__((target("avx"))) static inline void bary_lanes(const __m256d p[3], const __m256d e1[3],
+                                                             const __m256d e2[3], const __m256d n[3], __m256d nn2,
+                                                             __m256d *lb, __m256d *lc)
+{
+    __m256d c2[3] = {PN_SUB(PN_MUL(p[1], e2[2]), PN_MUL(p[2], e2[1])), PN_SUB(PN_MUL(p[2], e2[0]), PN_MUL(p[0], e2[2])),
+                     PN_SUB(PN_MUL(p[0], e2[1]), PN_MUL(p[1], e2[0]))};
+    __m256d c1[3] = {PN_SUB(PN_MUL(e1[1], p[2]), PN_MUL(e1[2], p[1])), PN_SUB(PN_MUL(e1[2], p[0]), PN_MUL(e1[0], p[2])),
+                     PN_SUB(PN_MUL(e1[0], p[1]), PN_MUL(e1[1], p[0]))};
+    *lb = PN_DIV(PN_DOT(c2, n), nn2);
+    *lc = PN_DIV(PN_DOT(c1, n), nn2);
+}
+
 /* What start_lanes settled of a ray at its start piece. */
 enum { PN_LANE_MISS, PN_LANE_HIT, PN_LANE_LEFT, PN_LANE_ALONE };
 
@@ -1468,11 +1482,8 @@ __attribute__((target("avx"))) static void start_lanes(const PnPatch *pn, const 
         __m256d tm = PN_MUL(PN_SET(0.5), PN_ADD(ta, tb)), p[3];
         for (int a = 0; a < 3; a++)
             p[a] = PN_ADD(q[a], PN_MUL(tm, d[a]));
-        __m256d c2[3] = {PN_SUB(PN_MUL(p[1], e2[2]), PN_MUL(p[2], e2[1])), PN_SUB(PN_MUL(p[2], e2[0]), PN_MUL(p[0], e2[2])),
-                         PN_SUB(PN_MUL(p[0], e2[1]), PN_MUL(p[1], e2[0]))};
-        __m256d c1[3] = {PN_SUB(PN_MUL(e1[1], p[2]), PN_MUL(e1[2], p[1])), PN_SUB(PN_MUL(e1[2], p[0]), PN_MUL(e1[0], p[2])),
-                         PN_SUB(PN_MUL(e1[0], p[1]), PN_MUL(e1[1], p[0]))};
-        __m256d lb = PN_DIV(PN_DOT(c2, n), nn2), lc = PN_DIV(PN_DOT(c1, n), nn2);
+        __m256d lb, lc;
+        bary_lanes(p, e1, e2, n, nn2, &lb, &lc);
         __m256d la = PN_SUB(PN_SUB(one, lb), lc);
         __m256d pm = maxabs3_4(p);
         __m256d rad = PN_ADD(PN_ADD(PN_MUL(PN_SET(dev), PN_SET(1.7320508075688774)),
@@ -1514,11 +1525,8 @@ __attribute__((target("avx"))) static void start_lanes(const PnPatch *pn, const 
     __m256d tp = PN_DIV(_mm256_xor_pd(nq, PN_SET(-0.0)), nd), qq[3];
     for (int a = 0; a < 3; a++)
         qq[a] = PN_ADD(q[a], PN_MUL(tp, d[a]));
-    __m256d c2[3] = {PN_SUB(PN_MUL(qq[1], e2[2]), PN_MUL(qq[2], e2[1])), PN_SUB(PN_MUL(qq[2], e2[0]), PN_MUL(qq[0], e2[2])),
-                     PN_SUB(PN_MUL(qq[0], e2[1]), PN_MUL(qq[1], e2[0]))};
-    __m256d c1[3] = {PN_SUB(PN_MUL(e1[1], qq[2]), PN_MUL(e1[2], qq[1])), PN_SUB(PN_MUL(e1[2], qq[0]), PN_MUL(e1[0], qq[2])),
-                     PN_SUB(PN_MUL(e1[0], qq[1]), PN_MUL(e1[1], qq[0]))};
-    __m256d lu0 = PN_DIV(PN_DOT(c2, n), nn2), lv0 = PN_DIV(PN_DOT(c1, n), nn2);
+    __m256d lu0, lv0;
+    bary_lanes(qq, e1, e2, n, nn2, &lu0, &lv0);
     __m256d go = PN_AND(act, PN_AND(PN_AND(PN_CMP(lu0, PN_SET(-0.5), _CMP_GT_OQ), PN_CMP(lv0, PN_SET(-0.5), _CMP_GT_OQ)),
                                     PN_CMP(PN_ADD(lu0, lv0), PN_SET(1.5), _CMP_LT_OQ)));
     __m256d nxd[3] = {PN_SUB(PN_MUL(n[1], d[2]), PN_MUL(n[2], d[1])), PN_SUB(PN_MUL(n[2], d[0]), PN_MUL(n[0], d[2])),

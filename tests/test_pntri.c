@@ -74,6 +74,16 @@ static void random_patch(PnPatch *pn, unsigned long long *seed, Vec3 c, float sc
     make_patch(pn, c, b, d, na, nb, nc);
 }
 
+/* Patch k of a test at three scales in turn (1, 10^-3, 10^4), placed up to
+ * ten times its scale from the origin: returns the scale. */
+static float scaled_patch(PnPatch *pn, unsigned long long *seed, int k)
+{
+    float sc = k % 3 == 0 ? 1.0f : k % 3 == 1 ? 1e-3f : 1e4f;
+    Vec3 c = vec_scale(test_rvec(seed, -10, 10), sc);
+    random_patch(pn, seed, c, sc);
+    return sc;
+}
+
 /* The modes' names, and nothing else. */
 static void test_mode_names(void **state)
 {
@@ -981,10 +991,8 @@ static void test_pieces_keep_their_shape(void **state)
     unsigned long long seed = 41;
     int hits = 0, compared = 0;
     for (int k = 0; k < 300; k++) {
-        float sc = k % 3 == 0 ? 1.0f : k % 3 == 1 ? 1e-3f : 1e4f;
-        Vec3 c = vec_scale(test_rvec(&seed, -10, 10), sc);
         PnPatch pn;
-        random_patch(&pn, &seed, c, sc);
+        float sc = scaled_patch(&pn, &seed, k);
         PnNet root, kids[4];
         pn_net_root(&pn, &root);
         pn_net_split(&root, kids);
@@ -1067,10 +1075,8 @@ static void test_piece_rays_are_one_by_one(void **state)
     unsigned long long seed = 43;
     long compared = 0, hits = 0, leaving = 0;
     for (int k = 0; k < 300; k++) {
-        float sc = k % 3 == 0 ? 1.0f : k % 3 == 1 ? 1e-3f : 1e4f;
-        Vec3 c = vec_scale(test_rvec(&seed, -10, 10), sc);
         PnPatch pn;
-        random_patch(&pn, &seed, c, sc);
+        float sc = scaled_patch(&pn, &seed, k);
         PnNet net, kids[4];
         pn_net_root(&pn, &net);
         int depth = k % 4 == 3 ? 12 : k % 4;
