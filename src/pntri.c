@@ -40,6 +40,8 @@
 #if defined(__GNUC__) && defined(__x86_64__) && !defined(LANCER_NO_SIMD)
 #define PN_AVX 1
 #include <immintrin.h>
+
+#include "ray_lanes.h"
 #endif
 
 /* Splits, at most: a domain side of 2^-PN_MAX_DEPTH is far below what a
@@ -1094,14 +1096,11 @@ int pn_hit_with(const PnPatch *pn, const Ray *ray, PnMode mode, int proofs, PnHi
     return trace(pn, &w, ray, mode, proofs, NULL, h, proven);
 }
 
-void pn_piece_init(PnPiece *pc, const PnPatch *pn)
+/* The shape of a piece whose net, box and magnitude are set, as trace
+ * measures it for a ray, from the parts of its frame that do not depend on
+ * the ray. */
+static void piece_shape(PnPiece *pc)
 {
-    PnPiece w;
-    whole_piece(pn, &w);
-    pn_net_box(&pc->net, pc->lo, pc->hi);
-    pc->mag = w.mag;
-    /* as trace measures it for a ray, from the parts of its frame that do
-     * not depend on the ray */
     const double zero[3] = {0.0, 0.0, 0.0};
     PnFrame f;
     piece_frame(&pc->net, zero, zero, &f);
@@ -1111,6 +1110,15 @@ void pn_piece_init(PnPiece *pc, const PnPatch *pn)
     pc->kappa = sl.kappa;
     pc->slope = sl.L;
     pc->shaped = 1;
+}
+
+void pn_piece_init(PnPiece *pc, const PnPatch *pn)
+{
+    PnPiece w;
+    whole_piece(pn, &w);
+    pn_net_box(&pc->net, pc->lo, pc->hi);
+    pc->mag = w.mag;
+    piece_shape(pc);
 }
 
 int pn_hit_piece(const PnPatch *pn, const PnPiece *piece, const Ray *ray, PnMode mode, PnHit *h)
@@ -1430,13 +1438,11 @@ __attribute__((target("avx"))) static void start_lanes(const PnPatch *pn, const 
     const __m256d zero = _mm256_setzero_pd(), S = PN_SET(PN_SLACK), one = PN_SET(1.0);
     __m256d o[3], d[3], inv[3];
     for (int a = 0; a < 3; a++) {
-        const float *of = &ray[0].o.x + a, *df = &ray[0].d.x + a;
-        const size_t st = sizeof(Ray) / sizeof(float);
-        o[a] = _mm256_cvtps_pd(_mm_setr_ps(of[k[0] * st], of[k[1] * st], of[k[2] * st], of[k[3] * st]));
-        d[a] = _mm256_cvtps_pd(_mm_setr_ps(df[k[0] * st], df[k[1] * st], df[k[2] * st], df[k[3] * st]));
+        o[a] = ray_lanes_pd(ray, k, RAY_O + a);
+        d[a] = ray_lanes_pd(ray, k, RAY_D + a);
         inv[a] = PN_DIV(one, d[a]);
     }
-    const __m256d tmax = _mm256_cvtps_pd(_mm_setr_ps(ray[k[0]].tmax, ray[k[1]].tmax, ray[k[2]].tmax, ray[k[3]].tmax));
+    const __m256d tmax = ray_lanes_pd(ray, k, RAY_TMAX);
     __m256d tn, enter = slab_lanes(pc->lo, pc->hi, o, d, inv, tmax, &tn);
     const __m256d dd = _mm256_sqrt_pd(PN_DOT(d, d));
     /* piece_frame: all but q and n.d the piece's own */
@@ -1590,14 +1596,14 @@ unsigned pn_hit_piece_rays(const PnPatch *pn, const PnPiece *piece, const Ray *r
 {
     unsigned hit = 0;
 #ifdef PN_AVX
+    const int avx = split_avx();
     PnPiece whole;
-    if (!piece && (rays & (rays - 1)) && split_avx()) { /* the whole patch, its shape measured once for all */
-        pn_net_root(pn, &whole.net);
-        whole.depth = 0;
-        pn_piece_init(&whole, pn);
+    if (!piece && (rays & (rays - 1)) && avx) { /* the whole patch, its shape measured once for all */
+        whole_piece(pn, &whole);
+        piece_shape(&whole);
         piece = &whole;
     }
-    if (piece && piece->shaped && split_avx())
+    if (piece && piece->shaped && avx)
         while (rays & (rays - 1)) { /* two rays or more: up to four at a time (lanes past n repeat the first) */
             int k[4] = {0, 0, 0, 0}, n = 0;
             for (; n < 4 && rays; rays &= rays - 1)

@@ -24,6 +24,8 @@
 #if defined(__GNUC__) && defined(__x86_64__) && !defined(LANCER_NO_SIMD)
 #define PRIM_AVX 1
 #include <immintrin.h>
+
+#include "ray_lanes.h"
 #endif
 
 /* The spawn margin off a triangle, in units of gamma (tri_spawn_margin):
@@ -219,29 +221,6 @@ __attribute__((target("avx"))) static inline __m128 mask_ps(__m256d m)
 {
     __m256 f = _mm256_castpd_ps(m);
     return _mm_shuffle_ps(_mm256_castps256_ps128(f), _mm256_extractf128_ps(f, 1), _MM_SHUFFLE(2, 0, 2, 0));
-}
-
-/* A ray's fields, in floats from its start: the origin's axis a at RAY_O +
- * a, the direction's at RAY_D + a, then tmax. */
-typedef char ray_is_floats[sizeof(Ray) % sizeof(float) == 0 ? 1 : -1];
-enum {
-    RAY_O = (int)(offsetof(Ray, o) / sizeof(float)),
-    RAY_D = (int)(offsetof(Ray, d) / sizeof(float)),
-    RAY_TMAX = (int)(offsetof(Ray, tmax) / sizeof(float))
-};
-
-/* Field at of the rays r[k[0 .. 3]], a lane each. */
-__attribute__((target("avx"))) static inline __m128 ray_lanes(const Ray *r, const int k[4], int at)
-{
-    const float *f = (const float *)r + at;
-    const int s = (int)(sizeof(Ray) / sizeof(float));
-    return _mm_setr_ps(f[k[0] * s], f[k[1] * s], f[k[2] * s], f[k[3] * s]);
-}
-
-/* The same in double. */
-__attribute__((target("avx"))) static inline __m256d ray_lanes_pd(const Ray *r, const int k[4], int at)
-{
-    return _mm256_cvtps_pd(ray_lanes(r, k, at));
 }
 
 /* float_up for four lanes x >= 0, the same operations lane by lane (for
