@@ -259,7 +259,7 @@ int plan_build(RenderPlan *p, Scene *s, const PlanOptions *o, char *err, size_t 
             continue;
         if (o->pn_mode)
             r->mode = o->pn_mode - 1;
-        p->patches[p->variant == PRIM_CLASSIC ? PN_FAST : r->mode]++;
+        p->patches[p->variant == PRIM_CLASSIC ? PN_FAST : PN_EXACT]++; /* as prim.c traces them */
     }
     double scale = o->move ? o->scale : 1.0, t[3] = {0.0, 0.0, 0.0};
     if (o->move) {
@@ -361,8 +361,15 @@ int plan_notes(const RenderPlan *p, PlanNote *notes, int max)
         smooth += s->prims[i].kind == PRIM_SMOOTH_TRIANGLE || s->prims[i].kind == PRIM_PN;
     snprintf(why, sizeof why, smooth ? "%d smooth triangles or PN patches" : "no smooth triangle or PN patch: the shading normal is the geometric one", smooth);
     note(notes, max, &n, !smooth, "normal interpolation", why);
-    snprintf(why, sizeof why, p->patches[0] + p->patches[1] ? "%d patches in exact mode, %d in fast mode" : "no PN patch",
-             p->patches[PN_EXACT], p->patches[PN_FAST]);
+    int asked = 0; /* fast patches that the robust variant traces as exact ones */
+    for (int i = 0; i < s->nprims; i++)
+        asked += p->variant == PRIM_ROBUST && s->prims[i].kind == PRIM_PN && s->prims[i].g.pn.mode == PN_FAST;
+    snprintf(why, sizeof why,
+             asked ? "%d patches in exact mode, %d in fast mode (%d ask for fast mode, which the robust variant traces as "
+                     "exact: it is as fast or faster)"
+             : p->patches[0] + p->patches[1] ? "%d patches in exact mode, %d in fast mode"
+                                             : "no PN patch",
+             p->patches[PN_EXACT], p->patches[PN_FAST], asked);
     note(notes, max, &n, p->patches[0] + p->patches[1] == 0, "PN patch tracing", why);
     return n;
 }

@@ -903,8 +903,11 @@ int prim_obox_hit_robust(const OBox *b, const Ray *r, PrimHit *h)
     return 1;
 }
 
-/* A PN patch's mode in variant v: the classic variant traces patches fast. */
-static PnMode pn_mode_of(const Prim *p, PrimVariant v) { return v == PRIM_ROBUST ? (PnMode)p->g.pn.mode : PN_FAST; }
+/* How variant v traces a PN patch: the robust one to float precision,
+ * whichever mode the patch asks for (exact mode is as fast as fast mode's
+ * Newton steps or faster: docs/performance.md), the classic one by
+ * Newton's steps. */
+static PnMode pn_mode_of(PrimVariant v) { return v == PRIM_ROBUST ? PN_EXACT : PN_FAST; }
 
 int prim_intersect(const Prim *p, const Ray *r, PrimVariant v, PrimHit *h)
 {
@@ -925,7 +928,7 @@ int prim_intersect(const Prim *p, const Ray *r, PrimVariant v, PrimHit *h)
         return robust ? prim_ellipsoid_hit_robust(p->g.ell.e, r, h) : prim_ellipsoid_hit(p->g.ell.e, r, h);
     case PRIM_PN: {
         PnHit ph;
-        PnMode mode = pn_mode_of(p, v);
+        PnMode mode = pn_mode_of(v);
         if (!(p->g.pn.piece ? pn_hit_piece(p->g.pn.patch, p->g.pn.piece, r, mode, &ph)
                             : pn_hit(p->g.pn.patch, r, mode, &ph)))
             return 0;
@@ -958,7 +961,7 @@ unsigned prim_intersect_rays(const Prim *p, const Ray *r, unsigned rays, PrimVar
 #endif
     if (p->kind == PRIM_PN && (rays & (rays - 1))) {
         PnHit ph[32];
-        unsigned got = pn_hit_piece_rays(p->g.pn.patch, p->g.pn.piece, r, rays, pn_mode_of(p, v), ph);
+        unsigned got = pn_hit_piece_rays(p->g.pn.patch, p->g.pn.piece, r, rays, pn_mode_of(v), ph);
         for (unsigned m = got; m; m &= m - 1) {
             int k = __builtin_ctz(m);
             h[k] = (PrimHit){ph[k].t, ph[k].terr, ph[k].u, ph[k].v, 0};

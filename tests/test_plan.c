@@ -245,8 +245,9 @@ static void test_coordinates(void **state)
     done(&s, &p);
 }
 
-/* --pn-mode overrides every patch's mode; the classic variant traces them
- * all fast; the plan counts them. */
+/* --pn-mode overrides every patch's mode; the robust variant traces every
+ * patch exact, one that asks for fast mode too, and the classic variant
+ * traces them all fast; the plan counts them. */
 static void test_pn_modes(void **state)
 {
     (void)state;
@@ -257,8 +258,14 @@ static void test_pn_modes(void **state)
     RenderPlan p;
     PlanOptions o = plan_options();
     load_plan(&s, &p, pn, &o);
-    assert_int_equal(p.patches[PN_EXACT], 1);
-    assert_int_equal(p.patches[PN_FAST], 1);
+    assert_int_equal(s.prims[4].g.pn.mode, PN_FAST); /* asked for */
+    assert_int_equal(p.patches[PN_EXACT], 2);        /* traced */
+    assert_int_equal(p.patches[PN_FAST], 0);
+    done(&s, &p);
+    o.pn_mode = 1 + PN_FAST;
+    load_plan(&s, &p, pn, &o);
+    assert_int_equal(s.prims[3].g.pn.mode, PN_FAST);
+    assert_int_equal(p.patches[PN_EXACT], 2);
     done(&s, &p);
     o.pn_mode = 1 + PN_EXACT;
     load_plan(&s, &p, pn, &o);

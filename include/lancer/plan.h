@@ -97,7 +97,7 @@ typedef struct {
     int width, height, spp, max_depth, threads;
     int x0, x1, y0, y1;    /* the region rendered, half-open: the whole image unless asked */
     PrimVariant variant;
-    int patches[2];        /* the PN patches traced in each PnMode (the classic variant traces all fast) */
+    int patches[2];        /* the PN patches traced in each PnMode: all exact (robust) or all fast (classic) */
     double offset[3];      /* added to the plan's coordinates, gives the scene's as moved by the options */
     Interiors camera_in;   /* the solids the camera is inside, in scene order: where camera rays start */
     int transparent;       /* some material lets light through (filter or transmit) */

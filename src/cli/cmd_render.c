@@ -89,13 +89,12 @@ typedef struct {
     const char *name;
     int spp, area_samples, area_adaptive; /* area_adaptive: the level */
     double aa_threshold, adc_bailout;     /* adc_bailout -1: the scene's */
-    int pn_fast;
 } Quality;
 
 static const Quality QUALITIES[] = {
-    {"draft", 1, 4, 0, 0.0, 0.016, 1},
-    {"preview", 3, 8, 0, 0.1, 0.004, 1},
-    {"final", 4, 8, 1, 0.03, -1.0, 0},
+    {"draft", 1, 4, 0, 0.0, 0.016},
+    {"preview", 3, 8, 0, 0.1, 0.004},
+    {"final", 4, 8, 1, 0.03, -1.0},
 };
 
 static void defaults(void *args)
@@ -310,7 +309,6 @@ static int plan_options_of(const Args *a, PlanOptions *o)
         o->area_adaptive = q->area_adaptive + 1;
         o->aa_threshold = q->aa_threshold;
         o->adc_bailout = q->adc_bailout;
-        o->pn_mode = q->pn_fast ? 1 + PN_FAST : 0;
     }
     o->width = a->width;
     o->height = a->height;
