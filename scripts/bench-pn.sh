@@ -1,17 +1,19 @@
 #!/bin/sh
 # Time against error for PN triangles: each mesh's PN surface rendered in
-# exact mode (the reference), in fast mode, as flat triangles, and as the
-# tessellation that export-pov writes at n segments an edge, at 1024 x 1024
-# on one thread. For each: the BVH build time, the render time, the peak
-# memory, and the image error against the exact render. Writes
-# docs/pn-time-error.csv and, when gnuplot is installed, docs/pn-time-error.svg.
-# With RESULTS, appends the PN targets' ratios to it (scripts/bench-table.sh):
-# "pn-exact", exact over flat render time (bunny00, the median of five pairs
-# rendered in turns); "pn-memory", PN over
-# flat peak memory; "pn-fast", the time (build and render) of the first
-# tessellation whose error is at most fast mode's over fast mode's, "inf"
-# when none of those tried reaches it; "pn-tess-memory", PN's peak memory
-# over that tessellation's (or the finest tried, which has more error).
+# exact mode (the reference), in fast mode (Newton's steps, which only the
+# classic variant takes: the robust one traces every patch exact), as flat
+# triangles, and as the tessellation that export-pov writes at n segments
+# an edge, at 1024 x 1024 on one thread. For each: the BVH build time, the
+# render time, the peak memory, and the image error against the exact
+# render. Writes docs/pn-time-error.csv and, when gnuplot is installed,
+# docs/pn-time-error.svg. With RESULTS, appends the PN targets' ratios to
+# it (scripts/bench-table.sh): "pn-exact", exact over flat render time
+# (bunny00, the median of five pairs rendered in turns); "pn-memory", PN
+# over flat peak memory; "pn-fast", the time (build and render) of the
+# first tessellation whose error is at most fast mode's over fast mode's,
+# "inf" when none of those tried reaches it; "pn-tess-memory", PN's peak
+# memory over that tessellation's (or the finest tried, which has more
+# error).
 #
 #   sh scripts/bench-pn.sh [LANCER] [PN_TESS] [RESULTS]
 #
@@ -51,10 +53,10 @@ scene() {
         }' "$1" >"$3"
 }
 
-# render NAME SCENE: one thread, float EXR; appends "build render rss_mb" to $WORK/NAME.t
+# render NAME SCENE [OPTION]: one thread, float EXR; prints "build render rss_mb"
 render() {
     /usr/bin/time -f "%M" -o "$WORK/$1.rss" "$LANCER" render "$2" -o "$WORK/$1.exr" --float --threads 1 \
-        --stats "$WORK/$1.json" -q
+        --stats "$WORK/$1.json" -q ${3:+"$3"}
     b=$(sed -n 's/.*"phases_s": {[^}]*"build": \([0-9.]*\).*/\1/p' "$WORK/$1.json")
     r=$(sed -n 's/.*"phases_s": {[^}]*"render": \([0-9.]*\).*/\1/p' "$WORK/$1.json")
     kb=$(tail -n 1 "$WORK/$1.rss")
@@ -80,7 +82,7 @@ echo "$plan" | while IFS=: read -r mesh ns; do
                 ;;
         esac
         scene "$path" "$stmt" "$WORK/$name-$v-$n.scn"
-        set -- $(render "$name-$v-$n" "$WORK/$name-$v-$n.scn")
+        set -- $(render "$name-$v-$n" "$WORK/$name-$v-$n.scn" $([ "$v" = fast ] && echo --classic))
         if [ "$v" = exact ]; then
             err="0 0 0 0"
         else

@@ -65,11 +65,11 @@ AA_LIST="spp3+aa0.1 spp4+aa0.1 spp4+aa0.03 spp4+aa0.01 spp7+aa0.1 spp7+aa0.03 sp
 # `lancer render --quality` is to set; its own presets are swept too where
 # it has them), and a few other combined points, among them a costlier
 # final (spp7). A label's knobs are split at "+".
-PRESETS="draft=spp1+adc0.016+area4+adaptive0+pn-fast
-preview=spp3+aa0.1+adc0.004+area8+adaptive0+pn-fast
+PRESETS="draft=spp1+adc0.016+area4+adaptive0
+preview=spp3+aa0.1+adc0.004+area8+adaptive0
 final=spp4+aa0.03+area8+adaptive1"
-COMBOS="spp4+adc0.016 spp4+depth12+adc0 spp2+adc0.004+area4+adaptive0+pn-fast
-spp3+aa0.1+adc0.004+area8+adaptive1+pn-fast spp4+aa0.1+adc0.004+area8+adaptive1+pn-fast
+COMBOS="spp4+adc0.016 spp4+depth12+adc0 spp2+adc0.004+area4+adaptive0
+spp3+aa0.1+adc0.004+area8+adaptive1 spp4+aa0.1+adc0.004+area8+adaptive1
 spp5+aa0.03+area8+adaptive1 spp6+aa0.03+area8+adaptive1 spp7+aa0.03+area8+adaptive1
 spp8+aa0.03+area8+adaptive1"
 
@@ -105,7 +105,6 @@ knob_args() {
             depth*) args="$args --max-depth ${knob#depth}" ;;
             adc*) args="$args --adc-bailout ${knob#adc}" ;;
             classic) args="$args --classic" ;;
-            pn-*) args="$args --pn-mode ${knob#pn-}" ;;
             area*) args="$args --area-samples ${knob#area}" ;;
             adaptive*) args="$args --area-adaptive ${knob#adaptive}" ;;
             aa*) args="$args --aa-threshold ${knob#aa}" ;;
@@ -204,10 +203,7 @@ if [ "${FRONTIER_PLOT_ONLY:-0}" != 1 ]; then
             for v in $DEPTH_LIST; do [ "$v" = "$depth" ] || labels="$labels depth$v"; done
             for v in $ADC_LIST; do labels="$labels adc$v"; done
         fi
-        labels="$labels classic"
-        if ! grep -q '"pn_patches": {"exact": 0, "fast": 0}' "$plan"; then
-            labels="$labels pn-exact pn-fast"
-        fi
+        labels="$labels classic" # (PN patches: Newton's steps; the robust variant traces them exact)
         if grep -q '"samples": \([2-9]\|[1-9][0-9]\)' "$plan"; then
             if has --area-samples; then
                 for v in $AREA_LIST; do labels="$labels area$v"; done
