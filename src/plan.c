@@ -365,8 +365,8 @@ int plan_notes(const RenderPlan *p, PlanNote *notes, int max)
     for (int i = 0; i < s->nprims; i++)
         asked += p->variant == PRIM_ROBUST && s->prims[i].kind == PRIM_PN && s->prims[i].g.pn.mode == PN_FAST;
     snprintf(why, sizeof why,
-             asked ? "%d patches in exact mode, %d in fast mode (%d ask for fast mode, which the robust variant traces as "
-                     "exact: it is as fast or faster)"
+             asked ? "%d patches in exact mode, %d in fast mode (fast mode, asked for by %d, is traced exact by the "
+                     "robust variant: as fast or faster)"
              : p->patches[0] + p->patches[1] ? "%d patches in exact mode, %d in fast mode"
                                              : "no PN patch",
              p->patches[PN_EXACT], p->patches[PN_FAST], asked);

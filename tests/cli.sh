@@ -264,6 +264,8 @@ expect 0 "$LANCER" render "$T/pn.scn" -o "$T/pn.exr" --stats "$T/pn.json" -q
 has "$T/pn.json" '"pn_patches": {"exact": 5, "fast": 0}'
 expect 0 "$LANCER" render "$T/pn.scn" -o "$T/pnf.exr" --pn-mode fast --stats "$T/pnf.json" -q
 has "$T/pnf.json" '"pn_patches": {"exact": 5, "fast": 0}'
+expect 0 "$LANCER" render "$T/pn.scn" -o "$T/pne.exr" --explain -q
+has "$T/out" "PN patch tracing: 5 patches in exact mode, 0 in fast mode (fast mode, asked for by 1, is traced exact"
 # the tetrahedron's curved patches are split ahead of rays, four pieces or more each; the
 # classic variant traces them whole
 split=$(sed -n 's/.*"pn_patches_split": \([0-9]*\), "pn_pieces": \([0-9]*\).*/\1 \2/p' "$T/pn.json")
