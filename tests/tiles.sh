@@ -14,6 +14,7 @@ pass=0
 fail=0
 ok() { pass=$((pass + 1)); }
 bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
+. "$(dirname "$0")/finish.sh"
 expect() {
     want=$1
     shift
@@ -162,7 +163,7 @@ perl -e 'exec @ARGV or die' "$LANCER" render "$T/orbit.scn" $R --threads 2 -o "$
 pid=$!
 sleep "$stop"
 kill -s TERM "$pid"
-wait "$pid"
+finish "$pid"
 rc=$?
 if [ "$rc" -eq 143 ] && [ -e "$T/big.partial.exr" ]; then
     ok
@@ -178,7 +179,7 @@ perl -e 'exec @ARGV or die' "$LANCER" render "$T/orbit.scn" $R --threads 2 -o "$
 pid=$!
 sleep "$stop"
 kill -s TERM "$pid"
-wait "$pid"
+finish "$pid"
 if [ -e "$T/big2.partial.exr" ]; then
     expect 1 "$LANCER" render "$T/orbit.scn" $R --spp 2 --resume -o "$T/big2.exr"
     has "$T/err" "cannot resume from $T/big2.partial.exr: it was rendered with spp=3, not spp=2; remove it to render from the start"
