@@ -247,11 +247,33 @@ TRI_INLINE void keep_nearer(int id, const PrimHit *cur, const Ray *r, Ray *q, in
     }
 }
 
+/* keep_nearer for a triangle's hit, found by a packet's ray: a mesh's
+ * triangles are many, and the renderer, which traces packets, shades the
+ * one hit next, so its load starts as soon as it wins, while the rest of
+ * the tree is searched (both ends: a Prim may straddle two cache lines).
+ * One ray at a time (shadow rays, the benchmarks' single rays) nobody
+ * reads it: with prefetch 0 (a constant), no load. */
+TRI_INLINE void keep_nearer_tri(const Bvh *b, int prefetch, int id, const PrimHit *cur, const Ray *r, Ray *q,
+                                int *best, PrimHit *h)
+{
+    if (prim_hit_wins(cur->t, id, h->t, *best)) {
+        if (prefetch) {
+            __builtin_prefetch(&b->prims[id]);
+            __builtin_prefetch((const char *)&b->prims[id] + sizeof(Prim) - 1);
+        }
+        *best = id;
+        *h = *cur;
+        q->tmax = prim_tmax_past(cur->t, r->tmax);
+    }
+}
+
 /* Leaf L for closest-hit: its triangles' lanes hit, then the primitives
  * that are not triangles (most leaves have neither). A hit nearer than
  * *best's h->t, or as near with a lower index, becomes *best, and q's tmax
- * moves just past it (r: the ray as given). Returns the tests made. */
-TRI_INLINE int leaf_closest(const Bvh *b, const BvhLeaf *L, TriPre *tp, const Ray *r, Ray *q, int *best, PrimHit *h)
+ * moves just past it (r: the ray as given); with prefetch, a triangle's
+ * as keep_nearer_tri says. Returns the tests made. */
+TRI_INLINE int leaf_closest(const Bvh *b, int prefetch, const BvhLeaf *L, TriPre *tp, const Ray *r, Ray *q, int *best,
+                            PrimHit *h)
 {
     LeafHits lh;
     unsigned hits = L->tris ? (unsigned)leaf_tris(L, tp, q, &lh) : 0;
@@ -259,11 +281,11 @@ TRI_INLINE int leaf_closest(const Bvh *b, const BvhLeaf *L, TriPre *tp, const Ra
     for (unsigned m = hits | others; m; m &= m - 1) {
         int i = tri_low_bit(m), id = b->order[L->first + i];
         PrimHit cur;
-        if (hits >> i & 1)
+        if (hits >> i & 1) {
             cur = (PrimHit){lh.t[i], lh.terr[i], lh.u[i], lh.v[i], 0};
-        else if (!prim_intersect(&b->prims[id], q, b->variant, &cur))
-            continue;
-        keep_nearer(id, &cur, r, q, best, h);
+            keep_nearer_tri(b, prefetch, id, &cur, r, q, best, h);
+        } else if (prim_intersect(&b->prims[id], q, b->variant, &cur))
+            keep_nearer(id, &cur, r, q, best, h);
     }
     return L->count;
 }
@@ -334,7 +356,7 @@ int CLOSEST(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *tests)
                 continue;
             }
         } else {
-            nt += leaf_closest(b, &b->leaves[-1 - code], &tp, r, &q, &best, h);
+            nt += leaf_closest(b, 0, &b->leaves[-1 - code], &tp, r, &q, &best, h);
             reach = q.tmax * BVH_REACH;
         }
         while (sp > 0 && stack[sp - 1].t > reach) /* entered past the nearest hit */
@@ -558,7 +580,7 @@ static unsigned long long leaf_closest_rays(const Bvh *b, const BvhLeaf *L, TriP
         for (unsigned t = (unsigned)leaf_tris(L, &tp[k], &q[k], &lh); t; t &= t - 1) {
             int i = tri_low_bit(t);
             PrimHit cur = {lh.t[i], lh.terr[i], lh.u[i], lh.v[i], 0};
-            keep_nearer(b->order[L->first + i], &cur, &r[k], &q[k], &best[k], &h[k]);
+            keep_nearer_tri(b, 1, b->order[L->first + i], &cur, &r[k], &q[k], &best[k], &h[k]);
         }
     }
     const int id = b->order[L->first + tri_low_bit(others)];
@@ -610,7 +632,7 @@ void bvh_closest_packet_avx2(const Bvh *b, const Ray *r, int n, PrimHit *h, int 
             else
                 for (unsigned m = e.rays; m; m &= m - 1) {
                     int k = tri_low_bit(m);
-                    nt += (unsigned long long)leaf_closest(b, L, &tp[k], &r[k], &q[k], &best[k], &h[k]);
+                    nt += (unsigned long long)leaf_closest(b, 1, L, &tp[k], &r[k], &q[k], &best[k], &h[k]);
                     qt[k] = q[k].tmax * BVH_REACH;
                 }
             far = 0.0f;
