@@ -78,6 +78,16 @@ expect 0 "$LANCER" merge -o "$T/m.exr" --png "$T/m.png" "$T/t5.exr" "$T/t0.exr" 
 has "$T/err" "merged 6 tiles into $T/m.exr (61x45)"
 same "$T/m.exr" "$T/full.exr"
 if head -c 8 "$T/m.png" | od -An -c | grep -q "P   N   G"; then ok; else bad "merge --png wrote no PNG"; fi
+# on one thread and on three (the EXR's chunks beside the PNG): the same bytes
+T6="$T/t0.exr $T/t1.exr $T/t2.exr $T/t3.exr $T/t4.exr $T/t5.exr"
+expect 0 "$LANCER" merge --threads 1 -q -o "$T/m1.exr" --png "$T/m1.png" $T6
+expect 0 "$LANCER" merge --threads 3 -q -o "$T/m3.exr" --png "$T/m3.png" $T6
+same "$T/m1.exr" "$T/full.exr"
+same "$T/m3.exr" "$T/full.exr"
+same "$T/m1.png" "$T/m.png"
+same "$T/m3.png" "$T/m.png"
+expect 2 "$LANCER" merge --threads 0 -o "$T/m0.exr" $T6
+has "$T/err" "--threads"
 # OpenImageIO places the tiles by their data windows too
 if command -v oiiotool >/dev/null 2>&1; then
     oiiotool --info -v "$T/t4.exr" >"$T/info" 2>&1

@@ -6,10 +6,12 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "cli.h"
 #include "lancer/afile.h"
 #include "lancer/image.h"
+#include "lancer/limits.h"
 #include "outputs.h"
 #include "stamp.h"
 
@@ -29,13 +31,22 @@ static const char usage[] =
     "options:\n"
     "  -o, --output OUT.exr  the full image to write (required)\n"
     "      --png OUT.png     also write an 8-bit sRGB PNG preview\n"
+    "      --threads N       threads for the writing: the EXR's chunks, and\n"
+    "                        the PNG beside them (default: the processors)\n"
     "  -q, --quiet           no summary on stderr\n"
     "  -h, --help            show this help\n";
 
 typedef struct {
     const char *exr, *png;
-    int quiet;
+    int quiet, threads;
 } Args;
+
+static void defaults(void *args)
+{
+    Args *a = args;
+    long cores = sysconf(_SC_NPROCESSORS_ONLN);
+    a->threads = cores > 0 ? (int)(cores < LIMIT_THREADS ? cores : LIMIT_THREADS) : 1;
+}
 
 typedef struct {
     int x0, x1, y0, y1;
@@ -150,15 +161,11 @@ static int run(void *args, const char **pos, int npos)
         attrs[k] = (ImageAttr){first.name[k], first.value[k]};
     const char *exr = outputs_add(a->exr), *png = exr && a->png ? outputs_add(a->png) : NULL;
     if (exr && (!a->png || png) &&
-        image_write_exr_file(&full, exr, a->exr, first.half ? IMAGE_HALF : IMAGE_FLOAT, attrs, first.n, 1, err,
-                             sizeof err) == 0 &&
-        (!png || image_write_png_file(&full, png, a->png, err, sizeof err) == 0)) {
+        outputs_write_images(&full, exr, a->exr, first.half ? IMAGE_HALF : IMAGE_FLOAT, attrs, first.n, png, a->png,
+                             a->threads) == 0)
         rc = outputs_commit() == 0 ? 0 : 1;
-    } else {
-        if (exr && (!a->png || png))
-            fprintf(stderr, "lancer: %s\n", err);
+    else
         outputs_abort();
-    }
     if (rc == 0 && !a->quiet)
         fprintf(stderr, "lancer: merged %d tile%s into %s (%dx%d)\n", npos, npos > 1 ? "s" : "", a->exr, full.width,
                 full.height);
@@ -173,6 +180,7 @@ static const Opt opts[] = {
     {"--output", "-o", OPT_STRING, offsetof(Args, exr), 0, 0},
     {"--png", NULL, OPT_STRING, offsetof(Args, png), 0, 0},
     {"--quiet", "-q", OPT_FLAG, offsetof(Args, quiet), 0, 0},
+    {"--threads", NULL, OPT_INT, offsetof(Args, threads), 1, LIMIT_THREADS},
 };
 
-const Command cmd_merge = {"merge", usage, opts, (int)(sizeof opts / sizeof opts[0]), INT_MAX, sizeof(Args), NULL, run};
+const Command cmd_merge = {"merge", usage, opts, (int)(sizeof opts / sizeof opts[0]), INT_MAX, sizeof(Args), defaults, run};

@@ -3,7 +3,6 @@
  * optional PNG preview and statistics.
  */
 #include <errno.h>
-#include <pthread.h>
 #include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -15,7 +14,6 @@
 #include "clock.h"
 #include "lancer/afile.h"
 #include "lancer/render.h"
-#include "lancer/thread.h"
 #include "outputs.h"
 #include "stamp.h"
 
@@ -353,22 +351,6 @@ typedef struct {
     char exr[AFILE_PATH_MAX], png[AFILE_PATH_MAX], stats[AFILE_PATH_MAX], partial[AFILE_PATH_MAX];
 } Paths;
 
-/* Writes the PNG preview into its temporary file tmp: on a thread of its
- * own beside the EXR, or after it. */
-typedef struct {
-    const Image *img;
-    const char *tmp, *name;
-    int rc;
-    char err[AFILE_PATH_MAX + 128];
-} PngJob;
-
-static void *write_png(void *arg)
-{
-    PngJob *j = arg;
-    j->rc = image_write_png_file(j->img, j->tmp, j->name, j->err, sizeof j->err);
-    return NULL;
-}
-
 /* Writes the run's outputs into temporary files and puts them all in place
  * together, or none. Returns 0, -1 after a message, or 1 when a signal came
  * while they were written (they are then discarded). */
@@ -376,7 +358,6 @@ static int write_outputs(const Args *a, const Paths *pp, const char *scene, cons
                          const AccelInfo *ai, const Image *img, const ImageAttr *attrs, int nattrs, double phase[4],
                          const RayStats *st)
 {
-    char err[AFILE_PATH_MAX + 128];
     double t0 = clock_now();
     const char *exr = outputs_add(pp->exr);
     const char *png = exr && a->png ? outputs_add(pp->png) : NULL;
@@ -384,26 +365,10 @@ static int write_outputs(const Args *a, const Paths *pp, const char *scene, cons
     int rc = 0;
     if (!exr || (a->png && !png) || (a->stats && !stats))
         rc = -1;
-    /* The EXR and the PNG take about as long to compress: with more than
-     * one thread, side by side (each in its own temporary file, committed
-     * together below, so the outcome is the same), the EXR's chunks on the
-     * threads the PNG leaves. */
-    PngJob pj = {img, png, pp->png, 0, ""};
-    pthread_t tid;
-    int beside = rc == 0 && png && plan->threads > 1 && thread_start(&tid, write_png, &pj) == 0;
-    if (rc == 0 && image_write_exr_file(img, exr, pp->exr, a->use_float ? IMAGE_FLOAT : IMAGE_HALF, attrs, nattrs,
-                                        plan->threads - beside, err, sizeof err) != 0) {
-        fprintf(stderr, "lancer: %s\n", err);
+    /* each in its own temporary file, committed together below */
+    if (rc == 0 && outputs_write_images(img, exr, pp->exr, a->use_float ? IMAGE_FLOAT : IMAGE_HALF, attrs, nattrs,
+                                        png, pp->png, plan->threads) != 0)
         rc = -1;
-    }
-    if (beside)
-        pthread_join(tid, NULL);
-    else if (rc == 0 && png)
-        write_png(&pj);
-    if (pj.rc != 0) {
-        fprintf(stderr, "lancer: %s\n", pj.err);
-        rc = -1;
-    }
     phase[3] = clock_now() - t0;
     if (rc == 0 && stats && write_stats(stats, pp->stats, scene, plan, ai, phase, st) != 0)
         rc = -1;

@@ -19,6 +19,7 @@
 #include <unistd.h>
 
 #include "lancer/afile.h"
+#include "lancer/thread.h"
 
 volatile sig_atomic_t outputs_stop;
 static AfileSet run_files;
@@ -193,4 +194,43 @@ int outputs_parse_rows(const char *rows, unsigned char *done, int h)
             return -1;
     }
     return 0;
+}
+
+/* The PNG preview into its temporary file tmp: on a thread of its own
+ * beside the EXR, or after it. */
+typedef struct {
+    const Image *img;
+    const char *tmp, *name;
+    int rc;
+    char err[AFILE_PATH_MAX + 128];
+} PngJob;
+
+static void *write_png(void *arg)
+{
+    PngJob *j = arg;
+    j->rc = image_write_png_file(j->img, j->tmp, j->name, j->err, sizeof j->err);
+    return NULL;
+}
+
+int outputs_write_images(const Image *img, const char *exr, const char *exr_name, ImagePrecision prec,
+                         const ImageAttr *attrs, int nattrs, const char *png, const char *png_name, int threads)
+{
+    char err[AFILE_PATH_MAX + 128];
+    int rc = 0;
+    PngJob pj = {img, png, png_name, 0, ""};
+    pthread_t tid;
+    int beside = png && threads > 1 && thread_start(&tid, write_png, &pj) == 0;
+    if (image_write_exr_file(img, exr, exr_name, prec, attrs, nattrs, threads - beside, err, sizeof err) != 0) {
+        fprintf(stderr, "lancer: %s\n", err);
+        rc = -1;
+    }
+    if (beside)
+        pthread_join(tid, NULL);
+    else if (rc == 0 && png)
+        write_png(&pj);
+    if (pj.rc != 0) {
+        fprintf(stderr, "lancer: %s\n", pj.err);
+        rc = -1;
+    }
+    return rc;
 }

@@ -37,6 +37,15 @@ int outputs_commit(void);
 /* Removes the set's temporary files. */
 void outputs_abort(void);
 
+/* Writes img into the set's temporary files exr (in precision prec, with
+ * the nattrs attributes) and, when png is not NULL, png; messages name
+ * exr_name and png_name, the files the user knows. The two take about as
+ * long to compress: with more than one of `threads`, side by side, the
+ * EXR's chunks on the threads the PNG leaves (the same bytes either way).
+ * Returns 0, or -1 after a message. */
+int outputs_write_images(const Image *img, const char *exr, const char *exr_name, ImagePrecision prec,
+                         const ImageAttr *attrs, int nattrs, const char *png, const char *png_name, int threads);
+
 /* The partial image's name: "<exr without .exr>.partial.exr" into buf.
  * Returns 0, or -1 after a message. */
 int outputs_partial_name(const char *exr, char *buf, size_t len);
