@@ -21,7 +21,7 @@ options:
   --tiles N          N tiles (default: 4 per job slot)
   --frames A:B       render frames A to B-1 instead of tiles
   --jobs N           jobs at once on each host (default: 1 per CPU on local workers)
-  --threads N        threads of each render (default 1)
+  --threads N        threads of each render, and of the merge (default 1)
   --sshlogin LIST    parallel's --sshlogin: hosts to run on, e.g. "4/node1,4/node2"
                      (they need lancer, the scene, its meshes and DIR at the same paths)
   --out-dir DIR      where the tiles and the job log go (default: OUT-stem.tiles/)
@@ -113,5 +113,5 @@ if ! "${par[@]}" --colsep '\t' "${render[@]}" --region {2} -o "$outdir/tile.{=1 
 fi
 tilefiles=()
 for ((i = 0; i < count; i++)); do tilefiles+=("$outdir/tile.$(printf %04d "$i").exr"); done
-"$lancer" merge -q -o "$out" "${tilefiles[@]}"
+"$lancer" merge -q --threads "$threads" -o "$out" "${tilefiles[@]}"
 echo "parallel-render: $count tiles merged into $out"

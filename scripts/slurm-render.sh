@@ -28,7 +28,7 @@ options:
                       or OUT-stem.frames/ for the logs of frames)
   --time T            each task's time limit (sbatch --time), e.g. 0:30:00
   --partition P       the partition (default: the cluster's default)
-  --cpus-per-task N   threads of each task (default 1); lancer renders with as many
+  --cpus-per-task N   threads of each task (default 1); lancer renders and merges with as many
   --sbatch-args ARGS  more arguments for every sbatch, split at blanks
   -h, --help          show this help
 
@@ -137,7 +137,7 @@ for ((i = 0; i < count; i++)); do names+=" $(printf '%q' "$outdir/tile.$(printf 
 # pending for ever; submitting again renders what is missing and merges
 merge=$("${sb[@]}" --job-name=lancer-merge --dependency=afterok:"$array" --kill-on-invalid-dep=yes -o "$logs/merge.log" <<JOB
 #!/bin/sh
-exec $(printf '%q' "$lancer") merge -o $(printf '%q' "$out")$names
+exec $(printf '%q' "$lancer") merge --threads $cpus -o $(printf '%q' "$out")$names
 JOB
 )
 echo "array=$array merge=${merge%%;*}"
