@@ -9,8 +9,10 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include "lancer/afile.h"
+#include "lancer/limits.h"
 
 int cli_usage_error(const char *cmd, const char *fmt, ...)
 {
@@ -21,6 +23,12 @@ int cli_usage_error(const char *cmd, const char *fmt, ...)
     va_end(ap);
     fprintf(stderr, "\n(see 'lancer %s --help')\n", cmd);
     return 2;
+}
+
+int cli_default_threads(void)
+{
+    long cores = sysconf(_SC_NPROCESSORS_ONLN);
+    return cores > 0 ? (int)(cores < LIMIT_THREADS ? cores : LIMIT_THREADS) : 1;
 }
 
 int cli_parse_int(const char *s, int lo, int hi, int *out)

@@ -48,6 +48,9 @@ int cli_usage_error(const char *cmd, const char *fmt, ...)
 #endif
     ;
 
+/* The default of --threads: the processors online, at most LIMIT_THREADS. */
+int cli_default_threads(void);
+
 /* The whole number s, if it is one from lo to hi: 0, else -1 (*out kept). */
 int cli_parse_int(const char *s, int lo, int hi, int *out);
 

@@ -6,7 +6,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 #include "cli.h"
 #include "lancer/afile.h"
@@ -44,8 +43,7 @@ typedef struct {
 static void defaults(void *args)
 {
     Args *a = args;
-    long cores = sysconf(_SC_NPROCESSORS_ONLN);
-    a->threads = cores > 0 ? (int)(cores < LIMIT_THREADS ? cores : LIMIT_THREADS) : 1;
+    a->threads = cli_default_threads();
 }
 
 typedef struct {

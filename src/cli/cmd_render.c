@@ -98,8 +98,7 @@ static const Quality QUALITIES[] = {
 static void defaults(void *args)
 {
     Args *a = args;
-    long cores = sysconf(_SC_NPROCESSORS_ONLN);
-    a->threads = cores > 0 ? (int)(cores < LIMIT_THREADS ? cores : LIMIT_THREADS) : 1;
+    a->threads = cli_default_threads();
     a->adc = -1.0;
     a->aa = -1.0;
     a->area_adaptive = -1;
