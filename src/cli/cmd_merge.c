@@ -181,4 +181,5 @@ static const Opt opts[] = {
     {"--threads", NULL, OPT_INT, offsetof(Args, threads), 1, LIMIT_THREADS},
 };
 
-const Command cmd_merge = {"merge", usage, opts, (int)(sizeof opts / sizeof opts[0]), INT_MAX, sizeof(Args), defaults, run};
+const Command cmd_merge = {"merge", usage, opts, (int)(sizeof opts / sizeof opts[0]), INT_MAX, sizeof(Args), defaults,
+                           run};
