@@ -247,24 +247,17 @@ TRI_INLINE void keep_nearer(int id, const PrimHit *cur, const Ray *r, Ray *q, in
     }
 }
 
-/* keep_nearer for a triangle's hit, found by a packet's ray: a mesh's
- * triangles are many, and the renderer, which traces packets, shades the
- * one hit next, so its load starts as soon as it wins, while the rest of
- * the tree is searched (both ends: a Prim may straddle two cache lines).
- * One ray at a time (shadow rays, the benchmarks' single rays) nobody
- * reads it: with prefetch 0 (a constant), no load. */
+/* keep_nearer for a triangle's hit. With prefetch, a packet's ray: the
+ * renderer, which traces packets, shades the triangle hit next, and a
+ * mesh's triangles are many, so its load starts as soon as it wins, while
+ * the rest of the tree is searched. One ray at a time (shadow rays, the
+ * benchmarks' single rays) nobody reads it: prefetch 0 (a constant). */
 TRI_INLINE void keep_nearer_tri(const Bvh *b, int prefetch, int id, const PrimHit *cur, const Ray *r, Ray *q,
                                 int *best, PrimHit *h)
 {
-    if (prim_hit_wins(cur->t, id, h->t, *best)) {
-        if (prefetch) {
-            __builtin_prefetch(&b->prims[id]);
-            __builtin_prefetch((const char *)&b->prims[id] + sizeof(Prim) - 1);
-        }
-        *best = id;
-        *h = *cur;
-        q->tmax = prim_tmax_past(cur->t, r->tmax);
-    }
+    if (prefetch && prim_hit_wins(cur->t, id, h->t, *best)) /* the load first, as early as can be */
+        prim_prefetch(&b->prims[id]);
+    keep_nearer(id, cur, r, q, best, h);
 }
 
 /* Leaf L for closest-hit: its triangles' lanes hit, then the primitives

@@ -40,17 +40,9 @@ typedef struct {
  * one shading after another. */
 static void prefetch_prims(const Prim *prims, const int *best, int n)
 {
-#ifdef __GNUC__
     for (int m = 0; m < n; m++)
-        if (best[m] >= 0) { /* both ends: a Prim may straddle two cache lines */
-            __builtin_prefetch(&prims[best[m]]);
-            __builtin_prefetch((const char *)&prims[best[m]] + sizeof(Prim) - 1);
-        }
-#else
-    (void)prims;
-    (void)best;
-    (void)n;
-#endif
+        if (best[m] >= 0)
+            prim_prefetch(&prims[best[m]]);
 }
 
 /* Traces the camera rays through image-plane positions (sx[m], sy[m]),

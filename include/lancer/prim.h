@@ -279,6 +279,18 @@ static inline float prim_tmax_past(float t, float tmax)
     return past < tmax ? past : tmax;
 }
 
+/* Starts loading *p into the caches, for a reader soon after: both ends,
+ * as a Prim may straddle two cache lines. */
+static inline void prim_prefetch(const Prim *p)
+{
+#ifdef __GNUC__
+    __builtin_prefetch(p);
+    __builtin_prefetch((const char *)p + sizeof *p - 1);
+#else
+    (void)p;
+#endif
+}
+
 /* Whether a hit of primitive id at t replaces the best so far (best, -1
  * for none, at best_t): nearer, or as near with a lower index, so that the
  * closest hit does not depend on the order primitives are tested in. */
