@@ -756,9 +756,9 @@ static double outward(double x, int up) { return x * (up == (x > 0.0) ? 1.0 + 0x
 static void slab_side(double a, double b, int widen, double *lo, double *hi)
 {
     if (a > 0.0)
-        *hi = fmin(*hi, outward(b / a, widen));
+        *hi = double_min(*hi, outward(b / a, widen));
     else if (a < 0.0)
-        *lo = fmax(*lo, outward(b / a, !widen));
+        *lo = double_max(*lo, outward(b / a, !widen));
     else if (b < 0.0)
         *lo = INFINITY;
 }
@@ -816,8 +816,8 @@ int prim_obox_hit_robust(const OBox *b, const Ray *r, PrimHit *h)
         /* (the bounds grown by 2^-48 for the roundings of these sums) */
         double e_w = (e_det + e_so) * (1.0 + 0x1p-48), e_s = e_sd * (1.0 + 0x1p-48);
         slab_interval(so, sd, (half + e_w) * (1.0 + 0x1p-50), e_s, 1, &lo, &hi);
-        wnear = fmax(wnear, lo);
-        wfar = fmin(wfar, hi);
+        wnear = double_max(wnear, lo);
+        wfar = double_min(wfar, hi);
         if (!(fabs(sd) > 4.0 * e_sd)) { /* grazed: the quotients below would not bound t */
             slab_interval(so, sd, (half - e_w) * (1.0 - 0x1p-50), e_s, -1, &nlo, &nhi);
             grazing = 1;
@@ -829,8 +829,8 @@ int prim_obox_hit_robust(const OBox *b, const Ray *r, PrimHit *h)
                 g_hw = hi;
                 g_far_axis = i;
             }
-            g_ln = fmax(g_ln, nlo);
-            g_hn = fmin(g_hn, nhi);
+            g_ln = double_max(g_ln, nlo);
+            g_hn = double_min(g_hn, nhi);
             continue;
         }
         double e_num = e_det + e_so + gamma_d(1) * (half + fabs(so));
@@ -854,8 +854,8 @@ int prim_obox_hit_robust(const OBox *b, const Ray *r, PrimHit *h)
             tf_err = e1;
             far_axis = i;
         }
-        near_up = fmax(near_up, t0 + e0);
-        far_down = fmin(far_down, t1 - e1);
+        near_up = double_max(near_up, t0 + e0);
+        far_down = double_min(far_down, t1 - e1);
     }
     if (!(wnear <= wfar)) /* the widened slabs do not overlap */
         return 0;
@@ -867,17 +867,17 @@ int prim_obox_hit_robust(const OBox *b, const Ray *r, PrimHit *h)
     if (!grazing) {
         inside = !(tnear > 0.0);
         t = inside ? tfar : tnear;
-        err = inside ? fmax(tf_err, tfar - far_down) : fmax(tn_err, near_up - tnear);
+        err = inside ? double_max(tf_err, tfar - far_down) : double_max(tn_err, near_up - tnear);
     } else {
-        double in_lo = fmax(tnear - tn_err, g_lw), in_hi = fmax(near_up, g_ln);
-        double out_lo = fmin(far_down, g_hn), out_hi = fmin(tfar + tf_err, g_hw);
+        double in_lo = double_max(tnear - tn_err, g_lw), in_hi = double_max(near_up, g_ln);
+        double out_lo = double_min(far_down, g_hn), out_hi = double_min(tfar + tf_err, g_hw);
         inside = !(in_lo > 0.0);
         /* a hit's t is past 0; the quotients' estimate where it lies in the
          * bracket, else the bracket's middle */
-        double lo = inside ? fmax(out_lo, 0.0) : in_lo, hi = inside ? out_hi : in_hi, est = inside ? tfar : tnear;
+        double lo = inside ? double_max(out_lo, 0.0) : in_lo, hi = inside ? out_hi : in_hi, est = inside ? tfar : tnear;
         if (est >= lo && est <= hi) {
             t = est;
-            err = fmax(est - lo, hi - est);
+            err = double_max(est - lo, hi - est);
         } else if (isfinite(lo) && isfinite(hi)) {
             t = 0.5 * lo + 0.5 * hi;
             err = 0.5 * (hi - lo) * (1.0 + 0x1p-50);
@@ -889,7 +889,7 @@ int prim_obox_hit_robust(const OBox *b, const Ray *r, PrimHit *h)
          * in_hi]: the bound then reaches it, so that the exact t is within
          * it of 0, as at every routine's origin. */
         if (inside && in_hi > 0.0)
-            err = fmax(err, in_hi);
+            err = double_max(err, in_hi);
         if (g_lw > tnear - tn_err)
             near_axis = g_near_axis;
         if (g_hw < tfar + tf_err)
@@ -1032,14 +1032,14 @@ static void obox_pin(const OBox *b, int f, Surface *s)
             dot += N[i][j] * x;
             mag += an * fabs(x);
             pe += an * E[j];
-            ro += an * (double)FLT_EPSILON * fmax(fabs(P[j]), fabs(C[j]));
+            ro += an * (double)FLT_EPSILON * double_max(fabs(P[j]), fabs(C[j]));
             mv += an * (dist + 4.0 * (double)FLT_EPSILON * fabs(P[j])); /* a spawn's move off face f */
         }
         l[i] = dot / det;
         /* the double roundings, generously: far below a float spacing */
         e[i] = (pe + 0x1p-40 * mag * cond) / fabs(det);
         r[i] = ro / fabs(det);
-        kmax = fmax(kmax, 2.0 * (e[i] + r[i]));
+        kmax = double_max(kmax, 2.0 * (e[i] + r[i]));
         if (i != f && fabs(l[i]) >= 1.0 - 4.0 * (e[i] + r[i] + mv / fabs(det)))
             near = 1;
     }

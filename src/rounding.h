@@ -25,6 +25,12 @@
 static inline double gamma_d(int n) { return GAMMA_D(n); }
 static inline float gamma_f(int n) { return GAMMA_F(n); }
 
+/* fmin(a, b) and fmax(a, b), NaN handling included (a NaN loses), without
+ * the libm call that each is without -ffast-math; of two equal arguments
+ * (zeros of either sign) a, as glibc's give it (float_max's form). */
+static inline double double_min(double a, double b) { return b < a || a != a ? b : a; }
+static inline double double_max(double a, double b) { return b > a || a != a ? b : a; }
+
 /* nextafterf(x, up ? INFINITY : -INFINITY), without the call: a finite
  * non-zero float's neighbours are one step away in its bits. */
 static inline float float_next(float x, int up)

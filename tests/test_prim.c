@@ -6,6 +6,7 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <setjmp.h>
+#include <float.h>
 #include <math.h>
 #include <string.h>
 #include <cmocka.h>
@@ -1313,6 +1314,27 @@ static void test_triray_init(void **state)
     }
 }
 
+/* double_min and double_max (rounding.h), which the robust oriented box
+ * calls instead of fmin and fmax, give libm's answers bit for bit: NaN
+ * losing, infinities, and zeros of either sign (of two equal zeros, glibc
+ * returns the first). */
+static void test_double_min_max_are_libm(void **state)
+{
+    (void)state;
+    const double c[] = {NAN, -INFINITY, -1.5, -0x1p-1074, -0.0, 0.0, 0x1p-1074, DBL_MIN, 1.5, DBL_MAX, INFINITY};
+    const int nc = (int)(sizeof c / sizeof c[0]);
+    for (int i = 0; i < nc; i++)
+        for (int j = 0; j < nc; j++) {
+            volatile double a = c[i], b = c[j]; /* no folding at compile time */
+            double want[2] = {fmin(a, b), fmax(a, b)}, got[2] = {double_min(a, b), double_max(a, b)};
+            for (int k = 0; k < 2; k++)
+                if (isnan(want[k]))
+                    assert_true(isnan(got[k]));
+                else
+                    assert_memory_equal(&got[k], &want[k], sizeof want[k]);
+        }
+}
+
 int main(void)
 {
 #if defined(__AVX2__) && defined(__GNUC__)
@@ -1350,6 +1372,7 @@ int main(void)
         cmocka_unit_test(test_shared_edge_with_an_edge_on_triangle),
         cmocka_unit_test(test_edge_on_triangle_hit_near_origin),
         cmocka_unit_test(test_triray_init),
+        cmocka_unit_test(test_double_min_max_are_libm),
         cmocka_unit_test(test_obox_grazing_slab),
         cmocka_unit_test(test_obox_spawn_inside_near_edge),
         cmocka_unit_test(test_ellipsoid_spawn),
