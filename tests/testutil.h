@@ -20,7 +20,6 @@ static inline void assert_vec(Vec3 v, float x, float y, float z, float tol)
     assert_float_equal(v.z, z, tol);
 }
 
-/* xorshift64, uniform in [lo, hi): the same sequence on every machine. */
 /* 1 with *sf filled when ray r hits p (variant v), else 0. */
 static inline int test_surface(const Prim *p, const Ray *r, PrimVariant v, Surface *sf)
 {
@@ -31,6 +30,7 @@ static inline int test_surface(const Prim *p, const Ray *r, PrimVariant v, Surfa
     return 1;
 }
 
+/* xorshift64, uniform in [lo, hi): the same sequence on every machine. */
 static inline float test_uniform(unsigned long long *s, float lo, float hi)
 {
     *s ^= *s << 13;
