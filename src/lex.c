@@ -222,17 +222,17 @@ static int fast_float(LexTok t, float *out)
     q += *q == '-' || *q == '+';
     uint32_t m = 0;
     long e = 0;
-    for (; q < end && lex_is_digit(*q); q++) {
-        if (m > (1u << 24) / 10) /* (a loop over leading zeros keeps m 0) */
+    int point = 0; /* 1 past the decimal point: each digit then divides by 10 */
+    for (; q < end && (lex_is_digit(*q) || (*q == '.' && !point)); q++) {
+        if (*q == '.') {
+            point = 1;
+            continue;
+        }
+        if (m > (1u << 24) / 10) /* (leading zeros keep m 0) */
             return 0;
         m = 10 * m + (uint32_t)(*q - '0');
+        e -= point;
     }
-    if (q < end && *q == '.')
-        for (q++; q < end && lex_is_digit(*q); q++, e--) {
-            if (m > (1u << 24) / 10)
-                return 0;
-            m = 10 * m + (uint32_t)(*q - '0');
-        }
     if (q < end) { /* [eE][+-]digits, as lex_number_len allows */
         q++;
         int eneg = *q == '-';
