@@ -9,6 +9,7 @@
 
 #include "lancer/afile.h"
 #include "lancer/thread.h"
+#include "bigmem.h"
 
 #include <errno.h>
 #include <math.h>
@@ -30,7 +31,7 @@ int image_init(Image *img, int width, int height)
     if (width < 1 || height < 1 || width > LIMIT_IMAGE_SIDE || height > LIMIT_IMAGE_SIDE ||
         (long)width * height > LIMIT_IMAGE_PIXELS)
         return -1;
-    img->rgb = calloc((size_t)width * (size_t)height * 3, sizeof(float));
+    img->rgb = big_zalloc((size_t)width * (size_t)height * 3 * sizeof(float));
     if (img->rgb == NULL)
         return -1;
     img->width = img->full_width = width;
@@ -42,7 +43,7 @@ void image_free(Image *img)
 {
     if (img == NULL)
         return;
-    free(img->rgb);
+    big_free(img->rgb);
     img->rgb = NULL;
     img->width = img->height = img->x = img->y = img->full_width = img->full_height = 0;
 }

@@ -1,0 +1,34 @@
+/*
+ * bigmem.h - zeroed memory for large arrays, in huge pages where the
+ * system gives them.
+ *
+ *     float *a = big_zalloc(n * sizeof *a);
+ *     if (a == NULL) ... out of memory ...
+ *     big_free(a);
+ *
+ * The first write to each 4 KiB page of a fresh allocation is a page fault,
+ * and on a virtual machine a fault can cost more than the work on its
+ * page: a 640x480 image of float RGB is 900 of them. On Linux, an
+ * allocation of BIG_MIN bytes or more is mapped on its own, aligned to
+ * 2 MiB and advised as huge pages (madvise MADV_HUGEPAGE, which takes
+ * effect when transparent huge pages are "always" or "madvise"): one fault
+ * per 2 MiB. Smaller ones, and all on other systems, take calloc. Under
+ * AddressSanitizer a mapping's bytes past the caller's are poisoned, as the
+ * allocator's red zones would be.
+ */
+#ifndef LANCER_BIGMEM_H
+#define LANCER_BIGMEM_H
+
+#include <stddef.h>
+
+/* Allocations from this size up are mapped on their own. */
+#define BIG_MIN ((size_t)1 << 20)
+
+/* n bytes, zeroed, aligned as malloc's (a mapping's to 64 bytes); NULL
+ * when n is 0 or there is no memory. */
+void *big_zalloc(size_t n);
+
+/* Frees what big_zalloc returned; NULL is ignored. */
+void big_free(void *p);
+
+#endif
