@@ -20,6 +20,8 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "bigmem.h"
+
 #define AFILE_TMP_TAG ".lancer-tmp."
 /* Symbolic links followed to their target, at most (as the kernel's
  * ELOOP limit). */
@@ -357,7 +359,7 @@ int afile_read(const char *path, unsigned long long max_bytes, const char *what,
         return -1;
     /* One byte more than the size: a file that grew since fstat shows it. */
     size_t cap = (size_t)size + 1, len = 0;
-    char *buf = malloc(cap);
+    char *buf = big_realloc(NULL, 0, cap); /* huge pages for a large file (bigmem.h) */
     if (!buf) {
         snprintf(err, errlen, "%s: out of memory reading %zu bytes", path, cap);
         close(fd);

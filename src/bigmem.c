@@ -9,6 +9,7 @@
 
 #include <stdint.h>
 #include <stdlib.h>
+#include <string.h>
 
 #if defined(__linux__)
 #include <sys/mman.h>
@@ -96,4 +97,25 @@ void big_free(void *p)
     }
 #endif
     free(hd);
+}
+
+void *big_realloc(void *p, size_t used, size_t n)
+{
+    if (n == 0 || n > SIZE_MAX - HUGE_PAGE)
+        return NULL;
+#ifdef BIG_MAP
+    if (n >= BIG_MIN && (p == NULL || n > used)) { /* shrinking: realloc's, in place */
+        const size_t len = (n + HUGE_PAGE - 1) / HUGE_PAGE * HUGE_PAGE;
+        void *q;
+        if (posix_memalign(&q, HUGE_PAGE, len) != 0)
+            return NULL;
+        madvise(q, len, MADV_HUGEPAGE);
+        if (p != NULL && used > 0)
+            memcpy(q, p, used);
+        free(p);
+        return q;
+    }
+#endif
+    (void)used;
+    return realloc(p, n);
 }

@@ -31,4 +31,12 @@ void *big_zalloc(size_t n);
 /* Frees what big_zalloc returned; NULL is ignored. */
 void big_free(void *p);
 
+/* realloc(p, n) for a growing array that callers free with free(): when
+ * it grows (or starts, p NULL) to BIG_MIN bytes or more, the new block is
+ * aligned to 2 MiB, a whole number of 2 MiB long and advised as huge
+ * pages, and the first `used` bytes of p (those in use) are copied into
+ * it. Otherwise realloc(p, n), which keeps them all the same. NULL, with p
+ * untouched, when there is no memory (or n is 0). */
+void *big_realloc(void *p, size_t used, size_t n);
+
 #endif

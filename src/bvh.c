@@ -27,6 +27,7 @@
 
 #include "lancer/pntri.h"
 #include "lancer/thread.h"
+#include "bigmem.h"
 
 /* 8 bins: Wald reports SAH quality within a few percent of a full sweep
  * from 8-32 bins, and more bins cost build time without saving node visits
@@ -259,7 +260,7 @@ static int new_pair(Builder *B)
 {
     if (B->nnodes + 2 > B->cap) {
         int cap = B->cap ? B->cap * 2 : 64;
-        BvhNode *n = realloc(B->nodes, sizeof(BvhNode) * (size_t)cap);
+        BvhNode *n = big_realloc(B->nodes, sizeof(BvhNode) * (size_t)B->nnodes, sizeof(BvhNode) * (size_t)cap);
         if (!n)
             return -1;
         B->nodes = n;
@@ -500,7 +501,7 @@ static int build_tree(Builder *B, int n, int threads)
      * and its local root to node c + 1. */
     int base = B->nnodes - 1, extra = right.b.nnodes - 1;
     if (B->nnodes + extra > B->cap) {
-        BvhNode *nn = realloc(B->nodes, sizeof(BvhNode) * (size_t)(B->nnodes + extra));
+        BvhNode *nn = big_realloc(B->nodes, sizeof(BvhNode) * (size_t)B->nnodes, sizeof(BvhNode) * (size_t)(B->nnodes + extra));
         if (!nn) {
             free(right.b.nodes);
             return -1;
@@ -715,7 +716,7 @@ static int grow(char **m, size_t *size, size_t need, size_t tail)
 {
     if (need <= *size)
         return 0;
-    char *g = realloc(*m, need);
+    char *g = big_realloc(*m, *size, need);
     if (!g)
         return -1;
     memmove(g + need - tail, g + *size - tail, tail);
@@ -793,10 +794,10 @@ int bvh_build(Bvh *b, const Prim *prims, int n, PrimVariant v, int threads)
     Builder B;
     memset(&B, 0, sizeof B);
     /* The refs' block becomes the tree's (build_wide), with room for the
-     * tree of a mesh (about 56 bytes a triangle); malloc, not
-     * posix_memalign, so that it may grow by realloc. */
+     * tree of a mesh (about 56 bytes a triangle); in huge pages when it is
+     * large (bigmem.h), so that filling it faults once every 2 MiB. */
     size_t size = 16 + 2 * sizeof(Ref) * (size_t)(n > 0 ? n : 1);
-    void *block = malloc(size);
+    void *block = big_realloc(NULL, 0, size);
     if (!block)
         return -1;
     B.refs = (Ref *)((char *)block + (16 - (uintptr_t)block % 16) % 16);

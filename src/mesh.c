@@ -189,10 +189,10 @@ int mesh_vertex_normals(Mesh *m, char *err, size_t errlen)
         return 0;
     }
     size_t nv = (size_t)m->nv, nt = (size_t)m->nt;
-    double *acc = mesh_array(NULL, nv, 3 * sizeof *acc);
-    unsigned char *state = mesh_array(NULL, nv, 1); /* 0 unused, 1 used, 2 waiting for a fallback */
-    Vec3 *n = mesh_array(NULL, nv, sizeof *n);
-    int(*ntri)[3] = mesh_array(NULL, nt, sizeof *ntri);
+    double *acc = mesh_array(NULL, 0, nv, 3 * sizeof *acc);
+    unsigned char *state = mesh_array(NULL, 0, nv, 1); /* 0 unused, 1 used, 2 waiting for a fallback */
+    Vec3 *n = mesh_array(NULL, 0, nv, sizeof *n);
+    int(*ntri)[3] = mesh_array(NULL, 0, nt, sizeof *ntri);
     if (!acc || !state || !n || !ntri) {
         MESH_FREE(acc), MESH_FREE(state), MESH_FREE(n), MESH_FREE(ntri);
         snprintf(err, errlen, "out of memory for the normals of %d vertices", m->nv);

@@ -33,11 +33,11 @@
 
 /* ---- the one allocation point ---- */
 
-void *mesh_array(void *p, size_t n, size_t size)
+void *mesh_array(void *p, size_t used, size_t n, size_t size)
 {
-    if (n == 0 || n > SIZE_MAX / size)
+    if (n == 0 || n > SIZE_MAX / size || used > n)
         return NULL;
-    return MESH_REALLOC(p, n * size);
+    return MESH_REALLOC(p, used * size, n * size);
 }
 
 void *mesh_grow(void *p, int *cap, int n, int first, size_t size)
@@ -45,7 +45,7 @@ void *mesh_grow(void *p, int *cap, int n, int first, size_t size)
     if (n < *cap)
         return p;
     int c = *cap ? *cap * 2 : first;
-    void *q = mesh_array(p, (size_t)c, size);
+    void *q = mesh_array(p, (size_t)n, (size_t)c, size);
     if (q)
         *cap = c;
     return q;
@@ -82,12 +82,12 @@ int mesh_reserve_tris(const LexReader *R, long line, MeshBuild *B, size_t n)
 {
     if (n <= B->cap_t)
         return 0;
-    void *t = mesh_array(B->m.tri, n, sizeof *B->m.tri);
+    void *t = mesh_array(B->m.tri, (size_t)B->m.nt, n, sizeof *B->m.tri);
     if (!t)
         return lex_fail(R, line, "out of memory for %zu triangles", n);
     B->m.tri = t;
     if (B->track_n) {
-        t = mesh_array(B->m.ntri, n, sizeof *B->m.ntri);
+        t = mesh_array(B->m.ntri, (size_t)B->m.nt, n, sizeof *B->m.ntri);
         if (!t)
             return lex_fail(R, line, "out of memory for %zu triangles", n);
         B->m.ntri = t;
@@ -219,14 +219,14 @@ int mesh_finish(const LexReader *R, MeshBuild *B, int vertex_normals)
         return 0;
     }
     if ((size_t)k < B->cap_t) { /* shrinking: failure only means the memory stays */
-        void *t = mesh_array(m->tri, (size_t)k, sizeof *m->tri);
+        void *t = mesh_array(m->tri, (size_t)k, (size_t)k, sizeof *m->tri);
         if (t)
             m->tri = t;
-        if (m->ntri && (t = mesh_array(m->ntri, (size_t)k, sizeof *m->ntri)) != NULL)
+        if (m->ntri && (t = mesh_array(m->ntri, (size_t)k, (size_t)k, sizeof *m->ntri)) != NULL)
             m->ntri = t;
     }
     if (vertex_normals && m->n) {
-        m->ntri = mesh_array(NULL, (size_t)k, sizeof *m->ntri);
+        m->ntri = mesh_array(NULL, 0, (size_t)k, sizeof *m->ntri);
         if (!m->ntri)
             return lex_fail(R, lex_eof_line(R), "out of memory for %d triangles", k);
         memcpy(m->ntri, m->tri, (size_t)k * sizeof *m->tri);
@@ -239,11 +239,11 @@ int mesh_alloc_vertices(const LexReader *R, long line, MeshBuild *B, long long n
     B->m.nv = (int)nv;
     if (nv == 0)
         return 0;
-    B->m.v = mesh_array(NULL, (size_t)nv, sizeof *B->m.v);
+    B->m.v = mesh_array(NULL, 0, (size_t)nv, sizeof *B->m.v);
     if (!B->m.v)
         return lex_fail(R, line, "out of memory for %lld vertices", nv);
     if (normals) {
-        B->m.n = mesh_array(NULL, (size_t)nv, sizeof *B->m.n);
+        B->m.n = mesh_array(NULL, 0, (size_t)nv, sizeof *B->m.n);
         if (!B->m.n)
             return lex_fail(R, line, "out of memory for %lld normals", nv);
         B->m.nn = (int)nv;

@@ -94,7 +94,7 @@ int mesh_read_obj(LexReader *R, MeshBuild *B)
     if (mesh_alloc_vertices(R, 1, B, nv, 0) != 0)
         return -1;
     if (nn > 0) {
-        m->n = mesh_array(NULL, (size_t)nn, sizeof *m->n);
+        m->n = mesh_array(NULL, 0, (size_t)nn, sizeof *m->n);
         if (!m->n)
             return lex_fail(R, 1, "out of memory for %lld normals", nn);
         m->nn = (int)nn;

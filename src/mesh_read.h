@@ -11,11 +11,12 @@
 #include <stddef.h>
 
 #include "lancer/mesh.h"
+#include "bigmem.h"
 #include "lex.h"
 
 /* The one allocation point, which a build may override. */
 #ifndef MESH_REALLOC
-#define MESH_REALLOC(p, size) realloc(p, size)
+#define MESH_REALLOC(p, used, size) big_realloc(p, used, size)
 #define MESH_FREE(p) free(p)
 #endif
 
@@ -25,9 +26,11 @@ typedef struct {
     int track_n;  /* every triangle also gets a row in m.ntri */
 } MeshBuild;
 
-/* Resizes p to n elements of `size` bytes. Returns NULL when out of memory
- * or when n * size overflows; p is then untouched. n must be > 0. */
-void *mesh_array(void *p, size_t n, size_t size);
+/* Resizes p, whose first `used` elements are in use, to n elements of
+ * `size` bytes; a large array in huge pages (bigmem.h). Returns NULL when
+ * out of memory or when n * size overflows; p is then untouched. n must
+ * be > 0. */
+void *mesh_array(void *p, size_t used, size_t n, size_t size);
 /* Room for item n of the array p, of *cap items so far: p, doubled from
  * `first` items when full, or NULL when out of memory (p untouched). */
 void *mesh_grow(void *p, int *cap, int n, int first, size_t size);

@@ -39,7 +39,7 @@ static int weld_init(const LexReader *R, Weld *W, size_t nmax)
     while (n < 2 * nmax)
         n *= 2;
     W->mask = n - 1;
-    W->slot = mesh_array(NULL, n, sizeof *W->slot);
+    W->slot = mesh_array(NULL, 0, n, sizeof *W->slot);
     if (!W->slot)
         return lex_fail(R, 1, "out of memory for %zu vertices", nmax);
     memset(W->slot, 0xff, n * sizeof *W->slot);
@@ -77,7 +77,7 @@ static int stl_alloc(const LexReader *R, MeshBuild *B, Weld *W, size_t nmax, siz
         return 0;
     if (nmax > INT_MAX)
         return lex_fail(R, 1, "more than %d vertices", INT_MAX);
-    B->m.v = mesh_array(NULL, nmax, sizeof *B->m.v);
+    B->m.v = mesh_array(NULL, 0, nmax, sizeof *B->m.v);
     if (!B->m.v)
         return lex_fail(R, 1, "out of memory for %zu vertices", nmax);
     if (weld_init(R, W, nmax) != 0)
@@ -93,7 +93,7 @@ static void stl_trim(MeshBuild *B)
         B->m.v = NULL;
         return;
     }
-    void *v = mesh_array(B->m.v, (size_t)B->m.nv, sizeof *B->m.v);
+    void *v = mesh_array(B->m.v, (size_t)B->m.nv, (size_t)B->m.nv, sizeof *B->m.v);
     if (v) /* failure only means the memory stays */
         B->m.v = v;
 }

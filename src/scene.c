@@ -25,6 +25,7 @@
 
 #include "lancer/afile.h"
 #include "lancer/image.h"
+#include "bigmem.h"
 #include "lex.h"
 
 typedef struct {
@@ -386,7 +387,7 @@ static void *grow(void *arr, int *cap, int count, size_t elem)
     if (count < *cap)
         return arr;
     int ncap = *cap ? *cap * 2 : 8;
-    void *p = realloc(arr, (size_t)ncap * elem);
+    void *p = big_realloc(arr, (size_t)count * elem, (size_t)ncap * elem);
     if (p)
         *cap = ncap;
     return p;
@@ -1415,11 +1416,11 @@ static int reserve_prims(Scene *s, size_t need)
 {
     if (need > (size_t)INT32_MAX)
         return -1;
-    Prim *arr = realloc(s->prims, sizeof(Prim) * (need ? need : 1));
+    Prim *arr = big_realloc(s->prims, sizeof(Prim) * (size_t)s->nprims, sizeof(Prim) * (need ? need : 1));
     if (!arr)
         return -1;
     s->prims = arr;
-    Place *pl = realloc(s->place, sizeof(Place) * (need ? need : 1));
+    Place *pl = big_realloc(s->place, sizeof(Place) * (size_t)s->nprims, sizeof(Place) * (need ? need : 1));
     if (!pl)
         return -1;
     s->place = pl;
@@ -1470,7 +1471,7 @@ int scene_add_pn_mesh(Scene *s, const Mesh *m, int material, int mode, const dou
     size_t needp = (size_t)s->npatches + (size_t)m->nt;
     if (needp > (size_t)INT32_MAX || !m->n || reserve_prims(s, (size_t)s->nprims + (size_t)m->nt) != 0)
         return -1;
-    PnPatch *pa = realloc(s->patches, sizeof(PnPatch) * (needp ? needp : 1));
+    PnPatch *pa = big_realloc(s->patches, sizeof(PnPatch) * (size_t)s->npatches, sizeof(PnPatch) * (needp ? needp : 1));
     if (!pa)
         return -1;
     s->patches = pa;

@@ -1,8 +1,10 @@
 /* Unit tests for bigmem.c: big_zalloc's memory is zeroed and writable to
  * its last byte at every size, small and large; a large allocation is
  * aligned and, on Linux with transparent huge pages, advised as huge
- * pages, an image's pixels among them; AddressSanitizer still sees a
- * write past its end; and the sizes it refuses. */
+ * pages; big_realloc keeps the bytes in use; the large arrays of a scene
+ * (an image's pixels, a file read whole, a mesh's primitives, the BVH) are
+ * in huge pages; AddressSanitizer still sees a write past a large
+ * allocation's end; and the sizes it refuses. */
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -14,12 +16,18 @@
 
 #include "testutil.h"
 
+#include "lancer/afile.h"
+#include "lancer/bvh.h"
 #include "lancer/image.h"
+#include "lancer/mesh.h"
+#include "lancer/scene.h"
 #include "../src/bigmem.h"
 
 #if defined(__SANITIZE_ADDRESS__)
 #include <sanitizer/asan_interface.h>
 #endif
+
+#define HUGE ((uintptr_t)2 << 20)
 
 /* p[0 .. n-1] reads 0, then takes a write at both ends. */
 static void assert_zeroed_writable(unsigned char *p, size_t n)
@@ -91,6 +99,26 @@ static int vm_flags(const void *p, char *flags, size_t len)
 }
 #endif
 
+/* p lies in a mapping advised as huge pages; skipped where the kernel has
+ * no transparent huge pages (returns 0 then, else 1). */
+static int assert_in_huge_pages(const void *p)
+{
+#if defined(__linux__)
+    FILE *thp = fopen("/sys/kernel/mm/transparent_hugepage/enabled", "r");
+    if (!thp)
+        return 0;
+    fclose(thp);
+    char flags[512];
+    assert_int_equal(vm_flags(p, flags, sizeof flags), 0);
+    if (!strstr(flags, " hg"))
+        fail_msg("VmFlags:%s", flags);
+    return 1;
+#else
+    (void)p;
+    return 0;
+#endif
+}
+
 /* A large allocation starts 64 bytes into a mapping of its own that
  * madvise marked for huge pages (VmFlags "hg"), where the kernel has
  * transparent huge pages. */
@@ -106,7 +134,7 @@ static void test_large_in_huge_pages(void **state)
     fclose(thp);
     unsigned char *p = big_zalloc((size_t)3 << 20);
     assert_non_null(p);
-    assert_int_equal((uintptr_t)p % ((uintptr_t)2 << 20), 64);
+    assert_int_equal((uintptr_t)p % HUGE, 64);
     char flags[512];
     assert_int_equal(vm_flags(p, flags, sizeof flags), 0);
     if (!strstr(flags, " hg"))
@@ -126,28 +154,133 @@ static void test_large_in_huge_pages(void **state)
 #endif
 }
 
-/* An image's pixels are such an allocation: the render's first write to
- * each page of them was a page fault. */
-static void test_image_in_huge_pages(void **state)
+/* big_realloc keeps the bytes in use, at every size and across the
+ * threshold both ways; large blocks are aligned to 2 MiB and in huge
+ * pages; all of them go to free(). */
+static void test_realloc_keeps_bytes(void **state)
 {
     (void)state;
-#if defined(__linux__)
-    FILE *thp = fopen("/sys/kernel/mm/transparent_hugepage/enabled", "r");
-    if (!thp) {
-        printf("  (no transparent huge pages in this kernel: skipped)\n");
-        return;
+    const size_t sizes[] = {16, 4096, BIG_MIN - 1, BIG_MIN, (size_t)3 << 20, (size_t)7 << 20, 100, (size_t)5 << 20};
+    unsigned char *p = NULL;
+    size_t used = 0;
+    for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) {
+        size_t n = sizes[i];
+        unsigned char *q = big_realloc(p, used, n);
+        assert_non_null(q);
+        size_t kept = used < n ? used : n;
+        for (size_t j = 0; j < kept; j++)
+            if (q[j] != (unsigned char)(j * 7 + 1))
+                fail_msg("size %zu: byte %zu of %zu kept is %d", n, j, kept, q[j]);
+        for (size_t j = kept; j < n; j++)
+            q[j] = (unsigned char)(j * 7 + 1);
+        if (n >= BIG_MIN) {
+            assert_int_equal((uintptr_t)q % HUGE, 0);
+            assert_in_huge_pages(q);
+            assert_in_huge_pages(q + n - 1);
+        }
+        p = q;
+        used = n;
     }
-    fclose(thp);
+    free(p);
+    assert_null(big_realloc(NULL, 0, 0));
+    assert_null(big_realloc(NULL, 0, SIZE_MAX));
+}
+
+/* The arrays that a large scene fills as it is read, built and rendered
+ * are in huge pages: each first write to a 4 KiB page of them was a page
+ * fault. An image's pixels, a file read whole, a mesh file's vertices
+ * and triangles, a mesh's primitives and the BVH's nodes. */
+static void test_arrays_in_huge_pages(void **state)
+{
+    (void)state;
     Image img;
     assert_int_equal(image_init(&img, 640, 480), 0);
-    char flags[512];
-    assert_int_equal(vm_flags(img.rgb, flags, sizeof flags), 0);
-    if (!strstr(flags, " hg"))
-        fail_msg("VmFlags:%s", flags);
+    if (!assert_in_huge_pages(img.rgb)) {
+        printf("  (no transparent huge pages here: skipped)\n");
+        image_free(&img);
+        return;
+    }
     image_free(&img);
-#else
-    printf("  (not Linux: skipped)\n");
-#endif
+
+    char path[] = "/tmp/lancer_bigmem_XXXXXX";
+    int fd = mkstemp(path);
+    assert_true(fd >= 0);
+    FILE *f = fdopen(fd, "w");
+    assert_non_null(f);
+    for (int i = 0; i < 300000; i++)
+        fputs("0123456789\n", f);
+    assert_int_equal(fclose(f), 0);
+    char *data, err[256];
+    size_t len;
+    assert_int_equal(afile_read(path, 1ull << 30, "files", &data, &len, err, sizeof err), 0);
+    remove(path);
+    assert_int_equal(len, 3300000);
+    assert_int_equal((uintptr_t)data % HUGE, 0); /* big_realloc's: heap memory near it may be advised too */
+    assert_in_huge_pages(data);
+    free(data);
+
+    /* a mesh file's vertices and triangles, as it is read */
+    enum { G = 400 };
+    char dir[] = "/tmp/lancer_bigmem_XXXXXX", off[64];
+    assert_non_null(mkdtemp(dir));
+    snprintf(off, sizeof off, "%s/grid.off", dir);
+    f = fopen(off, "w");
+    assert_non_null(f);
+    fprintf(f, "OFF\n%d %d 0\n", G * G, 2 * (G - 1) * (G - 1));
+    for (int y = 0; y < G; y++)
+        for (int x = 0; x < G; x++)
+            fprintf(f, "%d %d %d\n", x, y, (x * y) % 5);
+    for (int y = 0; y + 1 < G; y++)
+        for (int x = 0; x + 1 < G; x++)
+            fprintf(f, "3 %d %d %d\n3 %d %d %d\n", y * G + x, y * G + x + 1, y * G + x + G, y * G + x + 1,
+                    y * G + x + G + 1, y * G + x + G);
+    assert_int_equal(fclose(f), 0);
+    Mesh big;
+    int rc = mesh_load(off, &big, err, sizeof err);
+    remove(off);
+    remove(dir);
+    assert_int_equal(rc, 0);
+    assert_int_equal(big.nt, 2 * (G - 1) * (G - 1));
+    assert_true(sizeof *big.v * (size_t)big.nv >= BIG_MIN);
+    assert_int_equal((uintptr_t)big.v % HUGE, 0);
+    assert_int_equal((uintptr_t)big.tri % HUGE, 0);
+    assert_in_huge_pages(big.v);
+    assert_in_huge_pages(big.tri);
+    mesh_free(&big);
+
+    /* a grid of 2 x 100 x 100 triangles */
+    enum { N = 100 };
+    Mesh m;
+    memset(&m, 0, sizeof m);
+    m.nv = (N + 1) * (N + 1);
+    m.nt = 2 * N * N;
+    m.v = malloc(sizeof *m.v * (size_t)m.nv);
+    m.tri = malloc(sizeof *m.tri * (size_t)m.nt);
+    assert_non_null(m.v);
+    assert_non_null(m.tri);
+    for (int y = 0; y <= N; y++)
+        for (int x = 0; x <= N; x++)
+            m.v[y * (N + 1) + x] = vec3((float)x, (float)y, (float)((x * y) % 7));
+    for (int y = 0, k = 0; y < N; y++)
+        for (int x = 0; x < N; x++) {
+            int a = y * (N + 1) + x;
+            m.tri[k][0] = a, m.tri[k][1] = a + 1, m.tri[k][2] = a + N + 1, k++;
+            m.tri[k][0] = a + 1, m.tri[k][1] = a + N + 2, m.tri[k][2] = a + N + 1, k++;
+        }
+    Scene sc;
+    assert_int_equal(scene_from_mesh(&sc, &m), 0);
+    assert_int_equal(sc.nprims, m.nt);
+    assert_true(sizeof(Prim) * (size_t)sc.nprims >= BIG_MIN);
+    assert_int_equal((uintptr_t)sc.prims % HUGE, 0);
+    assert_in_huge_pages(sc.prims);
+    Bvh b;
+    assert_int_equal(bvh_build(&b, sc.prims, sc.nprims, PRIM_ROBUST, 1), 0);
+    assert_int_equal((uintptr_t)b.mem % HUGE, 0);
+    assert_in_huge_pages(b.mem);
+    bvh_free(&b);
+    scene_free(&sc);
+    free(m.v);
+    free(m.tri);
 }
 
 /* Under AddressSanitizer, the bytes on either side of a large allocation
@@ -175,7 +308,8 @@ int main(void)
         cmocka_unit_test(test_zeroed_at_every_size),
         cmocka_unit_test(test_refuses_zero_and_overflow),
         cmocka_unit_test(test_large_in_huge_pages),
-        cmocka_unit_test(test_image_in_huge_pages),
+        cmocka_unit_test(test_realloc_keeps_bytes),
+        cmocka_unit_test(test_arrays_in_huge_pages),
         cmocka_unit_test(test_asan_sees_past_the_end),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
