@@ -11,6 +11,7 @@
 #include "lancer/camera.h"
 #include "lancer/shade.h"
 #include "lancer/thread.h"
+#include "bigmem.h"
 
 typedef struct {
     const RenderPlan *p;
@@ -270,8 +271,8 @@ int render_image(const RenderPlan *p, const Accel *a, const RenderOptions *opt, 
     unsigned char *done = opt && opt->rows_done ? opt->rows_done : calloc((size_t)h, 1);
     int *todo = malloc(sizeof(int) * (size_t)h), *around = malloc(sizeof(int) * (size_t)(cy1 - job.cy0));
     if (adaptive) {
-        job.mask = malloc((size_t)w * (size_t)h);
-        job.centre = malloc(sizeof(float) * 3 * (size_t)(job.cx1 - job.cx0) * (size_t)(cy1 - job.cy0));
+        job.mask = big_zalloc((size_t)w * (size_t)h); /* in huge pages when large (bigmem.h) */
+        job.centre = big_zalloc(sizeof(float) * 3 * (size_t)(job.cx1 - job.cx0) * (size_t)(cy1 - job.cy0));
     }
     int rc = -1, ntodo = 0, naround = 0;
     if (!done || !todo || !around || (adaptive && (!job.mask || !job.centre)) ||
@@ -324,7 +325,7 @@ out:
         free(done);
     free(todo);
     free(around);
-    free(job.mask);
-    free(job.centre);
+    big_free(job.mask);
+    big_free(job.centre);
     return rc;
 }
