@@ -3,6 +3,9 @@
  * the parsing of its options (see cli.h for the command table).
  */
 #include <errno.h>
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -136,6 +139,15 @@ static int run(const Command *c, int argc, char **argv)
 
 int main(int argc, char **argv)
 {
+#ifdef __GLIBC__
+    /* Keep freed memory for the next allocation: glibc gives the heap's
+     * free top back to the system past 128 KiB and maps blocks from
+     * 128 KiB up on their own, so zlib's state, allocated and freed for
+     * each chunk of an EXR, was faulted in afresh every time. A short
+     * process has no one to give it back to. */
+    mallopt(M_MMAP_THRESHOLD, 32 << 20);
+    mallopt(M_TRIM_THRESHOLD, 256 << 20);
+#endif
     if (argc < 2) {
         fputs(usage_main, stderr);
         return 2;
