@@ -501,7 +501,8 @@ static int build_tree(Builder *B, int n, int threads)
      * and its local root to node c + 1. */
     int base = B->nnodes - 1, extra = right.b.nnodes - 1;
     if (B->nnodes + extra > B->cap) {
-        BvhNode *nn = big_realloc(B->nodes, sizeof(BvhNode) * (size_t)B->nnodes, sizeof(BvhNode) * (size_t)(B->nnodes + extra));
+        BvhNode *nn =
+            big_realloc(B->nodes, sizeof(BvhNode) * (size_t)B->nnodes, sizeof(BvhNode) * (size_t)(B->nnodes + extra));
         if (!nn) {
             free(right.b.nodes);
             return -1;

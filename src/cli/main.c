@@ -140,12 +140,11 @@ static int run(const Command *c, int argc, char **argv)
 int main(int argc, char **argv)
 {
 #ifdef __GLIBC__
-    /* Keep freed memory for the next allocation: glibc gives the heap's
-     * free top back to the system past 128 KiB and maps blocks from
-     * 128 KiB up on their own, so zlib's state, allocated and freed for
-     * each chunk of an EXR, was faulted in afresh every time. A short
-     * process has no one to give it back to. */
-    mallopt(M_MMAP_THRESHOLD, 32 << 20);
+    /* Keep the heap's free top for the next allocation: glibc gives it
+     * back to the system past 128 KiB, so zlib's state, allocated and
+     * freed for each chunk of an EXR, was faulted in afresh every time.
+     * (This also fixes glibc's threshold for mapping a block on its own
+     * at 128 KiB: raising that too kept more memory at the peak.) */
     mallopt(M_TRIM_THRESHOLD, 256 << 20);
 #endif
     if (argc < 2) {
