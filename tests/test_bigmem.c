@@ -2,8 +2,8 @@
  * its last byte at every size, small and large; a large allocation is
  * aligned and, on Linux with transparent huge pages, advised as huge
  * pages; big_realloc keeps the bytes in use; the large arrays of a scene
- * (an image's pixels, a file read whole, a mesh's primitives, the BVH) are
- * in huge pages; AddressSanitizer still sees a write past a large
+ * (an image's pixels, a file read whole, a mesh file's vertices and
+ * triangles, a mesh's primitives, the BVH) are in huge pages; AddressSanitizer still sees a write past a large
  * allocation's end; and the sizes it refuses. */
 #include <stdarg.h>
 #include <stddef.h>
@@ -99,59 +99,66 @@ static int vm_flags(const void *p, char *flags, size_t len)
 }
 #endif
 
-/* p lies in a mapping advised as huge pages; skipped where the kernel has
- * no transparent huge pages (returns 0 then, else 1). */
-static int assert_in_huge_pages(const void *p)
+/* Whether this kernel has transparent huge pages: the checks of the
+ * advice are skipped where it has none. */
+static int have_thp(void)
 {
 #if defined(__linux__)
     FILE *thp = fopen("/sys/kernel/mm/transparent_hugepage/enabled", "r");
     if (!thp)
         return 0;
     fclose(thp);
+    return 1;
+#else
+    return 0;
+#endif
+}
+
+/* Whether p lies in a mapping that madvise marked for huge pages
+ * (VmFlags "hg"). */
+static int in_huge_pages(const void *p)
+{
+#if defined(__linux__)
     char flags[512];
     assert_int_equal(vm_flags(p, flags, sizeof flags), 0);
-    if (!strstr(flags, " hg"))
-        fail_msg("VmFlags:%s", flags);
-    return 1;
+    return strstr(flags, " hg") != NULL;
 #else
     (void)p;
     return 0;
 #endif
 }
 
-/* A large allocation starts 64 bytes into a mapping of its own that
- * madvise marked for huge pages (VmFlags "hg"), where the kernel has
- * transparent huge pages. */
+/* A block of big_realloc's: aligned to 2 MiB, in huge pages to its last
+ * byte (where the kernel has them). */
+static void assert_big(const void *p, size_t n)
+{
+    if (!have_thp())
+        return;
+    assert_int_equal((uintptr_t)p % HUGE, 0);
+    assert_true(in_huge_pages(p));
+    assert_true(in_huge_pages((const char *)p + n - 1));
+}
+
+/* A large allocation starts 64 bytes into a mapping advised as huge
+ * pages, and ends in it; a small one is calloc's. */
 static void test_large_in_huge_pages(void **state)
 {
     (void)state;
-#if defined(__linux__)
-    FILE *thp = fopen("/sys/kernel/mm/transparent_hugepage/enabled", "r");
-    if (!thp) {
-        printf("  (no transparent huge pages in this kernel: skipped)\n");
+    if (!have_thp()) {
+        printf("  (no transparent huge pages here: skipped)\n");
         return;
     }
-    fclose(thp);
-    unsigned char *p = big_zalloc((size_t)3 << 20);
+    const size_t n = (size_t)3 << 20;
+    unsigned char *p = big_zalloc(n);
     assert_non_null(p);
     assert_int_equal((uintptr_t)p % HUGE, 64);
-    char flags[512];
-    assert_int_equal(vm_flags(p, flags, sizeof flags), 0);
-    if (!strstr(flags, " hg"))
-        fail_msg("VmFlags:%s", flags);
-    /* the whole allocation lies in that one mapping */
-    char last[512];
-    assert_int_equal(vm_flags(p + ((size_t)3 << 20) - 1, last, sizeof last), 0);
-    assert_string_equal(flags, last);
+    assert_true(in_huge_pages(p));
+    assert_true(in_huge_pages(p + n - 1));
     big_free(p);
-    /* a small one is calloc's */
     p = big_zalloc(4096);
-    assert_int_equal(vm_flags(p, flags, sizeof flags), 0);
-    assert_null(strstr(flags, " hg"));
+    assert_non_null(p);
+    assert_false(in_huge_pages(p));
     big_free(p);
-#else
-    printf("  (not Linux: skipped)\n");
-#endif
 }
 
 /* big_realloc keeps the bytes in use, at every size and across the
@@ -173,11 +180,8 @@ static void test_realloc_keeps_bytes(void **state)
                 fail_msg("size %zu: byte %zu of %zu kept is %d", n, j, kept, q[j]);
         for (size_t j = kept; j < n; j++)
             q[j] = (unsigned char)(j * 7 + 1);
-        if (n >= BIG_MIN) {
-            assert_int_equal((uintptr_t)q % HUGE, 0);
-            assert_in_huge_pages(q);
-            assert_in_huge_pages(q + n - 1);
-        }
+        if (n >= BIG_MIN)
+            assert_big(q, n);
         p = q;
         used = n;
     }
@@ -193,13 +197,13 @@ static void test_realloc_keeps_bytes(void **state)
 static void test_arrays_in_huge_pages(void **state)
 {
     (void)state;
-    Image img;
-    assert_int_equal(image_init(&img, 640, 480), 0);
-    if (!assert_in_huge_pages(img.rgb)) {
+    if (!have_thp()) {
         printf("  (no transparent huge pages here: skipped)\n");
-        image_free(&img);
         return;
     }
+    Image img;
+    assert_int_equal(image_init(&img, 640, 480), 0);
+    assert_true(in_huge_pages(img.rgb));
     image_free(&img);
 
     char path[] = "/tmp/lancer_bigmem_XXXXXX";
@@ -215,8 +219,7 @@ static void test_arrays_in_huge_pages(void **state)
     assert_int_equal(afile_read(path, 1ull << 30, "files", &data, &len, err, sizeof err), 0);
     remove(path);
     assert_int_equal(len, 3300000);
-    assert_int_equal((uintptr_t)data % HUGE, 0); /* big_realloc's: heap memory near it may be advised too */
-    assert_in_huge_pages(data);
+    assert_big(data, len); /* aligned too: heap memory near it may be advised as well */
     free(data);
 
     /* a mesh file's vertices and triangles, as it is read */
@@ -242,10 +245,8 @@ static void test_arrays_in_huge_pages(void **state)
     assert_int_equal(rc, 0);
     assert_int_equal(big.nt, 2 * (G - 1) * (G - 1));
     assert_true(sizeof *big.v * (size_t)big.nv >= BIG_MIN);
-    assert_int_equal((uintptr_t)big.v % HUGE, 0);
-    assert_int_equal((uintptr_t)big.tri % HUGE, 0);
-    assert_in_huge_pages(big.v);
-    assert_in_huge_pages(big.tri);
+    assert_big(big.v, sizeof *big.v * (size_t)big.nv);
+    assert_big(big.tri, sizeof *big.tri * (size_t)big.nt);
     mesh_free(&big);
 
     /* a grid of 2 x 100 x 100 triangles */
@@ -271,12 +272,10 @@ static void test_arrays_in_huge_pages(void **state)
     assert_int_equal(scene_from_mesh(&sc, &m), 0);
     assert_int_equal(sc.nprims, m.nt);
     assert_true(sizeof(Prim) * (size_t)sc.nprims >= BIG_MIN);
-    assert_int_equal((uintptr_t)sc.prims % HUGE, 0);
-    assert_in_huge_pages(sc.prims);
+    assert_big(sc.prims, sizeof(Prim) * (size_t)sc.nprims);
     Bvh b;
     assert_int_equal(bvh_build(&b, sc.prims, sc.nprims, PRIM_ROBUST, 1), 0);
-    assert_int_equal((uintptr_t)b.mem % HUGE, 0);
-    assert_in_huge_pages(b.mem);
+    assert_big(b.mem, 1);
     bvh_free(&b);
     scene_free(&sc);
     free(m.v);
