@@ -38,6 +38,11 @@
 
 #define HUGE_PAGE ((size_t)2 << 20)
 
+#ifdef BIG_MAP
+/* n up to a whole number of huge pages (n at most SIZE_MAX - HUGE_PAGE). */
+static size_t huge_round(size_t n) { return (n + HUGE_PAGE - 1) / HUGE_PAGE * HUGE_PAGE; }
+#endif
+
 /* Before the caller's bytes: where they came from. 64 bytes, so that a
  * mapping's bytes start on a cache line. */
 typedef union {
@@ -58,7 +63,7 @@ void *big_zalloc(size_t n)
         /* A mapping aligned to a huge page and a whole number of them
          * long, so that every 2 MiB of it can be one: map one page more,
          * then unmap what lies outside. Fresh anonymous pages read 0. */
-        const size_t len = (need + HUGE_PAGE - 1) / HUGE_PAGE * HUGE_PAGE;
+        const size_t len = huge_round(need);
         char *m = mmap(NULL, len + HUGE_PAGE, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
         if (m != MAP_FAILED) {
             char *base = (char *)(((uintptr_t)m + HUGE_PAGE - 1) & ~(uintptr_t)(HUGE_PAGE - 1));
@@ -105,7 +110,7 @@ void *big_realloc(void *p, size_t used, size_t n)
         return NULL;
 #ifdef BIG_MAP
     if (n >= BIG_MIN && (p == NULL || n > used)) { /* shrinking: realloc's, in place */
-        const size_t len = (n + HUGE_PAGE - 1) / HUGE_PAGE * HUGE_PAGE;
+        const size_t len = huge_round(n);
         void *q;
         if (posix_memalign(&q, HUGE_PAGE, len) != 0)
             return NULL;
