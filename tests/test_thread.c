@@ -1,6 +1,7 @@
 /* Tests for thread.c: a started thread runs its function, and runs on the
  * caller's whole set of processors, however it was started; a caller
- * pinned to one processor keeps its threads there. */
+ * pinned to one processor keeps its threads there. A pool runs each job
+ * once on each of its threads, and the job is done when pool_run returns. */
 #if defined(__linux__)
 #define _GNU_SOURCE /* pthread_getaffinity_np, sched_getcpu */
 #endif
@@ -92,11 +93,107 @@ static void test_thread_keeps_the_callers_processors(void **state)
 }
 #endif
 
+/* What the pool's threads saw of one job. */
+typedef struct {
+    pthread_mutex_t lock;
+    int calls;
+    pthread_t ids[8];
+    int nids; /* the distinct threads that ran it */
+} Tally;
+
+static void tally(void *arg)
+{
+    Tally *t = arg;
+    pthread_mutex_lock(&t->lock);
+    t->calls++;
+    int seen = 0;
+    for (int i = 0; i < t->nids; i++)
+        seen |= pthread_equal(t->ids[i], pthread_self());
+    if (!seen && t->nids < 8)
+        t->ids[t->nids++] = pthread_self();
+    pthread_mutex_unlock(&t->lock);
+}
+
+/* Runs one job on p: returns how many calls it saw, and checks that each
+ * was on a thread of its own, the caller's among them. */
+static int run_tally(ThreadPool *p)
+{
+    Tally t;
+    memset(&t, 0, sizeof t);
+    assert_int_equal(pthread_mutex_init(&t.lock, NULL), 0);
+    pool_run(p, tally, &t);
+    pthread_mutex_destroy(&t.lock);
+    assert_int_equal(t.nids, t.calls);
+    int caller = 0;
+    for (int i = 0; i < t.nids; i++)
+        caller |= pthread_equal(t.ids[i], pthread_self());
+    assert_true(caller);
+    return t.calls;
+}
+
+/* Job after job, each runs once on each of the pool's threads and has
+ * ended when pool_run returns; a pool of one thread, or of none, runs the
+ * job on the caller. */
+static void test_pool_runs_each_job_on_its_threads(void **state)
+{
+    (void)state;
+    for (int threads = -1; threads <= 4; threads++) {
+        ThreadPool *p = pool_new(threads);
+        assert_non_null(p);
+        int n = pool_threads(p);
+        assert_int_equal(n, threads > 1 ? threads : 1);
+        for (int i = 0; i < 50; i++)
+            assert_int_equal(run_tally(p), n);
+        pool_free(p);
+    }
+    pool_free(NULL);
+}
+
+/* A job's writes are all seen when pool_run returns: each thread adds to
+ * its own counter, many times, in job after job. */
+typedef struct {
+    pthread_mutex_t lock;
+    int next;
+    long sum[4];
+} Sums;
+
+static void add_many(void *arg)
+{
+    Sums *s = arg;
+    pthread_mutex_lock(&s->lock);
+    int k = s->next++;
+    pthread_mutex_unlock(&s->lock);
+    for (int i = 0; i < 1000; i++)
+        s->sum[k] += i;
+}
+
+static void test_pool_job_is_done_when_run_returns(void **state)
+{
+    (void)state;
+    ThreadPool *p = pool_new(2);
+    assert_non_null(p);
+    int n = pool_threads(p);
+    Sums s;
+    memset(&s, 0, sizeof s);
+    assert_int_equal(pthread_mutex_init(&s.lock, NULL), 0);
+    for (int job = 1; job <= 500; job++) {
+        s.next = 0;
+        pool_run(p, add_many, &s);
+        assert_int_equal(s.next, n);
+        for (int k = 0; k < n; k++)
+            assert_int_equal(s.sum[k], 499500L * job);
+    }
+    pthread_mutex_destroy(&s.lock);
+    pool_free(p);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_thread_runs_its_function),
         cmocka_unit_test(test_thread_keeps_the_callers_processors),
+        cmocka_unit_test(test_pool_runs_each_job_on_its_threads),
+        cmocka_unit_test(test_pool_job_is_done_when_run_returns),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
