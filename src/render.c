@@ -22,6 +22,7 @@ typedef struct {
     void *progress_ctx;
     const volatile sig_atomic_t *stop;
     unsigned char *rows_done; /* per row of the region */
+    ThreadPool *pool;
     pthread_mutex_t lock;     /* guards stats and progress (and next and progress_done without atomics) */
     int next, progress_done, progress_total;
     RayStats stats;
@@ -120,6 +121,37 @@ static int render_row(const Job *job, int y, int xa, int xb, int k, const unsign
     return 0;
 }
 
+/* lancer's adaptive rule: a pixel is supersampled when its centre sample
+ * differs from one of its four neighbours' in the image by more than the
+ * threshold, in the sum of the channels' absolute differences. Decided
+ * from the centres of pass 1, whole before pass 2 begins, so that no
+ * pixel's fate depends on which thread got there first, nor on the region
+ * or the rows a resumed render keeps. Sets the mask of image row y;
+ * returns how many pixels it set. */
+static long mask_row(const Job *job, int y)
+{
+    const RenderPlan *p = job->p;
+    int w = p->x1 - p->x0;
+    size_t cw = (size_t)(job->cx1 - job->cx0);
+    unsigned char *mask = job->mask + (size_t)(y - p->y0) * (size_t)w;
+    long n = 0;
+    for (int x = p->x0; x < p->x1; x++) {
+        const float *c = job->centre + ((size_t)(y - job->cy0) * cw + (size_t)(x - job->cx0)) * 3;
+        static const int dx[4] = {-1, 1, 0, 0}, dy[4] = {0, 0, -1, 1};
+        int on = 0;
+        for (int k = 0; k < 4 && !on; k++) {
+            int nx = x + dx[k], ny = y + dy[k];
+            if (nx < 0 || ny < 0 || nx >= p->width || ny >= p->height)
+                continue;
+            const float *d = job->centre + ((size_t)(ny - job->cy0) * cw + (size_t)(nx - job->cx0)) * 3;
+            on = fabsf(c[0] - d[0]) + fabsf(c[1] - d[1]) + fabsf(c[2] - d[2]) > p->aa_threshold;
+        }
+        mask[x - p->x0] = (unsigned char)on;
+        n += on;
+    }
+    return n;
+}
+
 /* Row y of the pass: 1 when done, 0 when stopped. */
 static int pass_row(const Job *job, int y, RayStats *st)
 {
@@ -133,6 +165,7 @@ static int pass_row(const Job *job, int y, RayStats *st)
     if (job->pass == 0)
         return render_row(job, y, p->x0, p->x1, p->spp, NULL, out, st) == 0;
     const unsigned char *mask = job->mask + (size_t)(y - p->y0) * (size_t)w;
+    st->supersampled += (unsigned long long)mask_row(job, y);
     if (render_row(job, y, p->x0, p->x1, p->spp, mask, out, st) != 0)
         return 0;
     const float *c = job->centre + ((size_t)(y - job->cy0) * (size_t)(job->cx1 - job->cx0) + (size_t)(p->x0 - job->cx0)) * 3;
@@ -140,38 +173,6 @@ static int pass_row(const Job *job, int y, RayStats *st)
         if (!mask[x]) /* its centre sample stands */
             memcpy(out + 3 * x, c + 3 * x, sizeof(float) * 3);
     return 1;
-}
-
-/* lancer's adaptive rule: a pixel is supersampled when its centre sample
- * differs from one of its four neighbours' in the image by more than the
- * threshold, in the sum of the channels' absolute differences. Decided
- * from the whole first pass, so that no pixel's fate depends on which
- * thread got there first, nor on the region or the rows a resumed render
- * keeps. Sets the mask of the rows to do; returns how many pixels it set. */
-static long aa_mask(const Job *job)
-{
-    const RenderPlan *p = job->p;
-    int w = p->x1 - p->x0;
-    size_t cw = (size_t)(job->cx1 - job->cx0);
-    long n = 0;
-    for (int r = 0; r < job->nrows; r++) {
-        int y = job->rows[r];
-        for (int x = p->x0; x < p->x1; x++) {
-            const float *c = job->centre + ((size_t)(y - job->cy0) * cw + (size_t)(x - job->cx0)) * 3;
-            static const int dx[4] = {-1, 1, 0, 0}, dy[4] = {0, 0, -1, 1};
-            int on = 0;
-            for (int k = 0; k < 4 && !on; k++) {
-                int nx = x + dx[k], ny = y + dy[k];
-                if (nx < 0 || ny < 0 || nx >= p->width || ny >= p->height)
-                    continue;
-                const float *d = job->centre + ((size_t)(ny - job->cy0) * cw + (size_t)(nx - job->cx0)) * 3;
-                on = fabsf(c[0] - d[0]) + fabsf(c[1] - d[1]) + fabsf(c[2] - d[2]) > p->aa_threshold;
-            }
-            job->mask[(size_t)(y - p->y0) * (size_t)w + (size_t)(x - p->x0)] = (unsigned char)on;
-            n += on;
-        }
-    }
-    return n;
 }
 
 /* The pass's next row for a thread (an index into rows), or -1. The rows
@@ -209,7 +210,7 @@ static void finish_row(Job *job)
     pthread_mutex_unlock(&job->lock);
 }
 
-static void *worker(void *arg)
+static void worker(void *arg)
 {
     Job *job = arg;
     RayStats st = {0, 0, 0, 0, 0, 0, 0};
@@ -224,27 +225,19 @@ static void *worker(void *arg)
     pthread_mutex_lock(&job->lock);
     raystats_add(&job->stats, &st);
     pthread_mutex_unlock(&job->lock);
-    return NULL;
 }
 
-/* Runs the job's pass over rows[0..n-1] on `threads` threads, the calling
- * one among them. Returns 0 when every row of the pass is done, 1 when
- * stopped. */
-static int run_pass(Job *job, int pass, const int *rows, int n, int threads)
+/* Runs the job's pass over rows[0..n-1] on the pool's threads, the
+ * calling one among them. Returns 0 when every row of the pass is done,
+ * 1 when stopped. */
+static int run_pass(Job *job, int pass, const int *rows, int n)
 {
     job->pass = pass;
     job->rows = rows;
     job->nrows = n;
     job->next = 0;
-    int extra = threads > 1 ? threads - 1 : 0, started = 0, before = job->progress_done;
-    pthread_t *tids = extra ? malloc(sizeof(pthread_t) * (size_t)extra) : NULL;
-    if (tids)
-        while (started < extra && thread_start(&tids[started], worker, job) == 0)
-            started++;
-    worker(job); /* the calling thread works too */
-    for (int i = 0; i < started; i++)
-        pthread_join(tids[i], NULL);
-    free(tids);
+    int before = job->progress_done;
+    pool_run(job->pool, worker, job);
     return job->progress_done - before < n ? 1 : 0;
 }
 
@@ -261,6 +254,7 @@ int render_image(const RenderPlan *p, const Accel *a, const RenderOptions *opt, 
     job.progress = opt ? opt->progress : NULL;
     job.progress_ctx = opt ? opt->progress_ctx : NULL;
     job.stop = opt ? opt->stop : NULL;
+    job.pool = pool_new(p->threads); /* for every pass of the render */
     camera_init(&job.cam, &p->scene->camera, p->width, p->height);
     int adaptive = p->aa_threshold > 0.0f && p->spp > 1;
     /* the rows to do, and for pass 1 the rows around them too */
@@ -275,7 +269,7 @@ int render_image(const RenderPlan *p, const Accel *a, const RenderOptions *opt, 
         job.centre = big_zalloc(sizeof(float) * 3 * (size_t)(job.cx1 - job.cx0) * (size_t)(cy1 - job.cy0));
     }
     int rc = -1, ntodo = 0, naround = 0;
-    if (!done || !todo || !around || (adaptive && (!job.mask || !job.centre)) ||
+    if (!done || !todo || !around || (adaptive && (!job.mask || !job.centre)) || !job.pool ||
         pthread_mutex_init(&job.lock, NULL) != 0)
         goto out;
     job.rows_done = done;
@@ -284,7 +278,7 @@ int render_image(const RenderPlan *p, const Accel *a, const RenderOptions *opt, 
             todo[ntodo++] = y;
     if (!adaptive) {
         job.progress_total = ntodo;
-        rc = run_pass(&job, 0, todo, ntodo, p->threads);
+        rc = run_pass(&job, 0, todo, ntodo);
     } else {
         /* In bands of rows, so that a stopped render keeps the bands done:
          * the centres a band needs (its rows and the rows around them, each
@@ -309,13 +303,9 @@ int render_image(const RenderPlan *p, const Accel *a, const RenderOptions *opt, 
                     around[n++] = y;
             }
             traced = last + 1;
-            rc = run_pass(&job, 1, around, n, p->threads);
-            if (rc == 0) {
-                job.rows = todo + b;
-                job.nrows = nb;
-                job.stats.supersampled += (unsigned long long)aa_mask(&job);
-                rc = run_pass(&job, 2, todo + b, nb, p->threads);
-            }
+            rc = run_pass(&job, 1, around, n);
+            if (rc == 0)
+                rc = run_pass(&job, 2, todo + b, nb);
         }
     }
     pthread_mutex_destroy(&job.lock);
@@ -327,5 +317,6 @@ out:
     free(around);
     big_free(job.mask);
     big_free(job.centre);
+    pool_free(job.pool);
     return rc;
 }
