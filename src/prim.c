@@ -776,12 +776,39 @@ static void slab_interval(double so, double sd, double w, double e_sd, int k, do
     slab_side(-sd - k * e_sd, w + so, k > 0, lo, hi); /* -(so + t sd) <= w + k t e_sd */
 }
 
-int prim_obox_hit_robust(const OBox *b, const Ray *r, PrimHit *h)
+/* An oriented box's slabs, the part of the robust test that does not
+ * depend on the ray: slab i holds the points p with |(p - c).N_i| <=
+ * |det_i|, N_i the cross product of the other two axes and det_i = axis_i .
+ * N_i: the exact faces of c + x u + y v + z w, with no rounded inverse in
+ * between. Worked out once for all the rays that test one box together. */
+typedef struct {
+    double n[3][3];  /* N_i: exact products, one rounding */
+    double half[3];  /* |det_i| */
+    double e_det[3]; /* det_i's error bound */
+} OBoxSlabs;
+
+static void obox_slabs(const OBox *b, OBoxSlabs *k)
 {
-    /* Slab i holds the points p with |(p - c).N| <= |det|, N the cross
-     * product of the other two axes and det = axis_i . N: the exact faces
-     * of c + x u + y v + z w, with no rounded inverse in between. */
     const Vec3 ax[3] = {b->u, b->v, b->w};
+    for (int i = 0; i < 3; i++) {
+        Vec3 P = ax[(i + 1) % 3], Q = ax[(i + 2) % 3];
+        double *n = k->n[i];
+        n[0] = (double)P.y * Q.z - (double)P.z * Q.y;
+        n[1] = (double)P.z * Q.x - (double)P.x * Q.z;
+        n[2] = (double)P.x * Q.y - (double)P.y * Q.x;
+        double det = 0.0, m_det = 0.0;
+        for (int j = 0; j < 3; j++) {
+            det += vec_comp(ax[i], j) * n[j];
+            m_det += fabs(vec_comp(ax[i], j) * n[j]);
+        }
+        k->half[i] = fabs(det);
+        k->e_det[i] = gamma_d(6) * m_det; /* n: 1 rounding; products and sums: 4 more */
+    }
+}
+
+/* prim_obox_hit_robust with the box's slabs k worked out. */
+static int obox_hit_slabs(const OBox *b, const OBoxSlabs *k, const Ray *r, PrimHit *h)
+{
     double oc[3], dd[3] = {r->d.x, r->d.y, r->d.z};
     for (int i = 0; i < 3; i++)
         oc[i] = (double)vec_comp(r->o, i) - vec_comp(b->c, i);
@@ -798,21 +825,17 @@ int prim_obox_hit_robust(const OBox *b, const Ray *r, PrimHit *h)
     double g_lw = -INFINITY, g_ln = -INFINITY, g_hn = INFINITY, g_hw = INFINITY; /* grazed slabs' brackets */
     int near_axis = 0, far_axis = 0, g_near_axis = 0, g_far_axis = 0, grazing = 0;
     for (int i = 0; i < 3; i++) {
-        Vec3 P = ax[(i + 1) % 3], Q = ax[(i + 2) % 3];
-        double n[3] = {(double)P.y * Q.z - (double)P.z * Q.y, (double)P.z * Q.x - (double)P.x * Q.z,
-                       (double)P.x * Q.y - (double)P.y * Q.x}; /* exact products, one rounding */
-        double det = 0.0, so = 0.0, sd = 0.0, m_det = 0.0, m_so = 0.0, m_sd = 0.0;
+        const double *n = k->n[i];
+        double so = 0.0, sd = 0.0, m_so = 0.0, m_sd = 0.0;
         for (int j = 0; j < 3; j++) {
-            det += vec_comp(ax[i], j) * n[j];
             so += oc[j] * n[j];
             sd += dd[j] * n[j];
-            m_det += fabs(vec_comp(ax[i], j) * n[j]);
             m_so += fabs(oc[j] * n[j]);
             m_sd += fabs(dd[j] * n[j]);
         }
         /* n: 1 rounding; oc: 1; products and sums: 4 more */
-        double e_det = gamma_d(6) * m_det, e_so = gamma_d(6) * m_so, e_sd = gamma_d(6) * m_sd;
-        double half = fabs(det), lo, hi, nlo, nhi;
+        double e_det = k->e_det[i], e_so = gamma_d(6) * m_so, e_sd = gamma_d(6) * m_sd;
+        double half = k->half[i], lo, hi, nlo, nhi;
         /* (the bounds grown by 2^-48 for the roundings of these sums) */
         double e_w = (e_det + e_so) * (1.0 + 0x1p-48), e_s = e_sd * (1.0 + 0x1p-48);
         slab_interval(so, sd, (half + e_w) * (1.0 + 0x1p-50), e_s, 1, &lo, &hi);
@@ -903,6 +926,13 @@ int prim_obox_hit_robust(const OBox *b, const Ray *r, PrimHit *h)
     return 1;
 }
 
+int prim_obox_hit_robust(const OBox *b, const Ray *r, PrimHit *h)
+{
+    OBoxSlabs k;
+    obox_slabs(b, &k);
+    return obox_hit_slabs(b, &k, r, h);
+}
+
 /* How variant v traces a PN patch: the robust one to float precision,
  * whichever mode the patch asks for (exact mode is as fast as fast mode's
  * Newton steps or faster: docs/performance.md), the classic one by
@@ -967,6 +997,14 @@ unsigned prim_intersect_rays(const Prim *p, const Ray *r, unsigned rays, PrimVar
             h[k] = (PrimHit){ph[k].t, ph[k].terr, ph[k].u, ph[k].v, 0};
         }
         return got;
+    }
+    if (p->kind == PRIM_OBOX && v == PRIM_ROBUST && (rays & (rays - 1))) {
+        OBoxSlabs k; /* once for all of them */
+        obox_slabs(&p->g.obox, &k);
+        for (; rays; rays &= rays - 1) {
+            int j = __builtin_ctz(rays);
+            hit |= (unsigned)obox_hit_slabs(&p->g.obox, &k, &r[j], &h[j]) << j;
+        }
     }
     for (; rays; rays &= rays - 1) { /* the rest one by one */
         int k = __builtin_ctz(rays);
