@@ -946,6 +946,25 @@ static void test_plane_rays_match_scalar(void **state)
     assert_true(hits > 2500 && misses > 10000);
 }
 
+/* prim_intersect_rays(p, r, rays) against prim_intersect ray by ray, both
+ * robust: no bit outside the mask, and the same verdicts and, for hits, t,
+ * terr and (a box's) face, bit for bit. */
+static void rays_match_scalar(const Prim *p, const Ray *r, unsigned rays, int *hits, int *misses)
+{
+    PrimHit got[8];
+    unsigned bits = prim_intersect_rays(p, r, rays, PRIM_ROBUST, got);
+    assert_int_equal(bits & ~rays, 0);
+    for (int k = 0; k < 8; k++) {
+        if (!(rays >> k & 1))
+            continue;
+        PrimHit want;
+        int hit = prim_intersect(p, &r[k], PRIM_ROBUST, &want);
+        same_hit(bits >> k & 1, &got[k], hit, &want, hits, misses);
+        if (hit && (p->kind == PRIM_BOX || p->kind == PRIM_OBOX))
+            assert_int_equal(got[k].face, want.face);
+    }
+}
+
 /* prim_intersect_rays on robust spheres and ellipsoids: the same verdicts
  * and the same bits as prim_intersect one ray at a time, for rays through,
  * past, grazing (whose root the first bracket cannot certify), from inside
@@ -1018,15 +1037,7 @@ static void test_quadric_rays_match_scalar(void **state)
                 r[k].tmax = (round & 2) ? h.t : nextafterf(h.t, INFINITY);
         }
         unsigned rays = (unsigned)(round % 5 == 0 ? 0xff : test_uniform(&s, 0, 256)) & 0xff;
-        PrimHit got[8];
-        unsigned bits = prim_intersect_rays(&p, r, rays, PRIM_ROBUST, got);
-        assert_int_equal(bits & ~rays, 0);
-        for (int k = 0; k < 8; k++) {
-            if (!(rays >> k & 1))
-                continue;
-            PrimHit want;
-            same_hit(bits >> k & 1, &got[k], prim_intersect(&p, &r[k], PRIM_ROBUST, &want), &want, &hits, &misses);
-        }
+        rays_match_scalar(&p, r, rays, &hits, &misses);
     }
     assert_true(hits > 7000 && misses > 7000 && grazing > 4000 && ellipsoids > 2500);
 }
@@ -1072,18 +1083,7 @@ static void test_obox_rays_match_scalar(void **state)
                 r[k].tmax = h.t;
         }
         unsigned rays = (unsigned)(round % 4 == 0 ? 0xff : test_uniform(&s, 0, 256)) & 0xff;
-        PrimHit got[8];
-        unsigned bits = prim_intersect_rays(&p, r, rays, PRIM_ROBUST, got);
-        assert_int_equal(bits & ~rays, 0);
-        for (int k = 0; k < 8; k++) {
-            if (!(rays >> k & 1))
-                continue;
-            PrimHit want;
-            int hit = prim_intersect(&p, &r[k], PRIM_ROBUST, &want);
-            same_hit(bits >> k & 1, &got[k], hit, &want, &hits, &misses);
-            if (hit)
-                assert_int_equal(got[k].face, want.face);
-        }
+        rays_match_scalar(&p, r, rays, &hits, &misses);
     }
     assert_true(boxes > 3000 && hits > 4000 && misses > 4000);
 }
