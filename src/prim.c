@@ -802,7 +802,7 @@ static void obox_slabs(const OBox *b, OBoxSlabs *k)
             m_det += fabs(vec_comp(ax[i], j) * n[j]);
         }
         k->half[i] = fabs(det);
-        k->e_det[i] = gamma_d(6) * m_det; /* n: 1 rounding; products and sums: 4 more */
+        k->e_det[i] = gamma_d(6) * m_det; /* the bound of the ray's sums below, more than det's own 5 roundings */
     }
 }
 
@@ -1005,6 +1005,7 @@ unsigned prim_intersect_rays(const Prim *p, const Ray *r, unsigned rays, PrimVar
             int j = __builtin_ctz(rays);
             hit |= (unsigned)obox_hit_slabs(&p->g.obox, &k, &r[j], &h[j]) << j;
         }
+        return hit;
     }
     for (; rays; rays &= rays - 1) { /* the rest one by one */
         int k = __builtin_ctz(rays);

@@ -126,14 +126,12 @@ static int render_row(const Job *job, int y, int xa, int xb, int k, const unsign
  * threshold, in the sum of the channels' absolute differences. Decided
  * from the centres of pass 1, whole before pass 2 begins, so that no
  * pixel's fate depends on which thread got there first, nor on the region
- * or the rows a resumed render keeps. Sets the mask of image row y;
- * returns how many pixels it set. */
-static long mask_row(const Job *job, int y)
+ * or the rows a resumed render keeps. Sets mask, image row y's; returns
+ * how many pixels it set. */
+static long mask_row(const Job *job, int y, unsigned char *mask)
 {
     const RenderPlan *p = job->p;
-    int w = p->x1 - p->x0;
     size_t cw = (size_t)(job->cx1 - job->cx0);
-    unsigned char *mask = job->mask + (size_t)(y - p->y0) * (size_t)w;
     long n = 0;
     for (int x = p->x0; x < p->x1; x++) {
         const float *c = job->centre + ((size_t)(y - job->cy0) * cw + (size_t)(x - job->cx0)) * 3;
@@ -164,8 +162,8 @@ static int pass_row(const Job *job, int y, RayStats *st)
     float *out = job->img->rgb + (size_t)(y - p->y0) * (size_t)w * 3;
     if (job->pass == 0)
         return render_row(job, y, p->x0, p->x1, p->spp, NULL, out, st) == 0;
-    const unsigned char *mask = job->mask + (size_t)(y - p->y0) * (size_t)w;
-    st->supersampled += (unsigned long long)mask_row(job, y);
+    unsigned char *mask = job->mask + (size_t)(y - p->y0) * (size_t)w;
+    st->supersampled += (unsigned long long)mask_row(job, y, mask);
     if (render_row(job, y, p->x0, p->x1, p->spp, mask, out, st) != 0)
         return 0;
     const float *c = job->centre + ((size_t)(y - job->cy0) * (size_t)(job->cx1 - job->cx0) + (size_t)(p->x0 - job->cx0)) * 3;
