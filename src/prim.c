@@ -234,86 +234,7 @@ __attribute__((target("avx"))) static inline __m128 float_up4(__m256d x)
     __m128 keep = mask_ps(_mm256_cmp_pd(_mm256_cvtps_pd(f), x, _CMP_GE_OQ));
     return _mm_or_ps(_mm_and_ps(keep, f), _mm_andnot_ps(keep, g));
 }
-
-/* prim_plane_hit_robust for the rays r[k0 .. k0 + 3], lane by lane: the
- * same operations in the same order, each verdict a mask. */
-__attribute__((target("avx"))) static unsigned plane_hit4(const Plane *pl, const Ray *r, int k0, const float *tmax,
-                                                         float *t_out, float *terr_out)
-{
-    const __m256d zero = _mm256_setzero_pd(), sign = _mm256_set1_pd(-0.0);
-    const __m256d nx = _mm256_set1_pd(pl->n.x), ny = _mm256_set1_pd(pl->n.y), nz = _mm256_set1_pd(pl->n.z);
-    const int k[4] = {k0, k0 + 1, k0 + 2, k0 + 3};
-    __m256d dx = _mm256_mul_pd(nx, ray_lanes_pd(r, k, RAY_D)), dy = _mm256_mul_pd(ny, ray_lanes_pd(r, k, RAY_D + 1));
-    __m256d dz = _mm256_mul_pd(nz, ray_lanes_pd(r, k, RAY_D + 2));
-    __m256d den = _mm256_add_pd(_mm256_add_pd(dx, dy), dz);
-    __m256d ox = _mm256_mul_pd(nx, ray_lanes_pd(r, k, RAY_O)), oy = _mm256_mul_pd(ny, ray_lanes_pd(r, k, RAY_O + 1));
-    __m256d oz = _mm256_mul_pd(nz, ray_lanes_pd(r, k, RAY_O + 2));
-    __m256d num = _mm256_sub_pd(_mm256_set1_pd(pl->d), _mm256_add_pd(_mm256_add_pd(ox, oy), oz));
-#define ABS(x) _mm256_andnot_pd(sign, x)
-    /* num == 0 || (num < 0) != (den < 0) */
-    __m256d miss = _mm256_or_pd(_mm256_cmp_pd(num, zero, _CMP_EQ_OQ),
-                                _mm256_xor_pd(_mm256_cmp_pd(num, zero, _CMP_LT_OQ), _mm256_cmp_pd(den, zero, _CMP_LT_OQ)));
-    __m256d e_den = _mm256_mul_pd(_mm256_set1_pd(gamma_d(2)), _mm256_add_pd(_mm256_add_pd(ABS(dx), ABS(dy)), ABS(dz)));
-    miss = _mm256_or_pd(miss, _mm256_cmp_pd(ABS(den), e_den, _CMP_NGT_UQ));
-    __m256d tm = _mm256_cvtps_pd(_mm_loadu_ps(tmax + k0));
-    __m256d reach = _mm256_mul_pd(tm, ABS(den));
-    miss = _mm256_or_pd(miss, _mm256_and_pd(_mm256_cmp_pd(reach, _mm256_set1_pd(0x1p-1000), _CMP_GT_OQ),
-                                            _mm256_cmp_pd(ABS(num), _mm256_mul_pd(reach, _mm256_set1_pd(1.0 + 0x1p-50)),
-                                                          _CMP_GE_OQ)));
-    if (_mm256_movemask_pd(miss) == 15) /* every lane decided: the divisions below are the cost */
-        return 0;
-    __m256d e_num = _mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(gamma_d(2)), _mm256_add_pd(_mm256_add_pd(ABS(ox), ABS(oy)), ABS(oz))),
-                                  _mm256_mul_pd(_mm256_set1_pd(gamma_d(1)), ABS(num)));
-    __m256d t = _mm256_div_pd(num, den);
-    /* quotient_err, then round_t's float_up */
-    __m256d err = _mm256_add_pd(_mm256_div_pd(_mm256_add_pd(e_num, _mm256_mul_pd(ABS(t), e_den)), _mm256_sub_pd(ABS(den), e_den)),
-                                _mm256_mul_pd(_mm256_set1_pd(gamma_d(1)), ABS(t)));
-    __m128 tf = _mm256_cvtpd_ps(t);
-    __m256d x = _mm256_add_pd(err, ABS(_mm256_sub_pd(_mm256_cvtps_pd(tf), t)));
-#undef ABS
-    __m128 terr = float_up4(x);
-    __m128 in = _mm_and_ps(_mm_cmpgt_ps(tf, _mm_setzero_ps()), _mm_cmplt_ps(tf, _mm_loadu_ps(tmax + k0)));
-    _mm_storeu_ps(t_out, tf);
-    _mm_storeu_ps(terr_out, terr);
-    return (unsigned)_mm_movemask_ps(_mm_andnot_ps(mask_ps(miss), in));
-}
 #endif
-
-/* The processor runs the four-lane routines: it has AVX. */
-static int prim_avx(void)
-{
-#ifdef PRIM_AVX
-    return __builtin_cpu_supports("avx");
-#else
-    return 0;
-#endif
-}
-
-unsigned prim_plane_hit_robust_rays(const Plane *pl, const Ray *r, const float *tmax, int n, PrimHit *h)
-{
-    unsigned hit = 0;
-    int k = 0;
-#ifdef PRIM_AVX
-    if (prim_avx())
-        for (; k + 4 <= n; k += 4) {
-            float t[4], terr[4];
-            unsigned m = plane_hit4(pl, r, k, tmax, t, terr);
-            for (unsigned b = m; b; b &= b - 1) { /* the lanes hit: no other is read */
-                int j = __builtin_ctz(b);
-                h[k + j] = (PrimHit){t[j], terr[j], 0.0f, 0.0f, 0};
-            }
-            hit |= m << k;
-        }
-#endif
-    for (; k < n; k++) { /* the rest one by one */
-        Ray q = r[k];
-        q.tmax = tmax[k];
-        PrimHit c = {0.0f, 0.0f, 0.0f, 0.0f, 0};
-        hit |= (unsigned)prim_plane_hit_robust(pl, &q, &c) << k;
-        h[k] = c;
-    }
-    return hit;
-}
 
 /* g(t) = |f + t d|^2 - r2, the exact sphere equation along the ray, in
  * double with a bound on its error: its sign is certain when |g| > *err.
@@ -455,163 +376,143 @@ int prim_sphere_hit_robust(const Sphere *s, const Ray *r, PrimHit *h)
 }
 
 #ifdef PRIM_AVX
-/* One coordinate's term of sphere_g and ell_g for four lanes: p (the
- * coordinate in the sphere's space) and ep (its error bound) added to g,
- * to their error e and to the magnitude mag, in their order. */
-__attribute__((target("avx"))) static inline void g_term4(__m256d p, __m256d ep, __m256d *g, __m256d *e, __m256d *mag)
+/* round_t for four lanes, t and its half-width: t_out and terr_out, and
+ * the lanes whose t lies in (0, tmax). */
+__attribute__((target("avx"))) static inline unsigned round_t4(__m256d t, __m256d half, __m128 tmax, float *t_out,
+                                                              float *terr_out)
 {
-    const __m256d pp = _mm256_mul_pd(p, p), two_abs = _mm256_mul_pd(_mm256_set1_pd(2.0), _mm256_andnot_pd(_mm256_set1_pd(-0.0), p));
-    *g = _mm256_add_pd(*g, pp);
-    *e = _mm256_add_pd(*e, _mm256_add_pd(_mm256_mul_pd(two_abs, ep), _mm256_mul_pd(ep, ep)));
-    *mag = _mm256_add_pd(*mag, pp);
-}
-
-/* sphere_g for four lanes, the same operations lane by lane. */
-__attribute__((target("avx"))) static inline __m256d sphere_g4(const __m256d f[3], const __m256d d[3], __m256d r2,
-                                                              __m256d t, __m256d *err)
-{
-    const __m256d sign = _mm256_set1_pd(-0.0), g3 = _mm256_set1_pd(gamma_d(3));
-    __m256d g = _mm256_xor_pd(r2, sign), e = _mm256_setzero_pd(), mag = r2;
-    for (int i = 0; i < 3; i++) {
-        __m256d td = _mm256_mul_pd(t, d[i]);
-        __m256d p = _mm256_add_pd(f[i], td);
-        g_term4(p, _mm256_mul_pd(g3, _mm256_add_pd(_mm256_andnot_pd(sign, f[i]), _mm256_andnot_pd(sign, td))), &g, &e, &mag);
-    }
-    *err = _mm256_add_pd(e, _mm256_mul_pd(_mm256_set1_pd(gamma_d(5)), mag));
-    return g;
-}
-
-/* ell_g for four lanes at o + t d (o and d the floats of the rays, in
- * double), the same operations lane by lane. */
-__attribute__((target("avx"))) static inline __m256d ell_g4(const double *a, const __m256d o[3], const __m256d d[3],
-                                                           __m256d t, __m256d *err)
-{
-    const __m256d sign = _mm256_set1_pd(-0.0), g4 = _mm256_set1_pd(gamma_d(4));
-    __m256d y[3], ey[3];
-    for (int j = 0; j < 3; j++) {
-        __m256d td = _mm256_mul_pd(t, d[j]);
-        y[j] = _mm256_add_pd(o[j], td);
-        ey[j] = _mm256_mul_pd(_mm256_set1_pd(gamma_d(2)), _mm256_add_pd(_mm256_andnot_pd(sign, o[j]), _mm256_andnot_pd(sign, td)));
-    }
-    __m256d g = _mm256_set1_pd(-1.0), e = _mm256_setzero_pd(), mag = _mm256_set1_pd(1.0);
-    for (int i = 0; i < 3; i++) {
-        __m256d x = _mm256_set1_pd(a[9 + i]), m = _mm256_set1_pd(fabs(a[9 + i])), ex = _mm256_setzero_pd();
-        for (int j = 0; j < 3; j++) {
-            __m256d ay = _mm256_mul_pd(_mm256_set1_pd(a[3 * i + j]), y[j]);
-            x = _mm256_add_pd(x, ay);
-            m = _mm256_add_pd(m, _mm256_andnot_pd(sign, ay));
-            ex = _mm256_add_pd(ex, _mm256_mul_pd(_mm256_set1_pd(fabs(a[3 * i + j])), ey[j]));
-        }
-        g_term4(x, _mm256_add_pd(_mm256_mul_pd(ex, _mm256_set1_pd(1.0 + gamma_d(4))), _mm256_mul_pd(g4, m)), &g, &e, &mag);
-    }
-    *err = _mm256_mul_pd(_mm256_add_pd(e, _mm256_mul_pd(_mm256_set1_pd(gamma_d(5)), mag)), _mm256_set1_pd(1.0 + gamma_d(8)));
-    return g;
-}
-
-/* A quadric's exact g along four rays: a sphere's (ell NULL, f = o - c)
- * or an ellipsoid's (ell its inverse map a, f = o), d the rays'. */
-__attribute__((target("avx"), always_inline)) static inline __m256d quad_g4(const double *ell, const __m256d f[3],
-                                                                           const __m256d d[3], __m256d r2, __m256d t,
-                                                                           __m256d *err)
-{
-    return ell ? ell_g4(ell, f, d, t, err) : sphere_g4(f, d, r2, t, err);
-}
-
-/* quadric_hit for four rays (their tmax), lane by lane: the same operations
- * in the same order (stable_roots from f and d, certify_root's brackets on
- * quad_g4(ell, gf, gd, r2), round_t), each verdict a mask. Returns the
- * lanes hit. */
-__attribute__((target("avx"), always_inline)) static inline unsigned quadric_hit4(const __m256d f[3], const __m256d d[3],
-                                                                                 __m256d r2, const double *ell,
-                                                                                 const __m256d gf[3], const __m256d gd[3],
-                                                                                 __m128 tmax, float *t_out, float *terr_out)
-{
-    const __m256d zero = _mm256_setzero_pd(), sign = _mm256_set1_pd(-0.0);
-#define ABS(x) _mm256_andnot_pd(sign, x)
-    /* stable_roots */
-    __m256d a = zero, b = zero, ff = zero, l2 = zero;
-    for (int i = 0; i < 3; i++) {
-        a = _mm256_add_pd(a, _mm256_mul_pd(d[i], d[i]));
-        b = _mm256_add_pd(b, _mm256_mul_pd(f[i], d[i]));
-        ff = _mm256_add_pd(ff, _mm256_mul_pd(f[i], f[i]));
-    }
-    /* every lane from outside and moving away: none has a root (stable_roots) */
-    if (_mm256_movemask_pd(_mm256_and_pd(_mm256_cmp_pd(b, zero, _CMP_GT_OQ),
-                                         _mm256_cmp_pd(_mm256_sub_pd(ff, r2), zero, _CMP_GT_OQ))) == 15)
-        return 0;
-    __m256d kk = _mm256_div_pd(b, a);
-    for (int i = 0; i < 3; i++) {
-        __m256d li = _mm256_sub_pd(f[i], _mm256_mul_pd(kk, d[i]));
-        l2 = _mm256_add_pd(l2, _mm256_mul_pd(li, li));
-    }
-    __m256d disc = _mm256_mul_pd(a, _mm256_sub_pd(r2, l2));
-    __m256d ok = _mm256_cmp_pd(disc, zero, _CMP_GE_OQ);
-    __m256d root = _mm256_or_pd(ABS(_mm256_sqrt_pd(disc)), _mm256_and_pd(sign, b)); /* copysign */
-    __m256d q = _mm256_xor_pd(_mm256_add_pd(b, root), sign);
-    __m256d t0 = _mm256_div_pd(_mm256_sub_pd(ff, r2), q), t1 = _mm256_div_pd(q, a);
-    __m256d swap = _mm256_cmp_pd(t0, t1, _CMP_GT_OQ);
-    __m256d lo = _mm256_blendv_pd(t0, t1, swap), hi = _mm256_blendv_pd(t1, t0, swap);
-    ok = _mm256_and_pd(ok, _mm256_cmp_pd(q, zero, _CMP_NEQ_UQ));
-    /* stable_root */
-    __m256d t = _mm256_blendv_pd(hi, lo, _mm256_cmp_pd(lo, zero, _CMP_GT_OQ));
-    ok = _mm256_and_pd(ok, _mm256_cmp_pd(t, zero, _CMP_GT_OQ));
-    /* certify_root: each lane's bracket widens until it is certain, as
-     * long as some lane's is not (none, when every lane missed) */
-    __m256d w = _mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(CERTIFY_START * UNIT_D), ABS(t)), _mm256_set1_pd(1e-300));
-    __m256d sure = zero, half = zero; /* half: the certain lanes' half-widths */
-    for (int it = 0; it < 24; it++, w = _mm256_mul_pd(w, _mm256_set1_pd(8.0))) {
-        __m256d need = _mm256_andnot_pd(sure, ok);
-        if (!_mm256_movemask_pd(need))
-            break;
-        __m256d e_lo, e_hi;
-        __m256d g_lo = quad_g4(ell, gf, gd, r2, _mm256_sub_pd(t, w), &e_lo);
-        __m256d g_hi = quad_g4(ell, gf, gd, r2, _mm256_add_pd(t, w), &e_hi);
-        __m256d now = _mm256_and_pd(_mm256_cmp_pd(ABS(g_lo), e_lo, _CMP_GT_OQ), _mm256_cmp_pd(ABS(g_hi), e_hi, _CMP_GT_OQ));
-        now = _mm256_and_pd(need, _mm256_and_pd(now, _mm256_xor_pd(_mm256_cmp_pd(g_lo, zero, _CMP_GT_OQ),
-                                                                  _mm256_cmp_pd(g_hi, zero, _CMP_GT_OQ))));
-        half = _mm256_blendv_pd(half, _mm256_add_pd(w, _mm256_mul_pd(_mm256_set1_pd(2.0 * UNIT_D), _mm256_add_pd(ABS(t), w))), now);
-        sure = _mm256_or_pd(sure, now);
-    }
-    ok = _mm256_and_pd(ok, sure); /* a bracket never certain: tangent to working precision, a miss */
-    /* round_t */
     __m128 tf = _mm256_cvtpd_ps(t);
-    __m128 terr = float_up4(_mm256_add_pd(half, ABS(_mm256_sub_pd(_mm256_cvtps_pd(tf), t))));
-#undef ABS
+    __m256d off = _mm256_andnot_pd(_mm256_set1_pd(-0.0), _mm256_sub_pd(_mm256_cvtps_pd(tf), t)); /* |tf - t| */
+    __m128 terr = float_up4(_mm256_add_pd(half, off));
     __m128 in = _mm_and_ps(_mm_cmpgt_ps(tf, _mm_setzero_ps()), _mm_cmplt_ps(tf, tmax));
     _mm_storeu_ps(t_out, tf);
     _mm_storeu_ps(terr_out, terr);
-    return (unsigned)_mm_movemask_ps(_mm_and_ps(mask_ps(ok), in));
+    return (unsigned)_mm_movemask_ps(in);
 }
 
-/* prim_sphere_hit_robust or prim_ellipsoid_hit_robust for the rays
- * r[k[0 .. 3]] (p a sphere or an ellipsoid), lane by lane. Returns the
- * lanes hit. */
-__attribute__((target("avx"))) static unsigned quadric_rays4(const Prim *p, const Ray *r, const int k[4], float *t_out,
-                                                            float *terr_out)
+/* Four lanes, AVX. */
+#define Q_NAME(f) f##4
+#define Q_ATTR __attribute__((target("avx")))
+#define Q_W 4
+#define Q_ALL 15u
+#define Q_LOAD_F _mm_loadu_ps
+#define Q_CVT_PD _mm256_cvtps_pd
+#define Q_F __m128
+#define Q_RAY ray_lanes_pd
+#define Q_RAY_F ray_lanes
+#define Q_ROUND_T round_t4
+#define V __m256d
+#define M __m256d
+#define V_SET1 _mm256_set1_pd
+#define V_ADD _mm256_add_pd
+#define V_SUB _mm256_sub_pd
+#define V_MUL _mm256_mul_pd
+#define V_DIV _mm256_div_pd
+#define V_SQRT _mm256_sqrt_pd
+#define V_ABS(x) _mm256_andnot_pd(_mm256_set1_pd(-0.0), x)
+#define V_NEG(x) _mm256_xor_pd(x, _mm256_set1_pd(-0.0))
+#define V_COPYSIGN(x, s) _mm256_or_pd(V_ABS(x), _mm256_and_pd(_mm256_set1_pd(-0.0), s))
+#define V_BLEND _mm256_blendv_pd /* (a, b, m): b where m is set */
+#define V_CMP _mm256_cmp_pd
+#define M_AND _mm256_and_pd
+#define M_OR _mm256_or_pd
+#define M_ANDNOT _mm256_andnot_pd /* (a, b): b and not a */
+#define M_XOR _mm256_xor_pd
+#define M_BITS(m) ((unsigned)_mm256_movemask_pd(m))
+#define M_NONE _mm256_setzero_pd()
+#include "prim_lanes.h"
+
+/* The processor runs the eight-lane routines: it has AVX-512F and DQ. */
+static int prim_avx512(void)
 {
-    const __m128 tmax = ray_lanes(r, k, RAY_TMAX);
-    const __m256d o[3] = {ray_lanes_pd(r, k, RAY_O), ray_lanes_pd(r, k, RAY_O + 1), ray_lanes_pd(r, k, RAY_O + 2)};
-    const __m256d d[3] = {ray_lanes_pd(r, k, RAY_D), ray_lanes_pd(r, k, RAY_D + 1), ray_lanes_pd(r, k, RAY_D + 2)};
-    __m256d f[3];
-    if (p->kind == PRIM_SPHERE) {
-        const Sphere *s = &p->g.sphere;
-        const __m256d r2 = _mm256_set1_pd((double)s->r * s->r); /* r^2 is exact */
-        for (int i = 0; i < 3; i++)
-            f[i] = _mm256_sub_pd(o[i], _mm256_set1_pd(vec_comp(s->c, i)));
-        return quadric_hit4(f, d, r2, NULL, f, d, tmax, t_out, terr_out);
-    }
-    /* ell_ray: f = A o + b, and A d */
-    const double *a = p->g.ell.e->a;
-    __m256d dd[3];
-    for (int i = 0; i < 3; i++) {
-        const __m256d a0 = _mm256_set1_pd(a[3 * i]), a1 = _mm256_set1_pd(a[3 * i + 1]), a2 = _mm256_set1_pd(a[3 * i + 2]);
-        f[i] = _mm256_add_pd(_mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(a0, o[0]), _mm256_mul_pd(a1, o[1])), _mm256_mul_pd(a2, o[2])),
-                             _mm256_set1_pd(a[9 + i]));
-        dd[i] = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(a0, d[0]), _mm256_mul_pd(a1, d[1])), _mm256_mul_pd(a2, d[2]));
-    }
-    return quadric_hit4(f, dd, _mm256_set1_pd(1.0), a, o, d, tmax, t_out, terr_out);
+    return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq");
 }
+
+#define AVX512 __attribute__((target("avx512f,avx512dq")))
+
+/* round_t for eight lanes, as two halves of four. */
+AVX512 static inline unsigned round_t8(__m512d t, __m512d half, __m256 tmax, float *t_out, float *terr_out)
+{
+    unsigned lo = round_t4(_mm512_castpd512_pd256(t), _mm512_castpd512_pd256(half), _mm256_castps256_ps128(tmax), t_out,
+                           terr_out);
+    unsigned hi = round_t4(_mm512_extractf64x4_pd(t, 1), _mm512_extractf64x4_pd(half, 1),
+                           _mm256_extractf128_ps(tmax, 1), t_out + 4, terr_out + 4);
+    return lo | hi << 4;
+}
+
+/* Eight lanes, AVX-512. */
+#define Q_NAME(f) f##8
+#define Q_ATTR AVX512
+#define Q_W 8
+#define Q_ALL 255u
+#define Q_LOAD_F _mm256_loadu_ps
+#define Q_CVT_PD _mm512_cvtps_pd
+#define Q_F __m256
+#define Q_RAY ray_lanes8_pd
+#define Q_RAY_F ray_lanes8
+#define Q_ROUND_T round_t8
+#define V __m512d
+#define M __mmask8
+#define V_SET1 _mm512_set1_pd
+#define V_ADD _mm512_add_pd
+#define V_SUB _mm512_sub_pd
+#define V_MUL _mm512_mul_pd
+#define V_DIV _mm512_div_pd
+#define V_SQRT _mm512_sqrt_pd
+#define V_ABS(x) _mm512_andnot_pd(_mm512_set1_pd(-0.0), x)
+#define V_NEG(x) _mm512_xor_pd(x, _mm512_set1_pd(-0.0))
+#define V_COPYSIGN(x, s) _mm512_or_pd(V_ABS(x), _mm512_and_pd(_mm512_set1_pd(-0.0), s))
+#define V_BLEND(a, b, m) _mm512_mask_blend_pd(m, a, b)
+#define V_CMP _mm512_cmp_pd_mask
+#define M_AND(a, b) ((__mmask8)((a) & (b)))
+#define M_OR(a, b) ((__mmask8)((a) | (b)))
+#define M_ANDNOT(a, b) ((__mmask8)(~(a) & (b)))
+#define M_XOR(a, b) ((__mmask8)((a) ^ (b)))
+#define M_BITS(m) ((unsigned)(m))
+#define M_NONE ((__mmask8)0)
+#include "prim_lanes.h"
+#undef AVX512
 #endif
+
+/* The processor runs the four-lane routines: it has AVX. */
+static int prim_avx(void)
+{
+#ifdef PRIM_AVX
+    return __builtin_cpu_supports("avx");
+#else
+    return 0;
+#endif
+}
+
+unsigned prim_plane_hit_robust_rays(const Plane *pl, const Ray *r, const float *tmax, int n, PrimHit *h)
+{
+    unsigned hit = 0;
+    int k = 0;
+#ifdef PRIM_AVX
+    if (prim_avx()) {
+        const int eight = prim_avx512();
+        while (k + 4 <= n) { /* eight lanes where AVX-512 runs them, else four */
+            const int w = eight && k + 8 <= n ? 8 : 4;
+            float t[8], terr[8];
+            unsigned m = w == 8 ? plane_hit8(pl, r, k, tmax, t, terr) : plane_hit4(pl, r, k, tmax, t, terr);
+            for (unsigned b = m; b; b &= b - 1) { /* the lanes hit: no other is read */
+                int j = __builtin_ctz(b);
+                h[k + j] = (PrimHit){t[j], terr[j], 0.0f, 0.0f, 0};
+            }
+            hit |= m << k;
+            k += w;
+        }
+    }
+#endif
+    for (; k < n; k++) { /* the rest one by one */
+        Ray q = r[k];
+        q.tmax = tmax[k];
+        PrimHit c = {0.0f, 0.0f, 0.0f, 0.0f, 0};
+        hit |= (unsigned)prim_plane_hit_robust(pl, &q, &c) << k;
+        h[k] = c;
+    }
+    return hit;
+}
 
 /* ---- ellipsoid ---- */
 
@@ -974,14 +875,17 @@ unsigned prim_intersect_rays(const Prim *p, const Ray *r, unsigned rays, PrimVar
     unsigned hit = 0;
 #ifdef PRIM_AVX
     if ((p->kind == PRIM_SPHERE || p->kind == PRIM_ELLIPSOID) && v == PRIM_ROBUST && prim_avx())
-        while (rays & (rays - 1)) { /* two rays or more: four lanes, the last ones repeating the first */
-            int k[4] = {0, 0, 0, 0}, m = 0;
-            for (; m < 4 && rays; rays &= rays - 1)
+        while (rays & (rays - 1)) {
+            /* two rays or more: four lanes, or eight for five rays or more
+             * where AVX-512 runs them, the last ones repeating the first */
+            const int w = __builtin_popcount(rays) > 4 && prim_avx512() ? 8 : 4;
+            int k[8] = {0, 0, 0, 0, 0, 0, 0, 0}, m = 0;
+            for (; m < w && rays; rays &= rays - 1)
                 k[m++] = __builtin_ctz(rays);
-            for (int j = m; j < 4; j++)
+            for (int j = m; j < w; j++)
                 k[j] = k[0];
-            float t[4], terr[4];
-            unsigned got = quadric_rays4(p, r, k, t, terr);
+            float t[8], terr[8];
+            unsigned got = w == 8 ? quadric_rays8(p, r, k, t, terr) : quadric_rays4(p, r, k, t, terr);
             for (int j = 0; j < m; j++)
                 if (got >> j & 1) {
                     h[k[j]] = (PrimHit){t[j], terr[j], 0.0f, 0.0f, 0};

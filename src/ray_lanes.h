@@ -1,6 +1,6 @@
 /*
  * ray_lanes.h - rays' fields gathered into SIMD lanes, one ray a lane, for
- * the four-lane routines of prim.c and pntri.c (private to src/). Each
+ * the four- and eight-lane routines of prim.c and pntri.c (private to src/). Each
  * includes it where it has decided to build its AVX forms (x86-64 with
  * GCC or Clang), after <immintrin.h>.
  */
@@ -32,6 +32,21 @@ __attribute__((target("avx"))) static inline __m128 ray_lanes(const Ray *r, cons
 __attribute__((target("avx"))) static inline __m256d ray_lanes_pd(const Ray *r, const int k[4], int at)
 {
     return _mm256_cvtps_pd(ray_lanes(r, k, at));
+}
+
+/* Field at of the rays r[k[0 .. 7]], a lane each. */
+__attribute__((target("avx"))) static inline __m256 ray_lanes8(const Ray *r, const int k[8], int at)
+{
+    const float *f = (const float *)r + at;
+    const int s = (int)(sizeof(Ray) / sizeof(float));
+    return _mm256_setr_ps(f[k[0] * s], f[k[1] * s], f[k[2] * s], f[k[3] * s], f[k[4] * s], f[k[5] * s], f[k[6] * s],
+                          f[k[7] * s]);
+}
+
+/* The same in double, eight lanes of AVX-512. */
+__attribute__((target("avx512f"))) static inline __m512d ray_lanes8_pd(const Ray *r, const int k[8], int at)
+{
+    return _mm512_cvtps_pd(ray_lanes8(r, k, at));
 }
 
 #endif

@@ -892,8 +892,9 @@ static void same_hit(unsigned got_bit, const PrimHit *got, int hit, const PrimHi
  * the same verdicts and, for hits, the same t and terr, bit for bit, on
  * random and axis-aligned planes, for rays from all around, from on the
  * plane, parallel to it, with tiny and huge components and non-finite
- * ones, to tmax past, at and short of the hit, in groups of 1 to 8 (the
- * AVX lanes, four at a time, and the rest one by one). */
+ * ones, to tmax past, at and short of the hit, in groups of 1 to 16 (the
+ * lanes, eight at a time where AVX-512 runs them, then four with AVX, and
+ * the rest one by one). */
 static void test_plane_rays_match_scalar(void **state)
 {
     (void)state;
@@ -908,9 +909,9 @@ static void test_plane_rays_match_scalar(void **state)
             Vec3 n = vec3(test_uniform(&s, -1, 1), test_uniform(&s, -1, 1), test_uniform(&s, -1, 1));
             pl = (Plane){vec_normalize(n), test_uniform(&s, -10, 10) * (round % 16 == 1 ? 1e6f : 1.0f)};
         }
-        Ray r[8];
-        float tmax[8];
-        int n = 1 + round % 8;
+        Ray r[16];
+        float tmax[16];
+        int n = 1 + round % 16;
         for (int k = 0; k < n; k++) {
             Vec3 o = vec3(test_uniform(&s, -20, 20), test_uniform(&s, -20, 20), test_uniform(&s, -20, 20));
             Vec3 d = vec_normalize(vec3(test_uniform(&s, -1, 1), test_uniform(&s, -1, 1), test_uniform(&s, -1, 1)));
@@ -934,7 +935,7 @@ static void test_plane_rays_match_scalar(void **state)
             if (m == 3 && prim_plane_hit_robust(&pl, &r[k], &h)) /* at the hit, or one float past it */
                 tmax[k] = (round & 2) ? h.t : nextafterf(h.t, INFINITY);
         }
-        PrimHit got[8];
+        PrimHit got[16];
         unsigned bits = prim_plane_hit_robust_rays(&pl, r, tmax, n, got);
         for (int k = 0; k < n; k++) {
             Ray q = r[k];
@@ -968,7 +969,8 @@ static void rays_match_scalar(const Prim *p, const Ray *r, unsigned rays, int *h
 /* prim_intersect_rays on robust spheres and ellipsoids: the same verdicts
  * and the same bits as prim_intersect one ray at a time, for rays through,
  * past, grazing (whose root the first bracket cannot certify), from inside
- * and from the surface, tiny, huge and not numbers, in masks with gaps. */
+ * and from the surface, tiny, huge and not numbers, in masks with gaps (of
+ * five rays or more: eight lanes where AVX-512 runs them). */
 static void test_quadric_rays_match_scalar(void **state)
 {
     (void)state;
