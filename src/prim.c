@@ -1242,9 +1242,10 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
 #ifdef PRIM_AVX
 /* prim_surface for robust spheres, the hits k[0 .. 3] of rays r[k] at
  * prims[best[k]]: the same operations lane by lane, the sphere's part in
- * doubles and the normal's in floats, into out[0 .. 3]. */
+ * doubles and the normal's in floats, into s[k[0 .. 3]], field by field (a
+ * Surface built aside and copied whole stalled on the copy's loads). */
 __attribute__((target("avx"))) static void sphere_surface4(const Prim *prims, const int *best, const Ray *r,
-                                                          const PrimHit *h, const int k[4], Surface out[4])
+                                                          const PrimHit *h, const int k[4], Surface *s)
 {
     const Sphere *sp[4] = {&prims[best[k[0]]].g.sphere, &prims[best[k[1]]].g.sphere, &prims[best[k[2]]].g.sphere,
                            &prims[best[k[3]]].g.sphere};
@@ -1289,7 +1290,7 @@ __attribute__((target("avx"))) static void sphere_surface4(const Prim *prims, co
     for (int i = 0; i < 3; i++)
         _mm_storeu_ps(ng[i], _mm_xor_ps(n[i], flip));
     for (int j = 0; j < 4; j++) {
-        Surface *o = &out[j];
+        Surface *o = &s[k[j]];
         o->p = vec3(pp[0][j], pp[1][j], pp[2][j]);
         o->perr = vec3(e[0][j], e[1][j], e[2][j]);
         o->ng = o->noff = o->ns = vec3(ng[0][j], ng[1][j], ng[2][j]);
@@ -1317,10 +1318,7 @@ void prim_surface_hits(const Prim *prims, const int *best, const Ray *r, const P
         k[m++] = j;
 #ifdef PRIM_AVX
         if (m == 4) {
-            Surface out[4];
-            sphere_surface4(prims, best, r, h, k, out);
-            for (int i = 0; i < 4; i++)
-                s[k[i]] = out[i];
+            sphere_surface4(prims, best, r, h, k, s);
             m = 0;
         }
 #endif

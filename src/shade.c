@@ -383,12 +383,16 @@ static Vec3 spawn_front(const Surface *sf, Vec3 front, Vec3 d)
     return nd > 0.0f ? front : prim_spawn_side(sf, nd);
 }
 
-/* The mirror ray of r at sf, whose front origin is front. */
-static Ray mirror_ray(const Ctx *c, const Ray *r, const Surface *sf, Vec3 front)
+/* The mirror ray of r at sf, whose front origin is front, into *out field
+ * by field: a Ray returned whole went through the stack, and its reload
+ * stalled on the stores. */
+static void mirror_ray(const Ctx *c, const Ray *r, const Surface *sf, Vec3 front, Ray *out)
 {
     Vec3 d = vec_reflect(r->d, sf->ns);
     c->st->reflection++;
-    return ray_make(spawn_front(sf, front, d), d, INFINITY);
+    out->o = spawn_front(sf, front, d);
+    out->d = d;
+    out->tmax = INFINITY;
 }
 
 Vec3 shade_trace(const RenderPlan *p, const Accel *a, const Ray *r, RayStats *st)
@@ -511,7 +515,7 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
         rmul[k] = tir ? 1.0f : m[k]->reflection;
         if (worth(c, w)) {
             rw[nr] = w;
-            rr[nr] = mirror_ray(c, &r[k], &sf[k], front[k]);
+            mirror_ray(c, &r[k], &sf[k], front[k], &rr[nr]);
             rin[nr] = in[k];
             rwho[nr++] = k;
         }
