@@ -422,10 +422,12 @@ __attribute__((target("avx"))) static inline unsigned round_t4(__m256d t, __m256
 #define M_NONE _mm256_setzero_pd()
 #include "prim_lanes.h"
 
-/* The processor runs the eight-lane routines: it has AVX-512F and DQ. */
+/* The eight-lane routines run where they pay: an AMD processor with
+ * AVX-512F and DQ. On an Intel Xeon with AVX-512 they ran slower than two
+ * calls of four lanes (docs/performance.md). */
 static int prim_avx512(void)
 {
-    return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq");
+    return __builtin_cpu_is("amd") && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq");
 }
 
 #define AVX512 __attribute__((target("avx512f,avx512dq")))

@@ -893,8 +893,8 @@ static void same_hit(unsigned got_bit, const PrimHit *got, int hit, const PrimHi
  * random and axis-aligned planes, for rays from all around, from on the
  * plane, parallel to it, with tiny and huge components and non-finite
  * ones, to tmax past, at and short of the hit, in groups of 1 to 16 (the
- * lanes, eight at a time where AVX-512 runs them, then four with AVX, and
- * the rest one by one). */
+ * lanes, eight at a time where prim.c runs eight (AMD with AVX-512), then
+ * four with AVX, and the rest one by one). */
 static void test_plane_rays_match_scalar(void **state)
 {
     (void)state;
@@ -970,7 +970,7 @@ static void rays_match_scalar(const Prim *p, const Ray *r, unsigned rays, int *h
  * and the same bits as prim_intersect one ray at a time, for rays through,
  * past, grazing (whose root the first bracket cannot certify), from inside
  * and from the surface, tiny, huge and not numbers, in masks with gaps (of
- * five rays or more: eight lanes where AVX-512 runs them). */
+ * five rays or more: eight lanes where prim.c runs eight). */
 static void test_quadric_rays_match_scalar(void **state)
 {
     (void)state;
