@@ -493,7 +493,7 @@ unsigned prim_plane_hit_robust_rays(const Plane *pl, const Ray *r, const float *
 #ifdef PRIM_AVX
     if (prim_avx()) {
         const int eight = prim_avx512();
-        while (k + 4 <= n) { /* eight lanes where AVX-512 runs them, else four */
+        while (k + 4 <= n) { /* eight lanes where prim_avx512() allows, else four */
             const int w = eight && k + 8 <= n ? 8 : 4;
             float t[8], terr[8];
             unsigned m = w == 8 ? plane_hit8(pl, r, k, tmax, t, terr) : plane_hit4(pl, r, k, tmax, t, terr);
@@ -879,7 +879,7 @@ unsigned prim_intersect_rays(const Prim *p, const Ray *r, unsigned rays, PrimVar
     if ((p->kind == PRIM_SPHERE || p->kind == PRIM_ELLIPSOID) && v == PRIM_ROBUST && prim_avx())
         while (rays & (rays - 1)) {
             /* two rays or more: four lanes, or eight for five rays or more
-             * where AVX-512 runs them, the last ones repeating the first */
+             * where prim_avx512() allows, the last ones repeating the first */
             const int w = __builtin_popcount(rays) > 4 && prim_avx512() ? 8 : 4;
             int k[8] = {0, 0, 0, 0, 0, 0, 0, 0}, m = 0;
             for (; m < w && rays; rays &= rays - 1)
