@@ -401,25 +401,25 @@ __attribute__((target("avx"))) static inline unsigned round_t4(__m256d t, __m256
 #define Q_RAY ray_lanes_pd
 #define Q_RAY_F ray_lanes
 #define Q_ROUND_T round_t4
-#define V __m256d
-#define M __m256d
-#define V_SET1 _mm256_set1_pd
-#define V_ADD _mm256_add_pd
-#define V_SUB _mm256_sub_pd
-#define V_MUL _mm256_mul_pd
-#define V_DIV _mm256_div_pd
-#define V_SQRT _mm256_sqrt_pd
-#define V_ABS(x) _mm256_andnot_pd(_mm256_set1_pd(-0.0), x)
-#define V_NEG(x) _mm256_xor_pd(x, _mm256_set1_pd(-0.0))
-#define V_COPYSIGN(x, s) _mm256_or_pd(V_ABS(x), _mm256_and_pd(_mm256_set1_pd(-0.0), s))
-#define V_BLEND _mm256_blendv_pd /* (a, b, m): b where m is set */
-#define V_CMP _mm256_cmp_pd
-#define M_AND _mm256_and_pd
-#define M_OR _mm256_or_pd
-#define M_ANDNOT _mm256_andnot_pd /* (a, b): b and not a */
-#define M_XOR _mm256_xor_pd
-#define M_BITS(m) ((unsigned)_mm256_movemask_pd(m))
-#define M_NONE _mm256_setzero_pd()
+#define Q_V __m256d
+#define Q_M __m256d
+#define QV_SET1 _mm256_set1_pd
+#define QV_ADD _mm256_add_pd
+#define QV_SUB _mm256_sub_pd
+#define QV_MUL _mm256_mul_pd
+#define QV_DIV _mm256_div_pd
+#define QV_SQRT _mm256_sqrt_pd
+#define QV_ABS(x) _mm256_andnot_pd(_mm256_set1_pd(-0.0), x)
+#define QV_NEG(x) _mm256_xor_pd(x, _mm256_set1_pd(-0.0))
+#define QV_COPYSIGN(x, s) _mm256_or_pd(QV_ABS(x), _mm256_and_pd(_mm256_set1_pd(-0.0), s))
+#define QV_BLEND _mm256_blendv_pd /* (a, b, m): b where m is set */
+#define QV_CMP _mm256_cmp_pd
+#define QM_AND _mm256_and_pd
+#define QM_OR _mm256_or_pd
+#define QM_ANDNOT _mm256_andnot_pd /* (a, b): b and not a */
+#define QM_XOR _mm256_xor_pd
+#define QM_BITS(m) ((unsigned)_mm256_movemask_pd(m))
+#define QM_NONE _mm256_setzero_pd()
 #include "prim_lanes.h"
 
 /* The eight-lane routines run where they pay: an AMD processor with
@@ -453,25 +453,25 @@ AVX512 static inline unsigned round_t8(__m512d t, __m512d half, __m256 tmax, flo
 #define Q_RAY ray_lanes8_pd
 #define Q_RAY_F ray_lanes8
 #define Q_ROUND_T round_t8
-#define V __m512d
-#define M __mmask8
-#define V_SET1 _mm512_set1_pd
-#define V_ADD _mm512_add_pd
-#define V_SUB _mm512_sub_pd
-#define V_MUL _mm512_mul_pd
-#define V_DIV _mm512_div_pd
-#define V_SQRT _mm512_sqrt_pd
-#define V_ABS(x) _mm512_andnot_pd(_mm512_set1_pd(-0.0), x)
-#define V_NEG(x) _mm512_xor_pd(x, _mm512_set1_pd(-0.0))
-#define V_COPYSIGN(x, s) _mm512_or_pd(V_ABS(x), _mm512_and_pd(_mm512_set1_pd(-0.0), s))
-#define V_BLEND(a, b, m) _mm512_mask_blend_pd(m, a, b)
-#define V_CMP _mm512_cmp_pd_mask
-#define M_AND(a, b) ((__mmask8)((a) & (b)))
-#define M_OR(a, b) ((__mmask8)((a) | (b)))
-#define M_ANDNOT(a, b) ((__mmask8)(~(a) & (b)))
-#define M_XOR(a, b) ((__mmask8)((a) ^ (b)))
-#define M_BITS(m) ((unsigned)(m))
-#define M_NONE ((__mmask8)0)
+#define Q_V __m512d
+#define Q_M __mmask8
+#define QV_SET1 _mm512_set1_pd
+#define QV_ADD _mm512_add_pd
+#define QV_SUB _mm512_sub_pd
+#define QV_MUL _mm512_mul_pd
+#define QV_DIV _mm512_div_pd
+#define QV_SQRT _mm512_sqrt_pd
+#define QV_ABS(x) _mm512_andnot_pd(_mm512_set1_pd(-0.0), x)
+#define QV_NEG(x) _mm512_xor_pd(x, _mm512_set1_pd(-0.0))
+#define QV_COPYSIGN(x, s) _mm512_or_pd(QV_ABS(x), _mm512_and_pd(_mm512_set1_pd(-0.0), s))
+#define QV_BLEND(a, b, m) _mm512_mask_blend_pd(m, a, b)
+#define QV_CMP _mm512_cmp_pd_mask
+#define QM_AND(a, b) ((__mmask8)((a) & (b)))
+#define QM_OR(a, b) ((__mmask8)((a) | (b)))
+#define QM_ANDNOT(a, b) ((__mmask8)(~(a) & (b)))
+#define QM_XOR(a, b) ((__mmask8)((a) ^ (b)))
+#define QM_BITS(m) ((unsigned)(m))
+#define QM_NONE ((__mmask8)0)
 #include "prim_lanes.h"
 #undef AVX512
 #endif
