@@ -474,17 +474,10 @@ AVX512 static inline unsigned round_t8(__m512d t, __m512d half, __m256 tmax, flo
 #define QM_NONE ((__mmask8)0)
 #include "prim_lanes.h"
 #undef AVX512
-#endif
 
 /* The processor runs the four-lane routines: it has AVX. */
-static int prim_avx(void)
-{
-#ifdef PRIM_AVX
-    return __builtin_cpu_supports("avx");
-#else
-    return 0;
+static int prim_avx(void) { return __builtin_cpu_supports("avx"); }
 #endif
-}
 
 unsigned prim_plane_hit_robust_rays(const Plane *pl, const Ray *r, const float *tmax, int n, PrimHit *h)
 {
