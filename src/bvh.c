@@ -49,6 +49,8 @@
  * such a primitive, else 0). The cost of a bin count (split()): its
  * primitives n in the low 32 bits, the costly c among them in the high. */
 #define BVH_TESTS(nc) (BVH_BLOCKS((int)((nc) & 0xffffffffu) - (int)((nc) >> 32)) + (int)((nc) >> 32))
+/* A ref's lo[3] for a PN patch: costly, and kept beside its triangles (parts()). */
+#define BVH_PN 2.0f
 /* Below this many primitives a subtree is built on the calling thread:
  * starting a thread costs more than it saves. */
 #define BVH_PARALLEL_MIN 4096
@@ -313,6 +315,23 @@ static int costly(const Ref *refs, int begin, int end)
     return c;
 }
 
+/* refs[begin, end), at most a leaf's worth, hold one primitive with a test
+ * of its own among triangles, and it may leave them: it is not a PN patch
+ * (BVH_PN), whose t depends a little on the ray's tmax, so that a patch
+ * tested in another order than beside its triangles could give other bits
+ * (bvh_traverse.c, other_together). Such a leaf is parted where the SAH
+ * finds it cheaper: a sphere beside a distant triangle then no longer
+ * makes the rays that reach the one test the other. */
+static int parts(const Ref *refs, int begin, int end)
+{
+    int c = 0, pn = 0;
+    for (int i = begin; i < end; i++) {
+        c += refs[i].lo[3] != 0.0f;
+        pn |= refs[i].lo[3] == BVH_PN;
+    }
+    return end - begin > 1 && c == 1 && !pn;
+}
+
 /* Chooses a split of refs[begin, end) (centroid box clo, chi, doubled) and
  * partitions them; returns the index where the right half starts, or -1
  * to make a leaf. All three axes are binned in one pass. */
@@ -320,7 +339,8 @@ static int split(Builder *B, int begin, int end, int depth, V4 clo, V4 chi)
 {
     Ref *refs = B->refs;
     int count = end - begin;
-    if (count <= BVH_LEAF_MAX && (!B->costly || costly(refs, begin, end) <= 1))
+    const int part = B->costly && count <= BVH_LEAF_MAX && parts(refs, begin, end);
+    if (!part && count <= BVH_LEAF_MAX && (!B->costly || costly(refs, begin, end) <= 1))
         return -1;
     if (depth >= BVH_SAH_DEPTH)
         return begin + count / 2;
@@ -398,6 +418,19 @@ static int split(Builder *B, int begin, int end, int depth, V4 clo, V4 chi)
             }
         }
     }
+    if (part) { /* parted only when that costs less than the leaf's two tests */
+        float lo[3], hi[3];
+        for (int a = 0; a < 3; a++) {
+            lo[a] = refs[begin].lo[a];
+            hi[a] = refs[begin].hi[a];
+            for (int i = begin + 1; i < end; i++) {
+                lo[a] = refs[i].lo[a] < lo[a] ? refs[i].lo[a] : lo[a];
+                hi[a] = refs[i].hi[a] > hi[a] ? refs[i].hi[a] : hi[a];
+            }
+        }
+        if (!(best_cost < area(lo, hi) * (float)BVH_TESTS(count + (1ull << 32))))
+            return -1;
+    }
     if (best_axis >= 0) {
         /* bin_of on one axis, operation for operation; then Lomuto's
          * partition with a swap whatever the side, which costs less than
@@ -423,7 +456,7 @@ static int split(Builder *B, int begin, int end, int depth, V4 clo, V4 chi)
     }
     /* All centroids coincide (or binning failed): halve by index, which
      * keeps the depth logarithmic whatever the input. */
-    return begin + count / 2;
+    return part ? -1 : begin + count / 2;
 }
 
 static int build_node(Builder *B, int ni, int begin, int end, int depth)
@@ -812,7 +845,9 @@ int bvh_build(Bvh *b, const Prim *prims, int n, PrimVariant v, int threads)
         Ref *r = &B.refs[m];
         if (!bvh_prim_bounds(&prims[i], r->lo, r->hi))
             continue;
-        r->lo[3] = prims[i].kind == PRIM_TRIANGLE || prims[i].kind == PRIM_SMOOTH_TRIANGLE ? 0.0f : 1.0f;
+        r->lo[3] = prims[i].kind == PRIM_TRIANGLE || prims[i].kind == PRIM_SMOOTH_TRIANGLE ? 0.0f
+                   : prims[i].kind == PRIM_PN                                             ? BVH_PN
+                                                                                         : 1.0f;
         r->hi[3] = 0.0f;
         B.ids[m++] = i;
         B.costly |= r->lo[3] != 0.0f;

@@ -15,6 +15,7 @@
 #include "testutil.h"
 
 #include "lancer/bvh.h"
+#include "lancer/pntri.h"
 
 static unsigned long long rng = 0x9E3779B97F4A7C15ULL;
 
@@ -69,6 +70,16 @@ static Prim *random_prims(int n)
             }
         }
     }
+    /* Every fourth triangle spans the bounds of the box after it, corner to
+     * corner: the two share their box, so the SAH keeps them in one leaf,
+     * where a ray tests the triangle in lanes and the box on its own. */
+    for (int i = 1; i + 1 < n; i += 16)
+        if (p[i].kind == PRIM_TRIANGLE && p[i + 1].kind == PRIM_BOX) {
+            const Vec3 lo = p[i + 1].g.box.lo, hi = p[i + 1].g.box.hi;
+            p[i].g.tri.a = lo;
+            p[i].g.tri.b = vec3(hi.x, hi.y, lo.z);
+            p[i].g.tri.c = vec3(lo.x, hi.y, hi.z);
+        }
     p[n].kind = PRIM_PLANE; /* unbounded: left out of the tree */
     p[n].g.plane.n = vec3(0, 1, 0);
     p[n].g.plane.d = -12;
@@ -107,7 +118,8 @@ static void test_wide_nodes_are_full(void **state)
     /* The collapse into wide nodes is planned for the least SAH cost: few
      * wide nodes, most of their slots used. On this input, opening the
      * largest child greedily used 5.1 of 8 slots per node; the plan, 6.3
-     * (6.0 since each primitive but a triangle is a leaf of its own). */
+     * (6.0 since each primitive but a triangle is a leaf of its own, and
+     * a triangle beside one of them too, unless they share a box). */
     const int n = 20000;
     Prim *p = random_prims(n);
     Bvh b;
@@ -193,6 +205,65 @@ static void test_costly_primitives_get_leaves_of_their_own(void **state)
     assert_true(m > 6 * b.nleaves); /* 7.1 a leaf */
     bvh_free(&b);
     free(p);
+}
+
+/* The leaves' sizes in a tree over n primitives: sizes[k] leaves of k + 1. */
+static void leaf_sizes(const Prim *p, int n, int sizes[2])
+{
+    Bvh b;
+    build_ok(&b, p, n, 1);
+    sizes[0] = sizes[1] = 0;
+    for (int i = 0; i < b.nleaves; i++) {
+        assert_true(b.leaves[i].count <= 2);
+        sizes[b.leaves[i].count - 1]++;
+    }
+    bvh_free(&b);
+}
+
+static void test_a_primitive_leaves_the_triangles_beside_it(void **state)
+{
+    (void)state;
+    /* A sphere and a triangle far from it: in one leaf, every ray that
+     * reaches either tests both. Apart, each is tested by the rays that
+     * reach its own box, which the SAH finds cheaper. */
+    Prim p[2];
+    memset(p, 0, sizeof p);
+    p[0].kind = PRIM_SPHERE;
+    p[0].g.sphere.c = vec3(0, 0, 0);
+    p[0].g.sphere.r = 1;
+    p[1].kind = PRIM_TRIANGLE;
+    p[1].g.tri.a = vec3(6, 0, 0);
+    p[1].g.tri.b = vec3(7, 0, 0);
+    p[1].g.tri.c = vec3(6, 1, 0);
+    int sizes[2];
+    leaf_sizes(p, 2, sizes);
+    assert_int_equal(sizes[0], 2);
+    assert_int_equal(sizes[1], 0);
+    /* A triangle across the box of a box, corner to corner: apart, both
+     * leaves would have that box, so they stay together. */
+    p[0].kind = PRIM_BOX;
+    p[0].g.box.lo = vec3(-1, -1, -1);
+    p[0].g.box.hi = vec3(1, 1, 1);
+    p[1].g.tri.a = vec3(-1, -1, -1);
+    p[1].g.tri.b = vec3(1, 1, -1);
+    p[1].g.tri.c = vec3(-1, 1, 1);
+    leaf_sizes(p, 2, sizes);
+    assert_int_equal(sizes[1], 1);
+    /* A PN patch stays beside its triangles, far or not: its t depends a
+     * little on the ray's tmax, so the order of the tests must not change
+     * with the tree. */
+    const Vec3 v[3] = {vec3(0, 0, 0), vec3(1, 0, 0), vec3(0, 1, 0)};
+    const Vec3 nv[3] = {vec3(0, 0, 1), vec3(0, 0, 1), vec3(0, 0, 1)};
+    PnPatch pn;
+    pn_patch_init(&pn, v, nv);
+    memset(&p[0], 0, sizeof p[0]);
+    p[0].kind = PRIM_PN;
+    p[0].g.pn.patch = &pn;
+    p[1].g.tri.a = vec3(6, 0, 0);
+    p[1].g.tri.b = vec3(7, 0, 0);
+    p[1].g.tri.c = vec3(6, 1, 0);
+    leaf_sizes(p, 2, sizes);
+    assert_int_equal(sizes[1], 1);
 }
 
 static void test_validate_catches_damage(void **state)
@@ -727,6 +798,7 @@ int main(void)
         cmocka_unit_test(test_huge_boxes),
         cmocka_unit_test(test_coincident_centroids),
         cmocka_unit_test(test_costly_primitives_get_leaves_of_their_own),
+        cmocka_unit_test(test_a_primitive_leaves_the_triangles_beside_it),
         cmocka_unit_test(test_validate_catches_damage),
         cmocka_unit_test(test_non_finite_rays_and_boxes),
         cmocka_unit_test(test_agrees_with_brute_force),
