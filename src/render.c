@@ -34,7 +34,6 @@ typedef struct {
     int nrows;
     float *centre;       /* pass 1: columns cx0..cx1-1 of image rows cy0.. */
     int cx0, cx1, cy0;
-    unsigned char *mask; /* per pixel of the region */
 } Job;
 
 /* Starts loading the primitives hit, which shading reads first (their
@@ -162,7 +161,7 @@ static int pass_row(const Job *job, int y, RayStats *st)
     float *out = job->img->rgb + (size_t)(y - p->y0) * (size_t)w * 3;
     if (job->pass == 0)
         return render_row(job, y, p->x0, p->x1, p->spp, NULL, out, st) == 0;
-    unsigned char *mask = job->mask + (size_t)(y - p->y0) * (size_t)w;
+    unsigned char mask[LIMIT_IMAGE_SIDE]; /* the row's: no other row reads it */
     st->supersampled += (unsigned long long)mask_row(job, y, mask);
     if (render_row(job, y, p->x0, p->x1, p->spp, mask, out, st) != 0)
         return 0;
@@ -242,7 +241,7 @@ static int run_pass(Job *job, int pass, const int *rows, int n)
 int render_image(const RenderPlan *p, const Accel *a, const RenderOptions *opt, Image *img, RayStats *stats)
 {
     int w = p->x1 - p->x0, h = p->y1 - p->y0;
-    if (img->width != w || img->height != h)
+    if (img->width != w || img->height != h || w > LIMIT_IMAGE_SIDE)
         return -1;
     Job job;
     memset(&job, 0, sizeof job);
@@ -262,12 +261,10 @@ int render_image(const RenderPlan *p, const Accel *a, const RenderOptions *opt, 
     int cy1 = p->y1 < p->height ? p->y1 + 1 : p->height;
     unsigned char *done = opt && opt->rows_done ? opt->rows_done : calloc((size_t)h, 1);
     int *todo = malloc(sizeof(int) * (size_t)h), *around = malloc(sizeof(int) * (size_t)(cy1 - job.cy0));
-    if (adaptive) {
-        job.mask = big_zalloc((size_t)w * (size_t)h); /* in huge pages when large (bigmem.h) */
+    if (adaptive)
         job.centre = big_zalloc(sizeof(float) * 3 * (size_t)(job.cx1 - job.cx0) * (size_t)(cy1 - job.cy0));
-    }
     int rc = -1, ntodo = 0, naround = 0;
-    if (!done || !todo || !around || (adaptive && (!job.mask || !job.centre)) || !job.pool ||
+    if (!done || !todo || !around || (adaptive && !job.centre) || !job.pool ||
         pthread_mutex_init(&job.lock, NULL) != 0)
         goto out;
     job.rows_done = done;
@@ -313,7 +310,6 @@ out:
         free(done);
     free(todo);
     free(around);
-    big_free(job.mask);
     big_free(job.centre);
     pool_free(job.pool);
     return rc;
