@@ -2,13 +2,13 @@
 # Speed against POV-Ray on every parity scene: both renderers at one thread
 # and at two, in turns run by run and the runs in rounds over the scenes
 # (below), at SCALE times the scene's size (so that times stand well above
-# POV-Ray's 1 ms resolution). POV-Ray's time is the
-# "Trace Time" of its statistics, lancer's the "render" phase of --stats:
-# neither counts parsing, set-up or output. Each ratio is the median of the
-# runs' own ratios (its two sides ran a moment apart, so the shared
-# machine's slow spells cancel), each time a median. Prints a Markdown
-# table; with RESULTS, appends "frame" (POV-Ray / lancer at equal threads)
-# and "scaling" (lancer's one thread / two threads) lines to it
+# POV-Ray's 1 ms resolution). POV-Ray's time is the "Trace Time" of its
+# statistics, lancer's the "render" phase of --stats: neither counts
+# parsing, set-up or output. Each ratio is the median of the runs' own
+# ratios (its two sides ran a moment apart, so the shared machine's slow
+# spells cancel), each time a median. Prints a Markdown table; with
+# RESULTS, appends "frame" (POV-Ray / lancer at equal threads) and
+# "scaling" (lancer's one thread / two threads) lines to it
 # (scripts/bench-table.sh). Not a test: it asserts nothing.
 #
 #   sh scripts/bench-pov.sh [LANCER] [RUNS] [SCALE] [RESULTS]

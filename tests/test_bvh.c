@@ -239,8 +239,8 @@ static void test_a_primitive_leaves_the_triangles_beside_it(void **state)
     leaf_sizes(p, 2, sizes);
     assert_int_equal(sizes[0], 2);
     assert_int_equal(sizes[1], 0);
-    /* A triangle across the box of a box, corner to corner: apart, both
-     * leaves would have that box, so they stay together. */
+    /* A triangle from corner to corner of a box, with the box's own
+     * bounds: apart, both leaves would have them, so they stay together. */
     p[0].kind = PRIM_BOX;
     p[0].g.box.lo = vec3(-1, -1, -1);
     p[0].g.box.hi = vec3(1, 1, 1);
