@@ -332,10 +332,10 @@ static int parts(const Ref *refs, int begin, int end)
     return end - begin > 1 && c == 1 && !pn;
 }
 
-/* Chooses a split of refs[begin, end) (centroid box clo, chi, doubled) and
- * partitions them; returns the index where the right half starts, or -1
+/* Chooses a split of refs[begin, end) (box node, centroid box clo, chi,
+ * doubled) and partitions them; returns the index where the right half starts, or -1
  * to make a leaf. All three axes are binned in one pass. */
-static int split(Builder *B, int begin, int end, int depth, V4 clo, V4 chi)
+static int split(Builder *B, const BvhNode *node, int begin, int end, int depth, V4 clo, V4 chi)
 {
     Ref *refs = B->refs;
     int count = end - begin;
@@ -418,19 +418,9 @@ static int split(Builder *B, int begin, int end, int depth, V4 clo, V4 chi)
             }
         }
     }
-    if (part) { /* parted only when that costs less than the leaf's two tests */
-        float lo[3], hi[3];
-        for (int a = 0; a < 3; a++) {
-            lo[a] = refs[begin].lo[a];
-            hi[a] = refs[begin].hi[a];
-            for (int i = begin + 1; i < end; i++) {
-                lo[a] = refs[i].lo[a] < lo[a] ? refs[i].lo[a] : lo[a];
-                hi[a] = refs[i].hi[a] > hi[a] ? refs[i].hi[a] : hi[a];
-            }
-        }
-        if (!(best_cost < area(lo, hi) * (float)BVH_TESTS(count + (1ull << 32))))
-            return -1;
-    }
+    /* parted only when that costs less than the leaf's two tests */
+    if (part && !(best_cost < area(node->lo, node->hi) * (float)BVH_TESTS(count + (1ull << 32))))
+        return -1;
     if (best_axis >= 0) {
         /* bin_of on one axis, operation for operation; then Lomuto's
          * partition with a swap whatever the side, which costs less than
@@ -463,7 +453,7 @@ static int build_node(Builder *B, int ni, int begin, int end, int depth)
 {
     V4 clo, chi;
     bounds(B, &B->nodes[ni], begin, end, &clo, &chi);
-    int mid = split(B, begin, end, depth, clo, chi);
+    int mid = split(B, &B->nodes[ni], begin, end, depth, clo, chi);
     if (mid < 0) {
         make_leaf(&B->nodes[ni], begin, end);
         return 0;
@@ -504,7 +494,7 @@ static int build_tree(Builder *B, int n, int threads)
         return build_node(B, 0, 0, n, 0);
     V4 clo, chi;
     bounds(B, &B->nodes[0], 0, n, &clo, &chi);
-    int mid = split(B, 0, n, 0, clo, chi); /* n > BVH_LEAF_MAX: always a split */
+    int mid = split(B, &B->nodes[0], 0, n, 0, clo, chi); /* n > BVH_LEAF_MAX: always a split */
     int c = new_pair(B);
     if (c < 0)
         return -1;
