@@ -31,9 +31,15 @@ int image_init(Image *img, int width, int height)
     if (width < 1 || height < 1 || width > LIMIT_IMAGE_SIDE || height > LIMIT_IMAGE_SIDE ||
         (long)width * height > LIMIT_IMAGE_PIXELS)
         return -1;
-    img->rgb = big_zalloc((size_t)width * (size_t)height * 3 * sizeof(float));
+    const size_t n = (size_t)width * (size_t)height * 3 * sizeof(float);
+    img->rgb = big_zalloc(n);
     if (img->rgb == NULL)
         return -1;
+    /* Every page faulted in now, not at the render's first write to it:
+     * the image's memory is the image's cost, not the render's, as
+     * POV-Ray's front end fills its image before it parses
+     * (docs/povray-rules.md). */
+    memset(img->rgb, 0, n);
     img->width = img->full_width = width;
     img->height = img->full_height = height;
     return 0;

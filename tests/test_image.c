@@ -3,6 +3,9 @@
  * what a failed write or read leaves behind. Each test gets a fresh
  * directory under /tmp, removed afterwards.
  */
+#if defined(__linux__)
+#define _DEFAULT_SOURCE /* mincore */
+#endif
 #include <stdarg.h>
 #include <stddef.h>
 #include <float.h>
@@ -22,6 +25,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/resource.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -280,6 +284,32 @@ static void test_init_sizes(void **state)
     assert_null(img.rgb);
     image_free(&img); /* twice is fine */
     image_free(NULL);
+}
+
+/* Every page of a large image is in memory once image_init returns: the
+ * render writes pixels, not page faults. */
+static void test_init_touches_every_page(void **state)
+{
+    (void)state;
+#if defined(__linux__)
+    Image img;
+    assert_int_equal(image_init(&img, 1024, 1024), 0); /* 12 MiB: a mapping of its own */
+    const size_t page = (size_t)sysconf(_SC_PAGESIZE);
+    const uintptr_t lo = (uintptr_t)img.rgb / page * page;
+    const uintptr_t hi = (uintptr_t)(img.rgb + 1024 * 1024 * 3);
+    const size_t pages = (hi - lo + page - 1) / page;
+    unsigned char *in = malloc(pages);
+    assert_non_null(in);
+    assert_int_equal(mincore((void *)lo, hi - lo, in), 0);
+    size_t resident = 0;
+    for (size_t i = 0; i < pages; i++)
+        resident += in[i] & 1;
+    assert_int_equal(resident, pages);
+    free(in);
+    image_free(&img);
+#else
+    skip();
+#endif
 }
 
 /* ---- EXR ---------------------------------------------------------------- */
@@ -1182,6 +1212,7 @@ int main(int argc, char **argv)
         return write_seeds(argv[2]);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_init_sizes),
+        cmocka_unit_test(test_init_touches_every_page),
         cmocka_unit_test_setup_teardown(test_exr_float_roundtrip, setup, teardown),
         cmocka_unit_test_setup_teardown(test_exr_half_roundtrip, setup, teardown),
         cmocka_unit_test_setup_teardown(test_exr_tile_windows, setup, teardown),
