@@ -25,6 +25,7 @@
 #endif
 #if defined(LANCER_AVX2_VARIANT)
 #include <immintrin.h>
+#include "ray_lanes.h"
 #define BVH_AVX 1
 #define CLOSEST bvh_closest_avx2
 #define OCCLUDED bvh_occluded_avx2
@@ -457,21 +458,6 @@ static inline void lane_range(__m256 v, __m256 *lo, __m256 *hi)
     *hi = _mm256_max_ps(h, _mm256_permute_ps(h, 0xb1));
 }
 
-/* Four records of four floats a half: half h of row[k] holds record k of
- * that half. Field f of every record into out[f], f < 3, record k in lane
- * k of each half. */
-static inline void transpose3(const __m256 row[4], __m256 out[3])
-{
-    const __m256 t0 = _mm256_unpacklo_ps(row[0], row[1]), t1 = _mm256_unpacklo_ps(row[2], row[3]);
-    const __m256 t2 = _mm256_unpackhi_ps(row[0], row[1]), t3 = _mm256_unpackhi_ps(row[2], row[3]);
-    out[0] = _mm256_shuffle_ps(t0, t1, _MM_SHUFFLE(1, 0, 1, 0));
-    out[1] = _mm256_shuffle_ps(t0, t1, _MM_SHUFFLE(3, 2, 3, 2));
-    out[2] = _mm256_shuffle_ps(t2, t3, _MM_SHUFFLE(1, 0, 1, 0));
-}
-
-/* packet_pre reads a Ray as seven floats: o, d and tmax. */
-typedef char ray_is_seven_floats[offsetof(Ray, d) == 3 * sizeof(float) && sizeof(Ray) == 7 * sizeof(float) ? 1 : -1];
-
 /* 0 when the rays do not share a direction's sign on some axis, or one is
  * parallel to an axis plane or not a number, or an origin is not finite
  * (or there are none): those go one by one. */
@@ -481,23 +467,18 @@ static int packet_pre(const Ray *r, int n, PacketPre *p)
         return 0;
     const __m256 zero = _mm256_setzero_ps(), fmax = _mm256_set1_ps(FLT_MAX), one = _mm256_set1_ps(1.0f);
     const __m256 pad = _mm256_set1_ps(BVH_SLAB_PAD), abs = _mm256_set1_ps(-0.0f);
-    /* Lane k: ray k (ray 0 past n). Each ray's o.x .. d.x and d.x .. tmax
-     * in two loads of four, rays k and k + 4 in one register, then
-     * transposed: gathers, a field at a time, took longer. */
-    __m256 ro[4], rd[4];
-    for (int k = 0; k < 4; k++) {
-        const float *a = (const float *)&r[k < n ? k : 0], *b = (const float *)&r[k + 4 < n ? k + 4 : 0];
-        ro[k] = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(a)), _mm_loadu_ps(b), 1);
-        rd[k] = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(a + 3)), _mm_loadu_ps(b + 3), 1);
-    }
-    __m256 oa[3], da[3], iv[3];
-    transpose3(ro, oa);
-    transpose3(rd, da);
+    /* lane k: ray k (ray 0 past n) */
+    int at[BVH_PACKET];
+    for (int k = 0; k < BVH_PACKET; k++)
+        at[k] = k < n ? k : 0;
+    __m256 f[RAY_FIELDS], iv[3];
+    ray_fields8(r, at, f);
+    const __m256 *oa = f + RAY_O;
     /* Every division first, the checks after: the three divisions then
      * overlap instead of each waiting for the last axis's checks (the
      * compiler may not start a division before a branch). */
     for (int a = 0; a < 3; a++)
-        iv[a] = _mm256_div_ps(one, da[a]); /* as ray_pre divides (lane by lane) */
+        iv[a] = _mm256_div_ps(one, f[RAY_D + a]); /* as ray_pre divides (lane by lane) */
     for (int a = 0; a < 3; a++) {
         __m256 omin, omax, inv = iv[a];
         if (_mm256_movemask_ps(_mm256_cmp_ps(_mm256_andnot_ps(abs, oa[a]), fmax, _CMP_NLE_UQ)))

@@ -1436,13 +1436,15 @@ __attribute__((target("avx"))) static void start_lanes(const PnPatch *pn, const 
 {
     const PnNet *net = &pc->net;
     const __m256d zero = _mm256_setzero_pd(), S = PN_SET(PN_SLACK), one = PN_SET(1.0);
+    __m128 rf[RAY_FIELDS];
+    ray_fields(ray, k, rf);
     __m256d o[3], d[3], inv[3];
     for (int a = 0; a < 3; a++) {
-        o[a] = ray_lanes_pd(ray, k, RAY_O + a);
-        d[a] = ray_lanes_pd(ray, k, RAY_D + a);
+        o[a] = _mm256_cvtps_pd(rf[RAY_O + a]);
+        d[a] = _mm256_cvtps_pd(rf[RAY_D + a]);
         inv[a] = PN_DIV(one, d[a]);
     }
-    const __m256d tmax = ray_lanes_pd(ray, k, RAY_TMAX);
+    const __m256d tmax = _mm256_cvtps_pd(rf[RAY_TMAX]);
     __m256d tn, enter = slab_lanes(pc->lo, pc->hi, o, d, inv, tmax, &tn);
     const __m256d dd = _mm256_sqrt_pd(PN_DOT(d, d));
     /* piece_frame: all but q and n.d the piece's own */

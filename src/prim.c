@@ -398,8 +398,7 @@ __attribute__((target("avx"))) static inline unsigned round_t4(__m256d t, __m256
 #define Q_LOAD_F _mm_loadu_ps
 #define Q_CVT_PD _mm256_cvtps_pd
 #define Q_F __m128
-#define Q_RAY ray_lanes_pd
-#define Q_RAY_F ray_lanes
+#define Q_FIELDS ray_fields
 #define Q_ROUND_T round_t4
 #define Q_V __m256d
 #define Q_M __m256d
@@ -450,8 +449,7 @@ AVX512 static inline unsigned round_t8(__m512d t, __m512d half, __m256 tmax, flo
 #define Q_LOAD_F _mm256_loadu_ps
 #define Q_CVT_PD _mm512_cvtps_pd
 #define Q_F __m256
-#define Q_RAY ray_lanes8_pd
-#define Q_RAY_F ray_lanes8
+#define Q_FIELDS ray_fields8
 #define Q_ROUND_T round_t8
 #define Q_V __m512d
 #define Q_M __mmask8
@@ -1250,9 +1248,11 @@ __attribute__((target("avx"))) static void sphere_surface4(const Prim *prims, co
 #define R(j) sp[j]->r
     const __m256d sign = _mm256_set1_pd(-0.0), t = LANES(T), rr = LANES(R);
     __m256d q[3], c[3], len = _mm256_setzero_pd();
+    __m128 rf[RAY_FIELDS];
+    ray_fields(r, k, rf);
     for (int i = 0; i < 3; i++) {
         c[i] = LANES(C);
-        const __m256d o = ray_lanes_pd(r, k, RAY_O + i), d = ray_lanes_pd(r, k, RAY_D + i);
+        const __m256d o = _mm256_cvtps_pd(rf[RAY_O + i]), d = _mm256_cvtps_pd(rf[RAY_D + i]);
         q[i] = _mm256_add_pd(_mm256_sub_pd(o, c[i]), _mm256_mul_pd(t, d));
         len = _mm256_add_pd(len, _mm256_mul_pd(q[i], q[i]));
     }
@@ -1278,7 +1278,7 @@ __attribute__((target("avx"))) static void sphere_surface4(const Prim *prims, co
     __m128 dd[3];
     for (int i = 0; i < 3; i++) {
         n[i] = _mm_or_ps(_mm_and_ps(pos, _mm_mul_ps(n[i], inv)), _mm_andnot_ps(pos, n[i]));
-        dd[i] = ray_lanes(r, k, RAY_D + i);
+        dd[i] = rf[RAY_D + i];
     }
     __m128 nd = _mm_add_ps(_mm_add_ps(_mm_mul_ps(n[0], dd[0]), _mm_mul_ps(n[1], dd[1])), _mm_mul_ps(n[2], dd[2]));
     __m128 flip = _mm_and_ps(_mm_cmpgt_ps(nd, _mm_setzero_ps()), _mm_set1_ps(-0.0f));

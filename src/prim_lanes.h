@@ -23,11 +23,13 @@ Q_ATTR static unsigned Q_NAME(plane_hit)(const Plane *pl, const Ray *r, int k0, 
     int k[Q_W];
     for (int j = 0; j < Q_W; j++)
         k[j] = k0 + j;
-    Q_V dx = QV_MUL(nx, Q_RAY(r, k, RAY_D)), dy = QV_MUL(ny, Q_RAY(r, k, RAY_D + 1));
-    Q_V dz = QV_MUL(nz, Q_RAY(r, k, RAY_D + 2));
+    Q_F f[RAY_FIELDS];
+    Q_FIELDS(r, k, f);
+    Q_V dx = QV_MUL(nx, Q_CVT_PD(f[RAY_D])), dy = QV_MUL(ny, Q_CVT_PD(f[RAY_D + 1]));
+    Q_V dz = QV_MUL(nz, Q_CVT_PD(f[RAY_D + 2]));
     Q_V den = QV_ADD(QV_ADD(dx, dy), dz);
-    Q_V ox = QV_MUL(nx, Q_RAY(r, k, RAY_O)), oy = QV_MUL(ny, Q_RAY(r, k, RAY_O + 1));
-    Q_V oz = QV_MUL(nz, Q_RAY(r, k, RAY_O + 2));
+    Q_V ox = QV_MUL(nx, Q_CVT_PD(f[RAY_O])), oy = QV_MUL(ny, Q_CVT_PD(f[RAY_O + 1]));
+    Q_V oz = QV_MUL(nz, Q_CVT_PD(f[RAY_O + 2]));
     Q_V num = QV_SUB(QV_SET1(pl->d), QV_ADD(QV_ADD(ox, oy), oz));
     /* num == 0 || (num < 0) != (den < 0) */
     Q_M miss = QM_OR(QV_CMP(num, zero, _CMP_EQ_OQ),
@@ -167,9 +169,11 @@ Q_ATTR __attribute__((always_inline)) static inline unsigned Q_NAME(quadric_hit)
  * one a lane (p a sphere or an ellipsoid). Returns the lanes hit. */
 Q_ATTR static unsigned Q_NAME(quadric_rays)(const Prim *p, const Ray *r, const int *k, float *t_out, float *terr_out)
 {
-    const Q_F tmax = Q_RAY_F(r, k, RAY_TMAX);
-    const Q_V o[3] = {Q_RAY(r, k, RAY_O), Q_RAY(r, k, RAY_O + 1), Q_RAY(r, k, RAY_O + 2)};
-    const Q_V d[3] = {Q_RAY(r, k, RAY_D), Q_RAY(r, k, RAY_D + 1), Q_RAY(r, k, RAY_D + 2)};
+    Q_F rf[RAY_FIELDS];
+    Q_FIELDS(r, k, rf);
+    const Q_F tmax = rf[RAY_TMAX];
+    const Q_V o[3] = {Q_CVT_PD(rf[RAY_O]), Q_CVT_PD(rf[RAY_O + 1]), Q_CVT_PD(rf[RAY_O + 2])};
+    const Q_V d[3] = {Q_CVT_PD(rf[RAY_D]), Q_CVT_PD(rf[RAY_D + 1]), Q_CVT_PD(rf[RAY_D + 2])};
     Q_V f[3];
     if (p->kind == PRIM_SPHERE) {
         const Sphere *s = &p->g.sphere;
@@ -196,8 +200,7 @@ Q_ATTR static unsigned Q_NAME(quadric_rays)(const Prim *p, const Ray *r, const i
 #undef Q_LOAD_F
 #undef Q_CVT_PD
 #undef Q_F
-#undef Q_RAY
-#undef Q_RAY_F
+#undef Q_FIELDS
 #undef Q_ROUND_T
 #undef Q_V
 #undef Q_M

@@ -1,8 +1,8 @@
 /*
- * ray_lanes.h - rays' fields gathered into SIMD lanes, one ray a lane, for
- * the four- and eight-lane routines of prim.c and pntri.c (private to src/). Each
- * includes it where it has decided to build its AVX forms (x86-64 with
- * GCC or Clang), after <immintrin.h>.
+ * ray_lanes.h - rays' fields loaded into SIMD lanes, one ray a lane, for
+ * the four- and eight-lane routines of prim.c, pntri.c and the packets of
+ * bvh_traverse.c (private to src/). Each includes it where it has decided
+ * to build its AVX forms (x86-64 with GCC or Clang), after <immintrin.h>.
  */
 #ifndef LANCER_RAY_LANES_H
 #define LANCER_RAY_LANES_H
@@ -12,41 +12,63 @@
 #include "lancer/ray.h"
 
 /* A ray's fields, in floats from its start: the origin's axis a at RAY_O +
- * a, the direction's at RAY_D + a, then tmax. */
-typedef char ray_is_floats[sizeof(Ray) % sizeof(float) == 0 ? 1 : -1];
+ * a, the direction's at RAY_D + a, then tmax. The loads below read a ray
+ * as these seven floats. */
 enum {
     RAY_O = (int)(offsetof(Ray, o) / sizeof(float)),
     RAY_D = (int)(offsetof(Ray, d) / sizeof(float)),
-    RAY_TMAX = (int)(offsetof(Ray, tmax) / sizeof(float))
+    RAY_TMAX = (int)(offsetof(Ray, tmax) / sizeof(float)),
+    RAY_FIELDS = 7
 };
+typedef char ray_is_seven_floats[RAY_O == 0 && RAY_D == 3 && RAY_TMAX == 6 && sizeof(Ray) == RAY_FIELDS * sizeof(float)
+                                     ? 1
+                                     : -1];
 
-/* Field at of the rays r[k[0 .. 3]], a lane each. */
-__attribute__((target("avx"))) static inline __m128 ray_lanes(const Ray *r, const int k[4], int at)
+/* The rays r[k[0 .. 3]], a lane each: field i (RAY_O + a, RAY_D + a,
+ * RAY_TMAX) into f[i]. Two loads of four floats a ray (o and d.x, then d
+ * and tmax), transposed: a load a field and a lane took longer. */
+__attribute__((target("avx"))) static inline void ray_fields(const Ray *r, const int k[4], __m128 f[RAY_FIELDS])
 {
-    const float *f = (const float *)r + at;
-    const int s = (int)(sizeof(Ray) / sizeof(float));
-    return _mm_setr_ps(f[k[0] * s], f[k[1] * s], f[k[2] * s], f[k[3] * s]);
+    __m128 a[4], b[4];
+    for (int j = 0; j < 4; j++) {
+        const float *p = (const float *)&r[k[j]];
+        a[j] = _mm_loadu_ps(p);
+        b[j] = _mm_loadu_ps(p + RAY_D);
+    }
+    _MM_TRANSPOSE4_PS(a[0], a[1], a[2], a[3]);
+    _MM_TRANSPOSE4_PS(b[0], b[1], b[2], b[3]);
+    for (int i = 0; i < 3; i++)
+        f[RAY_O + i] = a[i];
+    for (int i = 0; i < 4; i++)
+        f[RAY_D + i] = b[i];
 }
 
-/* The same in double. */
-__attribute__((target("avx"))) static inline __m256d ray_lanes_pd(const Ray *r, const int k[4], int at)
+/* Four records of four floats a half: half h of row[j] holds record j of
+ * that half. Field i of every record into out[i], i < m, record j in lane
+ * j of each half. */
+__attribute__((target("avx"))) static inline void transpose8(const __m256 row[4], int m, __m256 *out)
 {
-    return _mm256_cvtps_pd(ray_lanes(r, k, at));
+    const __m256 t0 = _mm256_unpacklo_ps(row[0], row[1]), t1 = _mm256_unpacklo_ps(row[2], row[3]);
+    const __m256 t2 = _mm256_unpackhi_ps(row[0], row[1]), t3 = _mm256_unpackhi_ps(row[2], row[3]);
+    out[0] = _mm256_shuffle_ps(t0, t1, _MM_SHUFFLE(1, 0, 1, 0));
+    out[1] = _mm256_shuffle_ps(t0, t1, _MM_SHUFFLE(3, 2, 3, 2));
+    out[2] = _mm256_shuffle_ps(t2, t3, _MM_SHUFFLE(1, 0, 1, 0));
+    if (m > 3)
+        out[3] = _mm256_shuffle_ps(t2, t3, _MM_SHUFFLE(3, 2, 3, 2));
 }
 
-/* Field at of the rays r[k[0 .. 7]], a lane each. */
-__attribute__((target("avx"))) static inline __m256 ray_lanes8(const Ray *r, const int k[8], int at)
+/* ray_fields for the rays r[k[0 .. 7]], rays k[j] and k[j + 4] loaded into
+ * one register. */
+__attribute__((target("avx"))) static inline void ray_fields8(const Ray *r, const int k[8], __m256 f[RAY_FIELDS])
 {
-    const float *f = (const float *)r + at;
-    const int s = (int)(sizeof(Ray) / sizeof(float));
-    return _mm256_setr_ps(f[k[0] * s], f[k[1] * s], f[k[2] * s], f[k[3] * s], f[k[4] * s], f[k[5] * s], f[k[6] * s],
-                          f[k[7] * s]);
-}
-
-/* The same in double, eight lanes of AVX-512. */
-__attribute__((target("avx512f"))) static inline __m512d ray_lanes8_pd(const Ray *r, const int k[8], int at)
-{
-    return _mm512_cvtps_pd(ray_lanes8(r, k, at));
+    __m256 a[4], b[4];
+    for (int j = 0; j < 4; j++) {
+        const float *p = (const float *)&r[k[j]], *q = (const float *)&r[k[j + 4]];
+        a[j] = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(p)), _mm_loadu_ps(q), 1);
+        b[j] = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(p + RAY_D)), _mm_loadu_ps(q + RAY_D), 1);
+    }
+    transpose8(a, 3, f + RAY_O);
+    transpose8(b, 4, f + RAY_D);
 }
 
 #endif
