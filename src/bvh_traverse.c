@@ -12,7 +12,9 @@
  * with -mavx2 -mbmi -DLANCER_AVX2_VARIANT, which tests eight boxes in one
  * register. The baseline object picks the AVX2 one at run time when the
  * processor has it (not with -DLANCER_NO_AVX2). All give the same answers:
- * the same operations, lane by lane, with no FMA.
+ * the same operations, lane by lane, with no FMA. On an AMD processor with
+ * AVX-512, a packet's rays take a leaf of triangles two at a time, sixteen
+ * lanes of the same test (tri4.h).
  */
 #include "lancer/bvh.h"
 #include "tri4.h"
@@ -586,6 +588,109 @@ static unsigned long long leaf_closest_rays(const Bvh *b, const BvhLeaf *L, TriP
     return (unsigned long long)L->count * (unsigned long long)__builtin_popcount(rays);
 }
 
+#ifdef TRI4_AVX512
+/* Where two rays' leaf tests run as one of sixteen lanes: an AMD
+ * processor with AVX-512F and DQ, as prim.c's eight-lane routines. */
+static int pairs_pay(void)
+{
+    return __builtin_cpu_is("amd") && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq");
+}
+
+/* leaf_closest for rays k1 and k2 together, at a leaf of triangles alone,
+ * both rays set up for the SIMD test and of the same axes: each ray's
+ * lanes as leaf_tris finds them, then its hits in lane order, as
+ * leaf_closest takes them. */
+static void leaf_closest2(const Bvh *b, const BvhLeaf *L, const TriPre *tp, const Ray *r, Ray *q, int k1, int k2,
+                          int *best, PrimHit *h)
+{
+    float t[16], terr[16], u[16], v[16];
+    int slow;
+    const int hit = tri16_lanes(L->tri, L->tris | L->tris << 8, &tp[k1].tri, &q[k1], &tp[k2].tri, &q[k2], t, terr, u,
+                                v, &slow);
+    const int ks[2] = {k1, k2};
+    for (int j = 0; j < 2; j++) {
+        const int k = ks[j], at = 8 * j;
+        unsigned m = (unsigned)(hit >> at & 0xff);
+        m |= (unsigned)tri_scalar_lanes(L->tri, slow >> at & 0xff, &tp[k].tri, &q[k], t + at, terr + at, u + at, v + at);
+        for (; m; m &= m - 1) {
+            const int i = tri_low_bit(m);
+            const PrimHit cur = {t[at + i], terr[at + i], u[at + i], v[at + i], 0};
+            keep_nearer_tri(b, 1, b->order[L->first + i], &cur, &r[k], &q[k], &best[k], &h[k]);
+        }
+    }
+}
+
+/* Rays k1 and k2, set up for the triangle test here if not yet, can take
+ * it together: both in SIMD lanes, with the same axes. */
+static int pairable(TriPre *tp, const Ray *r, int k1, int k2)
+{
+    for (int j = 0; j < 2; j++) {
+        TriPre *p = &tp[j ? k2 : k1];
+        if (!p->ready) {
+            tri_ray_init(&p->tri, &r[j ? k2 : k1]);
+            p->ready = 1;
+        }
+    }
+    const PrimTriRay *a = &tp[k1].tri, *c = &tp[k2].tri;
+    return a->simd && c->simd && a->kx == c->kx && a->ky == c->ky && a->kz == c->kz;
+}
+
+/* The rays of `rays` two at a time through leaf L (triangles alone) where
+ * leaf_closest2 can take them; returns the rays left. Out of line: inlined,
+ * it made the packet's frame larger, and every frame's shading slower, the
+ * leaves of no triangles included. */
+__attribute__((noinline)) static unsigned leaf_pairs(const Bvh *b, const BvhLeaf *L, TriPre *tp, const Ray *r, Ray *q,
+                                                     unsigned rays, int *best, PrimHit *h, float *qt)
+{
+    unsigned left = 0;
+    while (rays & (rays - 1)) {
+        const int k1 = tri_low_bit(rays);
+        rays &= rays - 1;
+        const int k2 = tri_low_bit(rays);
+        rays &= rays - 1;
+        if (!pairable(tp, q, k1, k2)) {
+            left |= 1u << k1 | 1u << k2;
+            continue;
+        }
+        leaf_closest2(b, L, tp, r, q, k1, k2, best, h);
+        qt[k1] = q[k1].tmax * BVH_REACH;
+        qt[k2] = q[k2].tmax * BVH_REACH;
+    }
+    return left | rays;
+}
+
+/* leaf_any for the rays of `rays`, two at a time where they can share the
+ * sixteen lanes, at a leaf of triangles alone: the rays hit into *hit;
+ * returns the rays left. */
+__attribute__((noinline)) static unsigned any_pairs(const BvhLeaf *L, TriPre *tp, const Ray *r, unsigned rays,
+                                                    unsigned *hit)
+{
+    unsigned left = 0;
+    while (rays & (rays - 1)) {
+        const int k1 = tri_low_bit(rays);
+        rays &= rays - 1;
+        const int k2 = tri_low_bit(rays);
+        rays &= rays - 1;
+        if (!pairable(tp, r, k1, k2)) {
+            left |= 1u << k1 | 1u << k2;
+            continue;
+        }
+        float t[16], terr[16], u[16], v[16];
+        int slow;
+        const int got = tri16_lanes(L->tri, L->tris | L->tris << 8, &tp[k1].tri, &r[k1], &tp[k2].tri, &r[k2], t, terr,
+                                    u, v, &slow);
+        const int ks[2] = {k1, k2};
+        for (int j = 0; j < 2; j++) {
+            const int k = ks[j], at = 8 * j;
+            if ((got >> at & 0xff) ||
+                tri_scalar_lanes(L->tri, slow >> at & 0xff, &tp[k].tri, &r[k], t + at, terr + at, u + at, v + at))
+                *hit |= 1u << k;
+        }
+    }
+    return left | rays;
+}
+#endif
+
 void bvh_closest_packet_avx2(const Bvh *b, const Ray *r, int n, PrimHit *h, int *best, unsigned long long *tests)
 {
     PacketPre p;
@@ -595,6 +700,9 @@ void bvh_closest_packet_avx2(const Bvh *b, const Ray *r, int n, PrimHit *h, int 
         return;
     }
     const unsigned all = (1u << n) - 1;
+#ifdef TRI4_AVX512
+    const int pairs = pairs_pay();
+#endif
     Ray q[BVH_PACKET];
     TriPre tp[BVH_PACKET];
     float qt[BVH_PACKET]; /* lane k: ray k's q.tmax * BVH_REACH (rays past n: -1, never entering) */
@@ -621,12 +729,20 @@ void bvh_closest_packet_avx2(const Bvh *b, const Ray *r, int n, PrimHit *h, int 
             const BvhLeaf *L = &b->leaves[-1 - e.code];
             if (other_together(b, L, e.rays)) /* as leaf_closest would one by one */
                 nt += leaf_closest_rays(b, L, tp, r, q, e.rays, best, h, qt);
-            else
-                for (unsigned m = e.rays; m; m &= m - 1) {
+            else {
+                unsigned m = e.rays;
+#ifdef TRI4_AVX512
+                if (pairs && L->tris == (1u << L->count) - 1) { /* triangles alone */
+                    m = leaf_pairs(b, L, tp, r, q, m, best, h, qt);
+                    nt += (unsigned long long)L->count * (unsigned long long)__builtin_popcount(e.rays & ~m);
+                }
+#endif
+                for (; m; m &= m - 1) {
                     int k = tri_low_bit(m);
                     nt += (unsigned long long)leaf_closest(b, 1, L, &tp[k], &r[k], &q[k], &best[k], &h[k]);
                     qt[k] = q[k].tmax * BVH_REACH;
                 }
+            }
             far = 0.0f;
             for (int k = 0; k < n; k++)
                 far = qt[k] > far ? qt[k] : far;
@@ -678,6 +794,9 @@ unsigned bvh_occluded_packet_avx2(const Bvh *b, const Ray *r, int n, unsigned lo
     }
     const __m256 qt8 = _mm256_loadu_ps(qt);
     const unsigned all = (1u << n) - 1;
+#ifdef TRI4_AVX512
+    const int pairs = pairs_pay();
+#endif
     unsigned long long nt = 0;
     struct {
         int32_t code;
@@ -700,7 +819,14 @@ unsigned bvh_occluded_packet_avx2(const Bvh *b, const Ray *r, int n, unsigned lo
                 hit |= prim_intersect_rays(&b->prims[b->order[L->first]], r, rays, b->variant, cur);
                 continue;
             }
-            for (unsigned m = rays; m; m &= m - 1) {
+            unsigned m = rays;
+#ifdef TRI4_AVX512
+            if (pairs && L->tris == (1u << L->count) - 1) { /* triangles alone */
+                m = any_pairs(L, tp, r, m, &hit);
+                nt += (unsigned long long)L->count * (unsigned long long)__builtin_popcount(rays & ~m);
+            }
+#endif
+            for (; m; m &= m - 1) {
                 int k = tri_low_bit(m);
                 nt += L->count;
                 hit |= (unsigned)leaf_any(b, L, &tp[k], &r[k]) << k;

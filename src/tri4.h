@@ -145,6 +145,63 @@ static inline __m256 terr_up8(__m256 terr, __m256 t)
 }
 #define TRI_LANES tri8_lanes
 #include "tri_lanes.h"
+
+#if defined(__GNUC__) && defined(__x86_64__)
+/* Two rays at once, sixteen lanes of AVX-512: tri8_lanes for ray p in the
+ * low half and for ray p2 in the high, which share the axes kx, ky, kz.
+ * Built for AVX-512F and DQ whatever the file's target, and not inlined
+ * (its caller is not): the caller checks the processor. A comparison's
+ * mask is made a vector of lanes all ones or all zeros, as the narrower
+ * forms' comparisons give, so the body is theirs. */
+#define TRI4_AVX512 1
+#define TRI_AVX512 __attribute__((target("avx512f,avx512dq")))
+#define TRI_LANES_DECL static TRI_AVX512
+#define TRI_LANES_RAY2 const PrimTriRay *p2, const Ray *r2,
+#define V_RAY(a, b) _mm512_insertf32x8(_mm512_set1_ps(a), _mm256_set1_ps(b), 1)
+#define V __m512
+#define V_LOAD(blk, k, a) _mm512_broadcast_f32x8(_mm256_loadu2_m128((blk)[1].v[k][a], (blk)[0].v[k][a]))
+#define V_STORE _mm512_storeu_ps
+#define V_SET1 _mm512_set1_ps
+#define V_ADD _mm512_add_ps
+#define V_SUB _mm512_sub_ps
+#define V_MUL _mm512_mul_ps
+#define V_DIV _mm512_div_ps
+#define V_MIN _mm512_min_ps
+#define V_MAX _mm512_max_ps
+#define V_AND _mm512_and_ps
+#define V_OR _mm512_or_ps
+#define V_ANDNOT _mm512_andnot_ps
+#define V_ABS(x) _mm512_andnot_ps(_mm512_set1_ps(-0.0f), x)
+#define V_CMP16(a, b, c) _mm512_castsi512_ps(_mm512_movm_epi32(_mm512_cmp_ps_mask(a, b, c)))
+#define V_LT(a, b) V_CMP16(a, b, _CMP_LT_OS)
+#define V_LE(a, b) V_CMP16(a, b, _CMP_LE_OS)
+#define V_GT(a, b) V_CMP16(a, b, _CMP_GT_OS)
+#define V_GE(a, b) V_CMP16(a, b, _CMP_GE_OS)
+#define V_EQ(a, b) V_CMP16(a, b, _CMP_EQ_OQ)
+#define V_MASK(v) ((int)_mm512_movepi32_mask(_mm512_castps_si512(v)))
+#define V_TERR_UP terr_up16
+/* terr_up4, sixteen lanes wide. */
+TRI_AVX512 static inline __m512 terr_up16(__m512 terr, __m512 t)
+{
+    const __m512d g = _mm512_set1_pd(GAMMA_D(1));
+    const __m512d xl = _mm512_add_pd(_mm512_cvtps_pd(_mm512_castps512_ps256(terr)),
+                                     _mm512_mul_pd(g, _mm512_cvtps_pd(_mm512_castps512_ps256(t))));
+    const __m512d xh = _mm512_add_pd(_mm512_cvtps_pd(_mm512_extractf32x8_ps(terr, 1)),
+                                     _mm512_mul_pd(g, _mm512_cvtps_pd(_mm512_extractf32x8_ps(t, 1))));
+    const __m256 fl = _mm512_cvtpd_ps(xl), fh = _mm512_cvtpd_ps(xh);
+    const __m512 f = _mm512_insertf32x8(_mm512_castps256_ps512(fl), fh, 1);
+    const __mmask16 keep = (__mmask16)(_mm512_cmp_pd_mask(_mm512_cvtps_pd(fl), xl, _CMP_GE_OQ) |
+                                       _mm512_cmp_pd_mask(_mm512_cvtps_pd(fh), xh, _CMP_GE_OQ) << 8);
+    const __m512 next = _mm512_castsi512_ps(_mm512_add_epi32(_mm512_castps_si512(f), _mm512_set1_epi32(1)));
+    const __m512 up = _mm512_mask_blend_ps(_mm512_cmp_ps_mask(f, _mm512_set1_ps(FLT_MIN), _CMP_LT_OQ),
+                                           _mm512_mul_ps(f, _mm512_set1_ps(1.0f + FLT_EPSILON)), next);
+    return _mm512_mask_blend_ps(keep, up, f);
+}
+#define TRI_LANES tri16_lanes
+#include "tri_lanes.h"
+#undef V_CMP16
+#undef TRI_AVX512
+#endif
 #endif
 
 /* The lanes of one block (bit i of lanes for lane i), each judged exactly

@@ -1,21 +1,32 @@
 /*
  * tri_lanes.h - the SIMD body of the watertight triangle test, written once
  * for every width: tri4.h includes it with TRI_LANES (the function's name)
- * and the V_* operations defined, once for SSE (four lanes, one PrimTri4)
- * and once for AVX2 (eight lanes, two PrimTri4 side by side). It undefines
- * them at its end, ready for the next width.
+ * and the V_* operations defined, once for SSE (four lanes, one PrimTri4),
+ * once for AVX2 (eight lanes, two PrimTri4 side by side) and once for
+ * AVX-512 (sixteen lanes: the eight for two rays, with TRI_LANES_RAY2 and
+ * V_RAY). It undefines them at its end, ready for the next width.
  *
  * prim.c's watertight() lane by lane, in the same operations and order, so
  * each lane decided here gets the same bits as the scalar routine. Lanes
  * with an edge function too close to 0, or a t too close to 0 or tmax,
  * are left to the caller in *slow.
  */
-TRI_INLINE int TRI_LANES(const PrimTri4 *blk, int lanes, const PrimTriRay *p, const Ray *r, float *ht, float *hterr,
-                         float *hu, float *hv, int *slow)
+#ifndef TRI_LANES_DECL
+#define TRI_LANES_DECL TRI_INLINE
+#endif
+/* A second ray's parameters (TRI_LANES_RAY2), and a value of each ray in
+ * its lanes (V_RAY(first's, second's)): with one ray, the first's in all. */
+#ifndef TRI_LANES_RAY2
+#define TRI_LANES_RAY2
+#define V_RAY(a, b) V_SET1(a)
+#endif
+TRI_LANES_DECL int TRI_LANES(const PrimTri4 *blk, int lanes, const PrimTriRay *p, const Ray *r, TRI_LANES_RAY2 float *ht,
+                             float *hterr, float *hu, float *hv, int *slow)
 {
     const V g5 = V_SET1(GAMMA_F(5)), zero = V_SET1(0.0f);
-    const V ox = V_SET1(p->o[p->kx]), oy = V_SET1(p->o[p->ky]), oz = V_SET1(p->o[p->kz]);
-    const V sx = V_SET1(p->sx), sy = V_SET1(p->sy);
+    const V ox = V_RAY(p->o[p->kx], p2->o[p2->kx]), oy = V_RAY(p->o[p->ky], p2->o[p2->ky]);
+    const V oz = V_RAY(p->o[p->kz], p2->o[p2->kz]);
+    const V sx = V_RAY(p->sx, p2->sx), sy = V_RAY(p->sy, p2->sy);
     /* One bound for the three edges, from the largest magnitudes:
      * edge_err is monotone in each argument and rounding is monotone, so
      * it is at least each edge's own bound, at a third of the cost. A lane
@@ -56,10 +67,10 @@ TRI_INLINE int TRI_LANES(const PrimTri4 *blk, int lanes, const PrimTriRay *p, co
      * overflow, is never hit: its t is NaN too) */
     V emn = V_MIN(e0, V_MIN(e1, e2)), emx = V_MAX(e0, V_MAX(e1, e2));
     V det = V_ADD(V_ADD(e0, e1), e2);
-    V sz = V_SET1(p->sz);
+    V sz = V_RAY(p->sz, p2->sz);
     V azs = V_MUL(az, sz), bzs = V_MUL(bz, sz), czs = V_MUL(cz, sz);
     V ts = V_ADD(V_ADD(V_MUL(e0, azs), V_MUL(e1, bzs)), V_MUL(e2, czs));
-    V tmax = V_SET1(r->tmax), tmd = V_MUL(tmax, det);
+    V tmax = V_RAY(r->tmax, r2->tmax), tmd = V_MUL(tmax, det);
     V neg = V_LT(det, zero);
     V out_neg = V_OR(V_GE(ts, zero), V_LT(ts, tmd));
     V out_pos = V_OR(V_LE(ts, zero), V_GT(ts, tmd));
@@ -100,6 +111,9 @@ TRI_INLINE int TRI_LANES(const PrimTri4 *blk, int lanes, const PrimTriRay *p, co
 }
 
 #undef TRI_LANES
+#undef TRI_LANES_DECL
+#undef TRI_LANES_RAY2
+#undef V_RAY
 #undef V
 #undef V_LOAD
 #undef V_STORE

@@ -1235,6 +1235,72 @@ static void test_tri4_matches_scalar(void **state)
     assert_true(near > 3000);
 }
 
+#ifdef TRI4_AVX512
+/* Eight triangles (two blocks) against two rays of the same axes at once,
+ * sixteen lanes of AVX-512: each ray's lanes get tri8_lanes' verdicts, its
+ * lanes left to the scalar routine, and its hits' t, terr, u and v, bit
+ * for bit. The rays: one aimed into the fan, the other close by or far
+ * off, from tiny to huge directions, some from next to the fan, with
+ * finite or infinite tmax. */
+static void test_tri16_matches_tri8(void **state)
+{
+    (void)state;
+    if (!__builtin_cpu_supports("avx512f") || !__builtin_cpu_supports("avx512dq"))
+        skip();
+    int pairs = 0, hits = 0, slow = 0;
+    for (int n = 0; n < 100000; n++) {
+        Vec3 c = test_rvec(&rng, -2, 2), rim[8];
+        for (int i = 0; i < 8; i++)
+            rim[i] = vec_add(c, test_rvec(&rng, -1, 1));
+        PrimTri4 t[2];
+        for (int i = 0; i < 8; i++) {
+            Vec3 v[3] = {c, rim[i], rim[(i + 1) % 8]};
+            for (int k = 0; k < 3; k++) {
+                t[i / 4].v[k][0][i % 4] = v[k].x;
+                t[i / 4].v[k][1][i % 4] = v[k].y;
+                t[i / 4].v[k][2][i % 4] = v[k].z;
+            }
+        }
+        Ray r[2];
+        PrimTriRay p[2];
+        const float scales[] = {1, 0x1p-70f, 0x1p-20f, 0x1p20f, 0x1p70f, 3};
+        const float sc = scales[n / 16 % 6];
+        for (int j = 0; j < 2; j++) {
+            Vec3 target = vec_add(c, vec_scale(vec_sub(rim[(n + j) % 8], c), test_uniform(&rng, 0, 1.2f)));
+            Vec3 o = j && n % 2 ? vec_add(r[0].o, test_rvec(&rng, -1e-3f, 1e-3f)) : test_rvec(&rng, -6, 6);
+            if (n % 5 == 4) /* from next to the fan: t near 0 */
+                o = vec_add(target, vec_scale(test_rvec(&rng, -1, 1), ldexpf(1.0f, -(n / 5 % 30))));
+            Vec3 d = vec_scale(n % 5 == 4 ? test_rvec(&rng, -1, 1) : vec_sub(target, o), sc);
+            float tmax = (n + j) % 3 ? INFINITY : test_uniform(&rng, 0.5f, 1.5f) / sc;
+            r[j] = ray_make(o, d, tmax);
+            prim_triray_init(&p[j], &r[j]);
+        }
+        if (!p[0].simd || !p[1].simd || p[0].kz != p[1].kz)
+            continue;
+        pairs++;
+        int lanes = 1 + n % 255;
+        float t16[4][16], t8[2][4][8];
+        int s16, s8[2], h8[2];
+        int h16 = tri16_lanes(t, lanes | lanes << 8, &p[0], &r[0], &p[1], &r[1], t16[0], t16[1], t16[2], t16[3], &s16);
+        for (int j = 0; j < 2; j++)
+            h8[j] = tri8_lanes(t, lanes, &p[j], &r[j], t8[j][0], t8[j][1], t8[j][2], t8[j][3], &s8[j]);
+        for (int j = 0; j < 2; j++) {
+            assert_int_equal(h16 >> 8 * j & 0xff, h8[j]);
+            assert_int_equal(s16 >> 8 * j & 0xff, s8[j]);
+            for (int l = 0; l < 8; l++)
+                if (h8[j] >> l & 1)
+                    for (int f = 0; f < 4; f++)
+                        assert_memory_equal(&t16[f][8 * j + l], &t8[j][f][l], sizeof(float));
+            hits += h8[j] != 0;
+            slow += s8[j] != 0;
+        }
+    }
+    assert_true(pairs > 30000);
+    assert_true(hits > 10000);
+    assert_true(slow > 100); /* lanes left to the scalar routine, in both forms */
+}
+#endif
+
 static void test_shared_edge_with_an_edge_on_triangle(void **state)
 {
     (void)state;
@@ -1429,6 +1495,9 @@ int main(void)
     };
     const struct CMUnitTest robust_only[] = {
         cmocka_unit_test(test_tri4_matches_scalar),
+#ifdef TRI4_AVX512
+        cmocka_unit_test(test_tri16_matches_tri8),
+#endif
         cmocka_unit_test(test_shared_edge_with_an_edge_on_triangle),
         cmocka_unit_test(test_edge_on_triangle_hit_near_origin),
         cmocka_unit_test(test_triray_init),
