@@ -589,13 +589,6 @@ static unsigned long long leaf_closest_rays(const Bvh *b, const BvhLeaf *L, TriP
 }
 
 #ifdef TRI4_AVX512
-/* Where two rays' leaf tests run as one of sixteen lanes: an AMD
- * processor with AVX-512F and DQ, as prim.c's eight-lane routines. */
-static int pairs_pay(void)
-{
-    return __builtin_cpu_is("amd") && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq");
-}
-
 /* leaf_closest for rays k1 and k2 together, at a leaf of triangles alone,
  * both rays set up for the SIMD test and of the same axes: each ray's
  * lanes as leaf_tris finds them, then its hits in lane order, as
@@ -701,7 +694,7 @@ void bvh_closest_packet_avx2(const Bvh *b, const Ray *r, int n, PrimHit *h, int 
     }
     const unsigned all = (1u << n) - 1;
 #ifdef TRI4_AVX512
-    const int pairs = pairs_pay();
+    const int pairs = avx512_lanes_pay();
 #endif
     Ray q[BVH_PACKET];
     TriPre tp[BVH_PACKET];
@@ -795,7 +788,7 @@ unsigned bvh_occluded_packet_avx2(const Bvh *b, const Ray *r, int n, unsigned lo
     const __m256 qt8 = _mm256_loadu_ps(qt);
     const unsigned all = (1u << n) - 1;
 #ifdef TRI4_AVX512
-    const int pairs = pairs_pay();
+    const int pairs = avx512_lanes_pay();
 #endif
     unsigned long long nt = 0;
     struct {

@@ -421,14 +421,6 @@ __attribute__((target("avx"))) static inline unsigned round_t4(__m256d t, __m256
 #define QM_NONE _mm256_setzero_pd()
 #include "prim_lanes.h"
 
-/* The eight-lane routines run where they pay: an AMD processor with
- * AVX-512F and DQ. On an Intel Xeon with AVX-512 they ran slower than two
- * calls of four lanes (docs/performance.md). */
-static int prim_avx512(void)
-{
-    return __builtin_cpu_is("amd") && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq");
-}
-
 #define AVX512 __attribute__((target("avx512f,avx512dq")))
 
 /* round_t for eight lanes, as two halves of four. */
@@ -483,8 +475,8 @@ unsigned prim_plane_hit_robust_rays(const Plane *pl, const Ray *r, const float *
     int k = 0;
 #ifdef PRIM_AVX
     if (prim_avx()) {
-        const int eight = prim_avx512();
-        while (k + 4 <= n) { /* eight lanes where prim_avx512() allows, else four */
+        const int eight = avx512_lanes_pay();
+        while (k + 4 <= n) { /* eight lanes where avx512_lanes_pay() allows, else four */
             const int w = eight && k + 8 <= n ? 8 : 4;
             float t[8], terr[8];
             unsigned m = w == 8 ? plane_hit8(pl, r, k, tmax, t, terr) : plane_hit4(pl, r, k, tmax, t, terr);
@@ -870,8 +862,8 @@ unsigned prim_intersect_rays(const Prim *p, const Ray *r, unsigned rays, PrimVar
     if ((p->kind == PRIM_SPHERE || p->kind == PRIM_ELLIPSOID) && v == PRIM_ROBUST && prim_avx())
         while (rays & (rays - 1)) {
             /* two rays or more: four lanes, or eight for five rays or more
-             * where prim_avx512() allows, the last ones repeating the first */
-            const int w = __builtin_popcount(rays) > 4 && prim_avx512() ? 8 : 4;
+             * where avx512_lanes_pay() allows, the last ones repeating the first */
+            const int w = __builtin_popcount(rays) > 4 && avx512_lanes_pay() ? 8 : 4;
             int k[8] = {0, 0, 0, 0, 0, 0, 0, 0}, m = 0;
             for (; m < w && rays; rays &= rays - 1)
                 k[m++] = __builtin_ctz(rays);

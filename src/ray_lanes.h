@@ -11,6 +11,15 @@
 
 #include "lancer/ray.h"
 
+/* 1 where the AVX-512 forms run: prim.c's eight lanes and the traversal's
+ * two rays a leaf. They pay on an AMD processor with AVX-512F and DQ; on an
+ * Intel Xeon with AVX-512 the eight lanes ran slower than two calls of four
+ * (docs/performance.md). */
+static inline int avx512_lanes_pay(void)
+{
+    return __builtin_cpu_is("amd") && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq");
+}
+
 /* A ray's fields, in floats from its start: the origin's axis a at RAY_O +
  * a, the direction's at RAY_D + a, then tmax. The loads below read a ray
  * as these seven floats. */
