@@ -50,8 +50,7 @@ int prim_plane_hit(const Plane *pl, const Ray *r, PrimHit *h)
     float th = (pl->d - vec_dot(r->o, pl->n)) / denom;
     if (!(th > 0.0f && th < r->tmax))
         return 0;
-    h->t = th;
-    h->terr = 0.0f;
+    *h = (PrimHit){th, 0.0f, 0.0f, 0.0f, 0};
     return 1;
 }
 
@@ -70,8 +69,7 @@ int prim_sphere_hit(const Sphere *s, const Ray *r, PrimHit *h)
         th = (-b + sq) / (2.0f * a); /* origin inside, or near root behind */
     if (!(th > 0.0f && th < r->tmax))
         return 0;
-    h->t = th;
-    h->terr = 0.0f;
+    *h = (PrimHit){th, 0.0f, 0.0f, 0.0f, 0};
     return 1;
 }
 
@@ -102,15 +100,11 @@ int prim_box_hit(const Box *b, const Ray *r, PrimHit *h)
         }
     }
     if (tnear > 0.0f && tnear < r->tmax) {
-        h->t = tnear;
-        h->terr = 0.0f;
-        h->face = near_axis;
+        *h = (PrimHit){tnear, 0.0f, 0.0f, 0.0f, near_axis};
         return 1;
     }
     if (tnear <= 0.0f && tfar > 0.0f && tfar < r->tmax) { /* origin inside */
-        h->t = tfar;
-        h->terr = 0.0f;
-        h->face = far_axis;
+        *h = (PrimHit){tfar, 0.0f, 0.0f, 0.0f, far_axis};
         return 1;
     }
     return 0;
@@ -162,15 +156,11 @@ int prim_obox_hit(const OBox *b, const Ray *r, PrimHit *h)
     if (!(tnear < tfar))
         return 0;
     if (tnear > 0.0f && tnear < r->tmax) {
-        h->t = tnear;
-        h->terr = 0.0f;
-        h->face = near_axis;
+        *h = (PrimHit){tnear, 0.0f, 0.0f, 0.0f, near_axis};
         return 1;
     }
     if (tnear <= 0.0f && tfar > 0.0f && tfar < r->tmax) {
-        h->t = tfar;
-        h->terr = 0.0f;
-        h->face = far_axis;
+        *h = (PrimHit){tfar, 0.0f, 0.0f, 0.0f, far_axis};
         return 1;
     }
     return 0;
@@ -208,10 +198,10 @@ int prim_plane_hit_robust(const Plane *pl, const Ray *r, PrimHit *h)
         return 0;
     double e_num = gamma_d(2) * (fabs(ox) + fabs(oy) + fabs(oz)) + gamma_d(1) * fabs(num);
     double t = num / den;
-    float tf = round_t(t, quotient_err(t, den, e_num, e_den), &h->terr);
+    float terr, tf = round_t(t, quotient_err(t, den, e_num, e_den), &terr);
     if (!(tf > 0.0f && tf < r->tmax))
         return 0;
-    h->t = tf;
+    *h = (PrimHit){tf, terr, 0.0f, 0.0f, 0};
     return 1;
 }
 
@@ -359,10 +349,10 @@ static int quadric_hit(const double f[3], const double d[3], double r2, GFn g, c
     double w = certify_root(g, ctx, t);
     if (w < 0.0)
         return 0; /* tangent to working precision: a miss, by definition */
-    float tf = round_t(t, w, &h->terr);
+    float terr, tf = round_t(t, w, &terr);
     if (!(tf > 0.0f && tf < r->tmax))
         return 0;
-    h->t = tf;
+    *h = (PrimHit){tf, terr, 0.0f, 0.0f, 0};
     return 1;
 }
 
@@ -624,11 +614,10 @@ int prim_box_hit_robust(const Box *b, const Ray *r, PrimHit *h)
         return 0;
     int inside = !(tnear > 0.0);
     double t = inside ? texit : tnear;
-    float tf = round_t(t, gamma_d(3) * fabs(t), &h->terr);
+    float terr, tf = round_t(t, gamma_d(3) * fabs(t), &terr);
     if (!(tf > 0.0f && tf < r->tmax))
         return 0;
-    h->t = tf;
-    h->face = inside ? far_face : near_face;
+    *h = (PrimHit){tf, terr, 0.0f, 0.0f, inside ? far_face : near_face};
     return 1;
 }
 
@@ -804,11 +793,10 @@ static int obox_hit_slabs(const OBox *b, const OBoxSlabs *k, const Ray *r, PrimH
         if (g_hw < tfar + tf_err)
             far_axis = g_far_axis;
     }
-    float tf = round_t(t, err, &h->terr);
+    float terr, tf = round_t(t, err, &terr);
     if (!(tf > 0.0f && tf < r->tmax))
         return 0;
-    h->t = tf;
-    h->face = inside ? far_axis : near_axis;
+    *h = (PrimHit){tf, terr, 0.0f, 0.0f, inside ? far_axis : near_axis};
     return 1;
 }
 

@@ -35,10 +35,7 @@ int prim_triangle_hit(const Triangle *tr, const Ray *r, PrimHit *h)
     float th = vec_dot(e2, qvec) * inv_det;
     if (!(th > 0.0f && th < r->tmax))
         return 0;
-    h->t = th;
-    h->terr = 0.0f;
-    h->u = uu;
-    h->v = vv;
+    *h = (PrimHit){th, 0.0f, uu, vv, 0};
     return 1;
 }
 
@@ -208,10 +205,7 @@ static int watertight(const Vec3 v[3], const Ray *r, const PrimTriRay *p, PrimHi
         if (!(ts > -tserr && ts < reach) || !t_double(v, r, p, &t, &u, &w))
             return 0;
     }
-    h->t = t;
-    h->terr = prim_terr_up(terr, t); /* and the rounding of t itself */
-    h->u = u;
-    h->v = w;
+    *h = (PrimHit){t, prim_terr_up(terr, t), u, w, 0}; /* terr: and the rounding of t itself */
     return 1;
 }
 

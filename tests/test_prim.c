@@ -1439,6 +1439,35 @@ static void test_triray_init(void **state)
     }
 }
 
+/* Every hit routine writes the whole PrimHit, whatever it held before:
+ * u and v are a triangle's barycentrics and face a box's side, and 0 where
+ * the primitive has none, so that a hit copied or compared is defined. */
+static void test_hit_fills_every_field(void **state)
+{
+    (void)state;
+    Ellipsoid e = ellipsoid(0, 0, 0);
+    OBox ob = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {{0, 0, 0}}};
+    assert_int_equal(prim_obox_init(&ob), 0);
+    const Prim p[] = {
+        {PRIM_SPHERE, 0, {.sphere = {{0, 0, 0}, 1}}},     {PRIM_PLANE, 0, {.plane = {{0, 0, 1}, 0}}},
+        {PRIM_TRIANGLE, 0, {.tri = tri}},                 {PRIM_SMOOTH_TRIANGLE, 0, {.tri = tri}},
+        {PRIM_BOX, 0, {.box = cube}},                     {PRIM_OBOX, 0, {.obox = ob}},
+        {PRIM_ELLIPSOID, 0, {.ell = {&e, 0}}},
+    };
+    const Ray r = ray(0.25f, 0.5f, -5, 0, 0, 1);
+    for (size_t i = 0; i < sizeof p / sizeof p[0]; i++) {
+        PrimHit h;
+        memset(&h, 0xff, sizeof h); /* u and v NaN, face -1 */
+        assert_true(prim_intersect(&p[i], &r, V, &h));
+        const int tri_kind = p[i].kind == PRIM_TRIANGLE || p[i].kind == PRIM_SMOOTH_TRIANGLE;
+        assert_float_equal(h.u, tri_kind ? 0.25f : 0.0f, 0);
+        assert_float_equal(h.v, tri_kind ? 0.5f : 0.0f, 0);
+        assert_true(h.face >= 0 && h.face < 6);
+        if (p[i].kind != PRIM_BOX && p[i].kind != PRIM_OBOX)
+            assert_int_equal(h.face, 0);
+    }
+}
+
 /* double_min and double_max (rounding.h), which the robust oriented box
  * calls instead of fmin and fmax, give libm's answers bit for bit: NaN
  * losing, infinities, and zeros of either sign (of two equal zeros, glibc
@@ -1492,6 +1521,7 @@ int main(void)
         cmocka_unit_test(test_robust_error_bounds),
         cmocka_unit_test(test_box_origin_on_slab_plane),
         cmocka_unit_test(test_watertight_shared_edge),
+        cmocka_unit_test(test_hit_fills_every_field),
     };
     const struct CMUnitTest robust_only[] = {
         cmocka_unit_test(test_tri4_matches_scalar),
