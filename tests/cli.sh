@@ -218,10 +218,15 @@ expect 0 "$LANCER" render "$T/tiny.scn" -o "$T/link.exr" -q
 if [ -L "$T/link.exr" ]; then ok; else bad "the link was replaced by a file"; fi
 if head -c 4 "$T/target.exr" | od -An -tx1 | grep -q "76 2f 31 01"; then ok; else bad "the link's target is not the new EXR"; fi
 
-# bench: ray files for a small mesh, tracing them, the build series
-mkdir "$T/rays"
+# bench: ray files for a small mesh, tracing them, the build series (OUTDIR
+# is made when missing, not its parents)
 expect 0 "$LANCER" bench --gen-rays "$T/tet.off" "$T/rays" 16 16
 has "$T/out" "primary=256 "
+if [ -s "$T/rays/primary.rays" ] && [ -s "$T/rays/shadow.rays" ] && [ -s "$T/rays/diffuse.rays" ]; then ok; else
+    bad "bench --gen-rays did not write its three files into a new OUTDIR"
+fi
+expect 1 "$LANCER" bench --gen-rays "$T/tet.off" "$T/no/rays" 16 16
+has "$T/err" "cannot create directory '$T/no/rays'"
 expect 0 "$LANCER" bench --mesh "$T/tet.off" --rays "$T/rays/primary.rays" --kind closest --passes 1
 if grep -Eq '^mrays=[0-9.]+ hits=[1-9][0-9]* sumt=[0-9.e+]+ build_ms=[0-9.]+ rays=256$' "$T/out"; then ok; else
     bad "bench line: $(cat "$T/out")"

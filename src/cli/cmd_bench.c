@@ -2,10 +2,12 @@
  * cmd_bench.c - lancer bench: benchmark rays for a mesh, timed ray casting,
  * and the BVH's build series.
  */
+#include <errno.h>
 #include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "bench.h"
 #include "cli.h"
@@ -21,10 +23,11 @@ static const char usage[] =
     "       lancer bench --build-series MESH [--max-mtris M]\n"
     "\n"
     "The first form writes OUTDIR/primary.rays, shadow.rays and diffuse.rays\n"
-    "for a W x H camera framing the mesh (default 1024 x 1024): one ray per\n"
-    "pixel; from each hit, one to a point light and one in a random direction\n"
-    "of the hemisphere, shuffled. With --tight, the camera looks at the\n"
-    "surface seen at the centre, its view narrowed until 90% of the rays hit.\n"
+    "(OUTDIR made if missing) for a W x H camera framing the mesh (default\n"
+    "1024 x 1024): one ray per pixel; from each hit, one to a point light and\n"
+    "one in a random direction of the hemisphere, shuffled. With --tight, the\n"
+    "camera looks at the surface seen at the centre, its view narrowed until\n"
+    "90% of the rays hit.\n"
     "Ray files: \"LNCRAYS1\", a uint64 count, and\n"
     "per ray 8 little-endian float32 ox oy oz dx dy dz tmin tmax.\n"
     "\n"
@@ -132,6 +135,10 @@ static int build_series(Scene *s, PrimVariant v, long max_tris)
 static int gen_rays(const Scene *s, const Accel *acc, const char *mesh, const char *dir, int w, int h, int tight)
 {
     static const char *const names[3] = {"primary.rays", "shadow.rays", "diffuse.rays"};
+    if (mkdir(dir, 0777) != 0 && errno != EEXIST) { /* made when missing, as out/ by render */
+        fprintf(stderr, "lancer: cannot create directory '%s': %s\n", dir, strerror(errno));
+        return 1;
+    }
     char paths[3][AFILE_PATH_MAX];
     CliOutput outs[3];
     for (int i = 0; i < 3; i++) {
