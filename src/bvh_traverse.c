@@ -684,6 +684,18 @@ __attribute__((noinline)) static unsigned any_pairs(const BvhLeaf *L, TriPre *tp
 }
 #endif
 
+/* The packet's rays set up for the triangle test together, at the first
+ * leaf one of them reaches: most of the others reach leaves too. */
+static void packet_tri_pre(const Ray *r, int n, TriPre *tp)
+{
+    PrimTriRay *p[BVH_PACKET];
+    for (int k = 0; k < BVH_PACKET; k++)
+        p[k] = &tp[k].tri;
+    tri_ray_init8(r, n, p);
+    for (int k = 0; k < n; k++)
+        tp[k].ready = 1;
+}
+
 void bvh_closest_packet_avx2(const Bvh *b, const Ray *r, int n, PrimHit *h, int *best, unsigned long long *tests)
 {
     PacketPre p;
@@ -720,6 +732,8 @@ void bvh_closest_packet_avx2(const Bvh *b, const Ray *r, int n, PrimHit *h, int 
             continue;
         if (e.code < 0) {
             const BvhLeaf *L = &b->leaves[-1 - e.code];
+            if (!tp[0].ready)
+                packet_tri_pre(r, n, tp);
             if (other_together(b, L, e.rays)) /* as leaf_closest would one by one */
                 nt += leaf_closest_rays(b, L, tp, r, q, e.rays, best, h, qt);
             else {
@@ -806,6 +820,8 @@ unsigned bvh_occluded_packet_avx2(const Bvh *b, const Ray *r, int n, unsigned lo
             continue;
         if (code < 0) {
             const BvhLeaf *L = &b->leaves[-1 - code];
+            if (!tp[0].ready)
+                packet_tri_pre(r, n, tp);
             if (L->count == 1 && !L->tris && (rays & (rays - 1))) { /* as leaf_any would one by one */
                 PrimHit cur[BVH_PACKET];
                 nt += (unsigned long long)__builtin_popcount(rays);

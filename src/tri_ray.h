@@ -15,6 +15,7 @@
 
 #if defined(__AVX2__) && !defined(LANCER_NO_SIMD)
 #include <immintrin.h>
+#include "ray_lanes.h"
 #endif
 
 /* Inline even where GCC would call: in the traversal's loops a call
@@ -82,5 +83,55 @@ TRI_INLINE void tri_ray_init(PrimTriRay *p, const Ray *r)
     p->sz = 1.0f / d[kz];
 #endif
 }
+
+#if defined(__AVX2__) && !defined(LANCER_NO_SIMD)
+/* tri_ray_init for the rays r[0 .. n-1] (n <= 8) at once, a ray a lane,
+ * into *p[k]: the same comparisons and divisions, lane by lane, so the
+ * same bits. A packet's rays set up together where most of them go on to
+ * test triangles: one division of eight lanes for each of sx, sy and sz
+ * instead of one of four per ray. */
+TRI_INLINE void tri_ray_init8(const Ray *r, int n, PrimTriRay *const p[8])
+{
+    int at[8];
+    for (int k = 0; k < 8; k++)
+        at[k] = k < n ? k : 0;
+    __m256 f[RAY_FIELDS];
+    ray_fields8(r, at, f);
+    const __m256 sign = _mm256_set1_ps(-0.0f), dx = f[RAY_D], dy = f[RAY_D + 1], dz = f[RAY_D + 2];
+    const __m256 ax = _mm256_andnot_ps(sign, dx), ay = _mm256_andnot_ps(sign, dy), az = _mm256_andnot_ps(sign, dz);
+    /* kz = a & b ? 0 : !a & c ? 1 : 2, as tri_ray_init's table: x where
+     * kz is 0, y where it is 1 */
+    const __m256 a = _mm256_cmp_ps(ax, ay, _CMP_GT_OS), c = _mm256_cmp_ps(ay, az, _CMP_GT_OS);
+    const __m256 x = _mm256_and_ps(a, _mm256_cmp_ps(ax, az, _CMP_GT_OS)), y = _mm256_andnot_ps(a, c);
+    const __m256 dkz = _mm256_blendv_ps(_mm256_blendv_ps(dz, dy, y), dx, x);
+    const __m256 dkx = _mm256_blendv_ps(_mm256_blendv_ps(dx, dz, y), dy, x);
+    const __m256 dky = _mm256_blendv_ps(_mm256_blendv_ps(dy, dx, y), dz, x);
+    float s[3][8];
+    _mm256_storeu_ps(s[0], _mm256_div_ps(_mm256_xor_ps(dkx, sign), dkz));
+    _mm256_storeu_ps(s[1], _mm256_div_ps(_mm256_xor_ps(dky, sign), dkz));
+    _mm256_storeu_ps(s[2], _mm256_div_ps(_mm256_set1_ps(1.0f), dkz));
+    const __m256 hi = _mm256_set1_ps(TRI_RESCALE_MAX), lo = _mm256_set1_ps(TRI_RESCALE_MIN);
+    const __m256 below = _mm256_and_ps(_mm256_and_ps(_mm256_cmp_ps(ax, hi, _CMP_LE_OS), _mm256_cmp_ps(ay, hi, _CMP_LE_OS)),
+                                       _mm256_cmp_ps(az, hi, _CMP_LE_OS));
+    const __m256 above = _mm256_or_ps(_mm256_or_ps(_mm256_cmp_ps(ax, lo, _CMP_GE_OS), _mm256_cmp_ps(ay, lo, _CMP_GE_OS)),
+                                      _mm256_cmp_ps(az, lo, _CMP_GE_OS));
+    const int simd = _mm256_movemask_ps(_mm256_and_ps(below, above));
+    const int mx = _mm256_movemask_ps(x), my = _mm256_movemask_ps(y);
+    for (int k = 0; k < n; k++) {
+        PrimTriRay *q = p[k];
+        const int kz = mx >> k & 1 ? 0 : my >> k & 1 ? 1 : 2;
+        q->kx = kz == 2 ? 0 : kz + 1;
+        q->ky = kz == 0 ? 2 : kz - 1;
+        q->kz = kz;
+        q->o[0] = r[k].o.x;
+        q->o[1] = r[k].o.y;
+        q->o[2] = r[k].o.z;
+        q->simd = simd >> k & 1;
+        q->sx = s[0][k];
+        q->sy = s[1][k];
+        q->sz = s[2][k];
+    }
+}
+#endif
 
 #endif

@@ -1437,6 +1437,28 @@ static void test_triray_init(void **state)
         assert_memory_equal(&got, &want, sizeof want);
         assert_memory_equal(&lib, &want, sizeof want);
     }
+#if defined(__AVX2__) && !defined(LANCER_NO_SIMD)
+    /* eight at once, lane by lane the same, in packets of 1 to 8 rays */
+    for (int n = 0; n < nc * nc * nc + 100000; n += 8) {
+        Ray r[8];
+        PrimTriRay want[8], got[8], *gp[8];
+        const int m = 1 + n / 8 % 8;
+        for (int k = 0; k < 8; k++) {
+            const int i = n + k;
+            Vec3 d = i < nc * nc * nc ? vec3(c[i % nc], c[i / nc % nc], c[i / (nc * nc)]) : test_rvec(&seed, -1, 1);
+            if (i >= nc * nc * nc && i % 3 == 0)
+                d.y = i % 2 ? d.x : -d.x;
+            r[k] = ray_make(test_rvec(&seed, -5, 5), d, INFINITY);
+            memset(&want[k], 0xa5, sizeof want[k]);
+            memset(&got[k], 0xa5, sizeof got[k]);
+            gp[k] = &got[k];
+            if (k < m)
+                tri_ray_init(&want[k], &r[k]);
+        }
+        tri_ray_init8(r, m, gp);
+        assert_memory_equal(got, want, sizeof want); /* past m: untouched */
+    }
+#endif
 }
 
 /* Every hit routine writes the whole PrimHit, whatever it held before:
