@@ -685,7 +685,8 @@ __attribute__((noinline)) static unsigned any_pairs(const BvhLeaf *L, TriPre *tp
 #endif
 
 /* The packet's rays set up for the triangle test together, at the first
- * leaf one of them reaches: most of the others reach leaves too. */
+ * leaf of triangles one of them reaches: most of the others reach such
+ * leaves too. */
 static void packet_tri_pre(const Ray *r, int n, TriPre *tp)
 {
     PrimTriRay *p[BVH_PACKET];
@@ -732,7 +733,7 @@ void bvh_closest_packet_avx2(const Bvh *b, const Ray *r, int n, PrimHit *h, int 
             continue;
         if (e.code < 0) {
             const BvhLeaf *L = &b->leaves[-1 - e.code];
-            if (!tp[0].ready)
+            if (L->tris && !tp[0].ready)
                 packet_tri_pre(r, n, tp);
             if (other_together(b, L, e.rays)) /* as leaf_closest would one by one */
                 nt += leaf_closest_rays(b, L, tp, r, q, e.rays, best, h, qt);
@@ -820,7 +821,7 @@ unsigned bvh_occluded_packet_avx2(const Bvh *b, const Ray *r, int n, unsigned lo
             continue;
         if (code < 0) {
             const BvhLeaf *L = &b->leaves[-1 - code];
-            if (!tp[0].ready)
+            if (L->tris && !tp[0].ready)
                 packet_tri_pre(r, n, tp);
             if (L->count == 1 && !L->tris && (rays & (rays - 1))) { /* as leaf_any would one by one */
                 PrimHit cur[BVH_PACKET];
