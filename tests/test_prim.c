@@ -1471,9 +1471,12 @@ static void test_hit_fills_every_field(void **state)
     OBox ob = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {{0, 0, 0}}};
     assert_int_equal(prim_obox_init(&ob), 0);
     const Prim p[] = {
-        {PRIM_SPHERE, 0, {.sphere = {{0, 0, 0}, 1}}},     {PRIM_PLANE, 0, {.plane = {{0, 0, 1}, 0}}},
-        {PRIM_TRIANGLE, 0, {.tri = tri}},                 {PRIM_SMOOTH_TRIANGLE, 0, {.tri = tri}},
-        {PRIM_BOX, 0, {.box = cube}},                     {PRIM_OBOX, 0, {.obox = ob}},
+        {PRIM_SPHERE, 0, {.sphere = {{0, 0, 0}, 1}}},
+        {PRIM_PLANE, 0, {.plane = {{0, 0, 1}, 0}}},
+        {PRIM_TRIANGLE, 0, {.tri = tri}},
+        {PRIM_SMOOTH_TRIANGLE, 0, {.tri = tri}},
+        {PRIM_BOX, 0, {.box = cube}},
+        {PRIM_OBOX, 0, {.obox = ob}},
         {PRIM_ELLIPSOID, 0, {.ell = {&e, 0}}},
     };
     const Ray r = ray(0.25f, 0.5f, -5, 0, 0, 1);
