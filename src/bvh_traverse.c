@@ -613,17 +613,11 @@ static void leaf_closest2(const Bvh *b, const BvhLeaf *L, const TriPre *tp, cons
     }
 }
 
-/* Rays k1 and k2, set up for the triangle test here if not yet, can take
- * it together: both in SIMD lanes, with the same axes. */
-static int pairable(TriPre *tp, const Ray *r, int k1, int k2)
+/* Rays k1 and k2 can take the triangle test together: both in SIMD lanes,
+ * with the same axes. They are set up already: a leaf of triangles sets up
+ * its packet's rays before any is tested (packet_tri_pre). */
+static int pairable(const TriPre *tp, int k1, int k2)
 {
-    for (int j = 0; j < 2; j++) {
-        TriPre *p = &tp[j ? k2 : k1];
-        if (!p->ready) {
-            tri_ray_init(&p->tri, &r[j ? k2 : k1]);
-            p->ready = 1;
-        }
-    }
     const PrimTriRay *a = &tp[k1].tri, *c = &tp[k2].tri;
     return a->simd && c->simd && a->kx == c->kx && a->ky == c->ky && a->kz == c->kz;
 }
@@ -632,8 +626,8 @@ static int pairable(TriPre *tp, const Ray *r, int k1, int k2)
  * leaf_closest2 can take them; returns the rays left. Out of line: inlined,
  * it made the packet's frame larger, and every frame's shading slower, the
  * leaves of no triangles included. */
-__attribute__((noinline)) static unsigned leaf_pairs(const Bvh *b, const BvhLeaf *L, TriPre *tp, const Ray *r, Ray *q,
-                                                     unsigned rays, int *best, PrimHit *h, float *qt)
+__attribute__((noinline)) static unsigned leaf_pairs(const Bvh *b, const BvhLeaf *L, const TriPre *tp, const Ray *r,
+                                                     Ray *q, unsigned rays, int *best, PrimHit *h, float *qt)
 {
     unsigned left = 0;
     while (rays & (rays - 1)) {
@@ -641,7 +635,7 @@ __attribute__((noinline)) static unsigned leaf_pairs(const Bvh *b, const BvhLeaf
         rays &= rays - 1;
         const int k2 = tri_low_bit(rays);
         rays &= rays - 1;
-        if (!pairable(tp, q, k1, k2)) {
+        if (!pairable(tp, k1, k2)) {
             left |= 1u << k1 | 1u << k2;
             continue;
         }
@@ -655,7 +649,7 @@ __attribute__((noinline)) static unsigned leaf_pairs(const Bvh *b, const BvhLeaf
 /* leaf_any for the rays of `rays`, two at a time where they can share the
  * sixteen lanes, at a leaf of triangles alone: the rays hit into *hit;
  * returns the rays left. */
-__attribute__((noinline)) static unsigned any_pairs(const BvhLeaf *L, TriPre *tp, const Ray *r, unsigned rays,
+__attribute__((noinline)) static unsigned any_pairs(const BvhLeaf *L, const TriPre *tp, const Ray *r, unsigned rays,
                                                     unsigned *hit)
 {
     unsigned left = 0;
@@ -664,7 +658,7 @@ __attribute__((noinline)) static unsigned any_pairs(const BvhLeaf *L, TriPre *tp
         rays &= rays - 1;
         const int k2 = tri_low_bit(rays);
         rays &= rays - 1;
-        if (!pairable(tp, r, k1, k2)) {
+        if (!pairable(tp, k1, k2)) {
             left |= 1u << k1 | 1u << k2;
             continue;
         }

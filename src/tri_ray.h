@@ -111,11 +111,11 @@ TRI_INLINE void tri_ray_init8(const Ray *r, int n, PrimTriRay *const p[8])
     _mm256_storeu_ps(s[1], _mm256_div_ps(_mm256_xor_ps(dky, sign), dkz));
     _mm256_storeu_ps(s[2], _mm256_div_ps(_mm256_set1_ps(1.0f), dkz));
     const __m256 hi = _mm256_set1_ps(TRI_RESCALE_MAX), lo = _mm256_set1_ps(TRI_RESCALE_MIN);
-    const __m256 below = _mm256_and_ps(_mm256_and_ps(_mm256_cmp_ps(ax, hi, _CMP_LE_OS), _mm256_cmp_ps(ay, hi, _CMP_LE_OS)),
-                                       _mm256_cmp_ps(az, hi, _CMP_LE_OS));
-    const __m256 above = _mm256_or_ps(_mm256_or_ps(_mm256_cmp_ps(ax, lo, _CMP_GE_OS), _mm256_cmp_ps(ay, lo, _CMP_GE_OS)),
-                                      _mm256_cmp_ps(az, lo, _CMP_GE_OS));
-    const int simd = _mm256_movemask_ps(_mm256_and_ps(below, above));
+    /* every |d| <= the upper bound (false for inf and NaN), and one >= the lower */
+    const __m256 below = _mm256_and_ps(_mm256_cmp_ps(ax, hi, _CMP_LE_OS), _mm256_cmp_ps(ay, hi, _CMP_LE_OS));
+    const __m256 above = _mm256_or_ps(_mm256_cmp_ps(ax, lo, _CMP_GE_OS), _mm256_cmp_ps(ay, lo, _CMP_GE_OS));
+    const int simd = _mm256_movemask_ps(_mm256_and_ps(_mm256_and_ps(below, _mm256_cmp_ps(az, hi, _CMP_LE_OS)),
+                                                      _mm256_or_ps(above, _mm256_cmp_ps(az, lo, _CMP_GE_OS))));
     const int mx = _mm256_movemask_ps(x), my = _mm256_movemask_ps(y);
     for (int k = 0; k < n; k++) {
         PrimTriRay *q = p[k];
