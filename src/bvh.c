@@ -601,11 +601,10 @@ static void fill_leaves(Bvh *b)
                 continue;
             L->tris |= (uint8_t)(1 << i);
             const Vec3 v[3] = {p->g.tri.a, p->g.tri.b, p->g.tri.c};
-            PrimTri4 *t = &L->tri[i / 4];
             for (int k = 0; k < 3; k++) {
-                t->v[k][0][i % 4] = v[k].x;
-                t->v[k][1][i % 4] = v[k].y;
-                t->v[k][2][i % 4] = v[k].z;
+                L->tri.v[k][0][i] = v[k].x;
+                L->tri.v[k][1][i] = v[k].y;
+                L->tri.v[k][2][i] = v[k].z;
             }
         }
     }
@@ -894,9 +893,9 @@ static int validate_leaf(const Bvh *b, int li, const float lo[3], const float hi
         if (tri != (L->tris >> i & 1))
             return snprintf(err, errlen, "leaf %d marks primitive %d wrongly as triangle or not", li, idx), -1;
         const Vec3 v[3] = {p->g.tri.a, p->g.tri.b, p->g.tri.c};
-        const PrimTri4 *t = &L->tri[i / 4];
+        const PrimTri8 *t = &L->tri;
         for (int c = 0; tri && c < 3; c++)
-            if (t->v[c][0][i % 4] != v[c].x || t->v[c][1][i % 4] != v[c].y || t->v[c][2][i % 4] != v[c].z)
+            if (t->v[c][0][i] != v[c].x || t->v[c][1][i] != v[c].y || t->v[c][2][i] != v[c].z)
                 return snprintf(err, errlen, "leaf %d holds other vertices than primitive %d", li, idx), -1;
     }
     return 0;

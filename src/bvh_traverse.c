@@ -229,12 +229,13 @@ TRI_INLINE int leaf_tris(const BvhLeaf *L, TriPre *p, const Ray *r, LeafHits *h)
 #ifdef TRI4_AVX
     int hit = 0, slow = L->tris;
     if (p->tri.simd)
-        hit = tri8_lanes(L->tri, L->tris, &p->tri, r, h->t, h->terr, h->u, h->v, &slow);
-    return hit | tri_scalar_lanes(L->tri, slow, &p->tri, r, h->t, h->terr, h->u, h->v);
+        hit = tri8_lanes(L->tri.v[0][0], L->tris, &p->tri, r, h->t, h->terr, h->u, h->v, &slow);
+    return hit | tri_scalar_lanes(&L->tri, 0, slow, &p->tri, r, h->t, h->terr, h->u, h->v);
 #else
-    int hit = tri4_hit_watertight(&L->tri[0], L->tris & 15, &p->tri, r, h->t, h->terr, h->u, h->v);
+    int hit = tri4_hit_watertight(&L->tri, 0, L->tris & 15, &p->tri, r, h->t, h->terr, h->u, h->v);
     if (L->tris >> 4)
-        hit |= tri4_hit_watertight(&L->tri[1], L->tris >> 4, &p->tri, r, h->t + 4, h->terr + 4, h->u + 4, h->v + 4) << 4;
+        hit |= tri4_hit_watertight(&L->tri, 4, L->tris >> 4, &p->tri, r, h->t + 4, h->terr + 4, h->u + 4, h->v + 4)
+               << 4;
     return hit;
 #endif
 }
@@ -598,13 +599,14 @@ static void leaf_closest2(const Bvh *b, const BvhLeaf *L, const TriPre *tp, cons
 {
     float t[16], terr[16], u[16], v[16];
     int slow;
-    const int hit = tri16_lanes(L->tri, L->tris | L->tris << 8, &tp[k1].tri, &q[k1], &tp[k2].tri, &q[k2], t, terr, u,
-                                v, &slow);
+    const int hit = tri16_lanes(L->tri.v[0][0], L->tris | L->tris << 8, &tp[k1].tri, &q[k1], &tp[k2].tri, &q[k2], t,
+                                terr, u, v, &slow);
     const int ks[2] = {k1, k2};
     for (int j = 0; j < 2; j++) {
         const int k = ks[j], at = 8 * j;
         unsigned m = (unsigned)(hit >> at & 0xff);
-        m |= (unsigned)tri_scalar_lanes(L->tri, slow >> at & 0xff, &tp[k].tri, &q[k], t + at, terr + at, u + at, v + at);
+        m |= (unsigned)tri_scalar_lanes(&L->tri, 0, slow >> at & 0xff, &tp[k].tri, &q[k], t + at, terr + at, u + at,
+                                        v + at);
         for (; m; m &= m - 1) {
             const int i = tri_low_bit(m);
             const PrimHit cur = {t[at + i], terr[at + i], u[at + i], v[at + i], 0};
@@ -664,13 +666,13 @@ __attribute__((noinline)) static unsigned any_pairs(const BvhLeaf *L, const TriP
         }
         float t[16], terr[16], u[16], v[16];
         int slow;
-        const int got = tri16_lanes(L->tri, L->tris | L->tris << 8, &tp[k1].tri, &r[k1], &tp[k2].tri, &r[k2], t, terr,
-                                    u, v, &slow);
+        const int got = tri16_lanes(L->tri.v[0][0], L->tris | L->tris << 8, &tp[k1].tri, &r[k1], &tp[k2].tri, &r[k2],
+                                    t, terr, u, v, &slow);
         const int ks[2] = {k1, k2};
         for (int j = 0; j < 2; j++) {
             const int k = ks[j], at = 8 * j;
             if ((got >> at & 0xff) ||
-                tri_scalar_lanes(L->tri, slow >> at & 0xff, &tp[k].tri, &r[k], t + at, terr + at, u + at, v + at))
+                tri_scalar_lanes(&L->tri, 0, slow >> at & 0xff, &tp[k].tri, &r[k], t + at, terr + at, u + at, v + at))
                 *hit |= 1u << k;
         }
     }

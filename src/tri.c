@@ -211,7 +211,7 @@ static int watertight(const Vec3 v[3], const Ray *r, const PrimTriRay *p, PrimHi
 
 void prim_triray_init(PrimTriRay *p, const Ray *r) { tri_ray_init(p, r); }
 
-int prim_tri4_lane_hit(const PrimTri4 *t, int lane, const PrimTriRay *p, const Ray *r, PrimHit *h)
+int prim_tri8_lane_hit(const PrimTri8 *t, int lane, const PrimTriRay *p, const Ray *r, PrimHit *h)
 {
     Vec3 v[3];
     for (int k = 0; k < 3; k++)

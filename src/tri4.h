@@ -4,7 +4,7 @@
  * of bvh_traverse.c, VEX code and eight lanes. The same operations in the
  * same order at every width and in every build: the lanes' bits never
  * depend on it. Lanes it cannot decide go to the scalar routine (tri.c,
- * prim_tri4_lane_hit). Included by bvh_traverse.c and test_prim.c.
+ * prim_tri8_lane_hit). Included by bvh_traverse.c and test_prim.c.
  */
 #ifndef LANCER_TRI4_H
 #define LANCER_TRI4_H
@@ -30,16 +30,16 @@ static inline int tri_low_bit(unsigned m)
 #endif
 }
 
-/* Lane i of blocks blk[0], blk[1], ... (bit i of lanes) through the scalar
- * routine; their hits into the arrays at i. Returns the lanes hit. */
-static inline int tri_scalar_lanes(const PrimTri4 *blk, int lanes, const PrimTriRay *p, const Ray *r, float *ht,
+/* Lane at + i of t (bit i of lanes) through the scalar routine; its hit
+ * into the arrays at i. Returns the lanes hit. */
+static inline int tri_scalar_lanes(const PrimTri8 *t, int at, int lanes, const PrimTriRay *p, const Ray *r, float *ht,
                                    float *hterr, float *hu, float *hv)
 {
     int hit = 0;
     for (unsigned m = (unsigned)lanes; m; m &= m - 1) {
         int i = tri_low_bit(m);
         PrimHit g;
-        if (prim_tri4_lane_hit(&blk[i >> 2], i & 3, p, r, &g)) {
+        if (prim_tri8_lane_hit(t, at + i, p, r, &g)) {
             ht[i] = g.t;
             hterr[i] = g.terr;
             hu[i] = g.u;
@@ -50,11 +50,15 @@ static inline int tri_scalar_lanes(const PrimTri4 *blk, int lanes, const PrimTri
     return hit;
 }
 
+/* The lanes' functions take blk, a lane of a PrimTri8 (&t->v[0][0][at]),
+ * and test the lanes from there: vertex k's axis a at TRI_ROW(blk, k, a). */
+#define TRI_ROW(blk, k, a) ((blk) + 8 * (3 * (k) + (a)))
+
 #if defined(__SSE2__) && !defined(LANCER_NO_SIMD)
 #define TRI4_SSE 1
 #include <emmintrin.h>
 #define V __m128
-#define V_LOAD(blk, k, a) _mm_loadu_ps((blk)[0].v[k][a])
+#define V_LOAD(blk, k, a) _mm_loadu_ps(TRI_ROW(blk, k, a))
 #define V_STORE _mm_storeu_ps
 #define V_SET1 _mm_set1_ps
 #define V_ADD _mm_add_ps
@@ -97,12 +101,12 @@ static inline __m128 terr_up4(__m128 terr, __m128 t)
 #endif
 
 #if defined(__AVX2__) && !defined(LANCER_NO_SIMD)
-/* The same eight lanes wide: blk[0] in the low half, blk[1] in the high.
- * The comparisons are the SSE ones' predicates (ordered: false on NaN). */
+/* The same eight lanes wide: each row one load. The comparisons are the
+ * SSE ones' predicates (ordered: false on NaN). */
 #define TRI4_AVX 1
 #include <immintrin.h>
 #define V __m256
-#define V_LOAD(blk, k, a) _mm256_loadu2_m128((blk)[1].v[k][a], (blk)[0].v[k][a])
+#define V_LOAD(blk, k, a) _mm256_loadu_ps(TRI_ROW(blk, k, a))
 #define V_STORE _mm256_storeu_ps
 #define V_SET1 _mm256_set1_ps
 #define V_ADD _mm256_add_ps
@@ -159,7 +163,7 @@ static inline __m256 terr_up8(__m256 terr, __m256 t)
 #define TRI_LANES_RAY2 const PrimTriRay *p2, const Ray *r2,
 #define V_RAY(a, b) _mm512_insertf32x8(_mm512_set1_ps(a), _mm256_set1_ps(b), 1)
 #define V __m512
-#define V_LOAD(blk, k, a) _mm512_broadcast_f32x8(_mm256_loadu2_m128((blk)[1].v[k][a], (blk)[0].v[k][a]))
+#define V_LOAD(blk, k, a) _mm512_broadcast_f32x8(_mm256_loadu_ps(TRI_ROW(blk, k, a)))
 #define V_STORE _mm512_storeu_ps
 #define V_SET1 _mm512_set1_ps
 #define V_ADD _mm512_add_ps
@@ -204,17 +208,18 @@ TRI_AVX512 static inline __m512 terr_up16(__m512 terr, __m512 t)
 #endif
 #endif
 
-/* The lanes of one block (bit i of lanes for lane i), each judged exactly
- * as the scalar routine judges it; hits into the arrays at their lane. */
-static inline int tri4_hit_watertight(const PrimTri4 *t, int lanes, const PrimTriRay *p, const Ray *r, float *ht,
-                                      float *hterr, float *hu, float *hv)
+/* Four lanes of t from lane at (0 or 4; bit i of lanes for lane at + i),
+ * each judged exactly as the scalar routine judges it; hits into the
+ * arrays at i. */
+static inline int tri4_hit_watertight(const PrimTri8 *t, int at, int lanes, const PrimTriRay *p, const Ray *r,
+                                      float *ht, float *hterr, float *hu, float *hv)
 {
     int hit = 0, slow = lanes;
 #ifdef TRI4_SSE
     if (p->simd)
-        hit = tri4_lanes(t, lanes, p, r, ht, hterr, hu, hv, &slow);
+        hit = tri4_lanes(&t->v[0][0][at], lanes, p, r, ht, hterr, hu, hv, &slow);
 #endif
-    return hit | tri_scalar_lanes(t, slow, p, r, ht, hterr, hu, hv);
+    return hit | tri_scalar_lanes(t, at, slow, p, r, ht, hterr, hu, hv);
 }
 
 #endif

@@ -1,8 +1,8 @@
 /*
  * tri_lanes.h - the SIMD body of the watertight triangle test, written once
  * for every width: tri4.h includes it with TRI_LANES (the function's name)
- * and the V_* operations defined, once for SSE (four lanes, one PrimTri4),
- * once for AVX2 (eight lanes, two PrimTri4 side by side) and once for
+ * and the V_* operations defined, once for SSE (four lanes, half a
+ * PrimTri8), once for AVX2 (eight lanes, a whole PrimTri8) and once for
  * AVX-512 (sixteen lanes: the eight for two rays, with TRI_LANES_RAY2 and
  * V_RAY). It undefines them at its end, ready for the next width.
  *
@@ -20,7 +20,7 @@
 #define TRI_LANES_RAY2
 #define V_RAY(a, b) V_SET1(a)
 #endif
-TRI_LANES_DECL int TRI_LANES(const PrimTri4 *blk, int lanes, const PrimTriRay *p, const Ray *r, TRI_LANES_RAY2 float *ht,
+TRI_LANES_DECL int TRI_LANES(const float *blk, int lanes, const PrimTriRay *p, const Ray *r, TRI_LANES_RAY2 float *ht,
                              float *hterr, float *hu, float *hv, int *slow)
 {
     const V g5 = V_SET1(GAMMA_F(5)), zero = V_SET1(0.0f);

@@ -292,7 +292,7 @@ static void test_validate_catches_damage(void **state)
     int lane = 0;
     while (!(b.leaves[l].tris >> lane & 1))
         lane++;
-    float *copied = &b.leaves[l].tri[lane / 4].v[1][2][lane % 4];
+    float *copied = &b.leaves[l].tri.v[1][2][lane];
     saved = *copied;
     *copied = saved + 1;
     assert_int_equal(bvh_validate(&b, err, sizeof err), -1);

@@ -21,9 +21,9 @@ typedef struct {
     float t[4], terr[4], u[4], v[4];
 } Hit4;
 
-static int tri4_hit(const PrimTri4 *t, int lanes, const PrimTriRay *p, const Ray *r, Hit4 *h)
+static int tri4_hit(const PrimTri8 *t, int at, int lanes, const PrimTriRay *p, const Ray *r, Hit4 *h)
 {
-    return tri4_hit_watertight(t, lanes, p, r, h->t, h->terr, h->u, h->v);
+    return tri4_hit_watertight(t, at, lanes, p, r, h->t, h->terr, h->u, h->v);
 }
 
 static Ray ray(float ox, float oy, float oz, float dx, float dy, float dz)
@@ -1168,21 +1168,23 @@ static void test_tri4_matches_scalar(void **state)
      * scalar path) and finite or infinite tmax; a fifth of them start
      * next to a triangle's inside, where t can be within its error bound
      * of 0. Every lane must get the scalar routine's verdict and the same
-     * t, terr, u and v, bit for bit, and so must prim_tri4_lane_hit. */
+     * t, terr, u and v, bit for bit, and so must prim_tri8_lane_hit. The
+     * fan lies in the first half of the eight lanes, or in the second. */
     int hits = 0, shared = 0, near = 0;
     for (int n = 0; n < 200000; n++) {
         Vec3 c = test_rvec(&rng, -2, 2), rim[4], v[4][3];
         for (int i = 0; i < 4; i++)
             rim[i] = vec_add(c, test_rvec(&rng, -1, 1));
-        PrimTri4 t;
+        PrimTri8 t = {0};
+        const int at = n / 7 % 2 * 4;
         for (int i = 0; i < 4; i++) {
             v[i][0] = c;
             v[i][1] = rim[i];
             v[i][2] = rim[(i + 1) % 4];
             for (int k = 0; k < 3; k++) {
-                t.v[k][0][i] = v[i][k].x;
-                t.v[k][1][i] = v[i][k].y;
-                t.v[k][2][i] = v[i][k].z;
+                t.v[k][0][at + i] = v[i][k].x;
+                t.v[k][1][at + i] = v[i][k].y;
+                t.v[k][2][at + i] = v[i][k].z;
             }
         }
         int i = n % 4, kind = n / 4 % 4;
@@ -1206,7 +1208,7 @@ static void test_tri4_matches_scalar(void **state)
         prim_triray_init(&p, &r);
         int lanes = 1 + n / 96 % 15;
         Hit4 h4;
-        int got = tri4_hit(&t, lanes, &p, &r, &h4), nhit = 0;
+        int got = tri4_hit(&t, at, lanes, &p, &r, &h4), nhit = 0;
         for (int l = 0; l < 4; l++) {
             PrimHit h;
             int want = (lanes >> l & 1) && prim_triangle_hit_watertight3(v[l], &r, &h);
@@ -1218,7 +1220,7 @@ static void test_tri4_matches_scalar(void **state)
                 assert_memory_equal(&h4.v[l], &h.v, sizeof(float));
                 /* and the lane through the scalar routine */
                 PrimHit g;
-                assert_true(prim_tri4_lane_hit(&t, l, &p, &r, &g));
+                assert_true(prim_tri8_lane_hit(&t, at + l, &p, &r, &g));
                 assert_memory_equal(&g.t, &h.t, sizeof(float));
                 assert_memory_equal(&g.terr, &h.terr, sizeof(float));
                 assert_memory_equal(&g.u, &h.u, sizeof(float));
@@ -1252,13 +1254,13 @@ static void test_tri16_matches_tri8(void **state)
         Vec3 c = test_rvec(&rng, -2, 2), rim[8];
         for (int i = 0; i < 8; i++)
             rim[i] = vec_add(c, test_rvec(&rng, -1, 1));
-        PrimTri4 t[2];
+        PrimTri8 t;
         for (int i = 0; i < 8; i++) {
             Vec3 v[3] = {c, rim[i], rim[(i + 1) % 8]};
             for (int k = 0; k < 3; k++) {
-                t[i / 4].v[k][0][i % 4] = v[k].x;
-                t[i / 4].v[k][1][i % 4] = v[k].y;
-                t[i / 4].v[k][2][i % 4] = v[k].z;
+                t.v[k][0][i] = v[k].x;
+                t.v[k][1][i] = v[k].y;
+                t.v[k][2][i] = v[k].z;
             }
         }
         Ray r[2];
@@ -1281,9 +1283,10 @@ static void test_tri16_matches_tri8(void **state)
         int lanes = 1 + n % 255;
         float t16[4][16], t8[2][4][8];
         int s16, s8[2], h8[2];
-        int h16 = tri16_lanes(t, lanes | lanes << 8, &p[0], &r[0], &p[1], &r[1], t16[0], t16[1], t16[2], t16[3], &s16);
+        int h16 = tri16_lanes(t.v[0][0], lanes | lanes << 8, &p[0], &r[0], &p[1], &r[1], t16[0], t16[1], t16[2], t16[3],
+                              &s16);
         for (int j = 0; j < 2; j++)
-            h8[j] = tri8_lanes(t, lanes, &p[j], &r[j], t8[j][0], t8[j][1], t8[j][2], t8[j][3], &s8[j]);
+            h8[j] = tri8_lanes(t.v[0][0], lanes, &p[j], &r[j], t8[j][0], t8[j][1], t8[j][2], t8[j][3], &s8[j]);
         for (int j = 0; j < 2; j++) {
             assert_int_equal(h16 >> 8 * j & 0xff, h8[j]);
             assert_int_equal(s16 >> 8 * j & 0xff, s8[j]);
@@ -1334,17 +1337,17 @@ static void test_shared_edge_with_an_edge_on_triangle(void **state)
                         {V3(cases[k].a), V3(cases[k].c), V3(cases[k].c1)}};
         Ray r = ray_make(V3(cases[k].o), V3(cases[k].d), INFINITY);
 #undef V3
-        PrimTri4 t4 = {0};
+        PrimTri8 t8 = {0};
         for (int l = 0; l < 2; l++)
             for (int i = 0; i < 3; i++) {
-                t4.v[i][0][l] = v[l][i].x;
-                t4.v[i][1][l] = v[l][i].y;
-                t4.v[i][2][l] = v[l][i].z;
+                t8.v[i][0][l] = v[l][i].x;
+                t8.v[i][1][l] = v[l][i].y;
+                t8.v[i][2][l] = v[l][i].z;
             }
         PrimTriRay p;
         prim_triray_init(&p, &r);
         Hit4 h4;
-        int lanes = tri4_hit(&t4, 3, &p, &r, &h4), hits = 0;
+        int lanes = tri4_hit(&t8, 0, 3, &p, &r, &h4), hits = 0;
         for (int l = 0; l < 2; l++) {
             PrimHit h;
             int hit = prim_triangle_hit_watertight3(v[l], &r, &h);
@@ -1376,17 +1379,17 @@ static void test_edge_on_triangle_hit_near_origin(void **state)
     PrimHit h;
     assert_true(prim_triangle_hit_watertight3(v, &r, &h));
     assert_true(fabs(h.t - t) <= h.terr);
-    PrimTri4 t4 = {0};
+    PrimTri8 t8 = {0};
     for (int l = 0; l < 4; l++)
         for (int i = 0; i < 3; i++) {
-            t4.v[i][0][l] = v[i].x;
-            t4.v[i][1][l] = v[i].y;
-            t4.v[i][2][l] = v[i].z;
+            t8.v[i][0][l] = v[i].x;
+            t8.v[i][1][l] = v[i].y;
+            t8.v[i][2][l] = v[i].z;
         }
     PrimTriRay p;
     prim_triray_init(&p, &r);
     Hit4 h4;
-    assert_int_equal(tri4_hit(&t4, 15, &p, &r, &h4), 15);
+    assert_int_equal(tri4_hit(&t8, 0, 15, &p, &r, &h4), 15);
     for (int l = 0; l < 4; l++)
         assert_float_equal(h4.t[l], h.t, 0);
 }

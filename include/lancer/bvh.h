@@ -19,7 +19,7 @@
  * A leaf holds one to BVH_LEAF_MAX primitives, order[first .. first +
  * count - 1] in the caller's numbering; the triangles among them (robust
  * variant) are copied into the leaf side by side, so that one SIMD test
- * judges them all (the eight-lane form of prim_tri4_hit_watertight). The caller's primitives are not copied: they
+ * judges them all (tri4.h). The caller's primitives are not copied: they
  * must outlive the tree. Unbounded primitives (planes) are not in the
  * tree: bvh_build skips them, and the caller tests them separately.
  *
@@ -70,12 +70,12 @@ typedef struct {
     uint8_t pad[(64 - 28 * BVH_WIDTH % 64) % 64]; /* to whole cache lines */
 } BvhWideNode;
 
-/* Primitives per leaf: two blocks of four lanes, tested at once by AVX2
- * (in two halves by SSE). */
+/* Primitives per leaf: eight lanes, tested at once by AVX2 (in two halves
+ * by SSE). */
 #define BVH_LEAF_MAX 8
 
 typedef struct {
-    PrimTri4 tri[2]; /* lane i of tri[j]: primitive first + 4j + i, when bit 4j + i of tris is set */
+    PrimTri8 tri;    /* lane i: primitive first + i, when bit i of tris is set */
     int32_t first;   /* into order[] */
     uint8_t count;   /* 1 to BVH_LEAF_MAX */
     uint8_t tris;    /* bit i: primitive first + i is a triangle (robust only) */

@@ -203,12 +203,13 @@ int prim_triangle_hit_watertight(const Triangle *tr, const Ray *r, PrimHit *h);
 /* The same on three vertices (the four-lane test's lanes that need the
  * double path). */
 int prim_triangle_hit_watertight3(const Vec3 v[3], const Ray *r, PrimHit *h);
-/* Four triangles side by side for the SIMD test below: v[vertex][axis][lane]. */
+/* Eight triangles side by side for the SIMD test (a BVH leaf's):
+ * v[vertex][axis][lane], each row one AVX2 register (or two of SSE). */
 typedef struct {
-    float v[3][3][4];
-} PrimTri4;
+    float v[3][3][8];
+} PrimTri8;
 
-/* What the four-lane test needs of a ray, computed once per ray by
+/* What the SIMD test needs of a ray, computed once per ray by
  * prim_triray_init: the axes and shear of the watertight test. */
 typedef struct {
     float o[3], sx, sy, sz;
@@ -224,7 +225,7 @@ float prim_terr_up(float terr, float t);
 /* Lane `lane` of t through the scalar routine: the same verdict and t as
  * prim_triangle_hit_watertight3, and the rest of the hit, without setting
  * up the ray again. */
-int prim_tri4_lane_hit(const PrimTri4 *t, int lane, const PrimTriRay *p, const Ray *r, PrimHit *h);
+int prim_tri8_lane_hit(const PrimTri8 *t, int lane, const PrimTriRay *p, const Ray *r, PrimHit *h);
 /* Axis-aligned box: the slab test of Williams et al. in double, made
  * conservative after Ize, "Robust BVH Ray Traversal", JCGT 2(2), 2013: the
  * far distance grows by PRIM_BOX_PAD, so no hit is lost; an origin on a
