@@ -67,16 +67,19 @@ static inline int tri_scalar_lanes(const PrimTri8 *t, int at, int lanes, const P
 #define V_DIV _mm_div_ps
 #define V_MIN _mm_min_ps /* the second operand when one is NaN */
 #define V_MAX _mm_max_ps
-#define V_AND _mm_and_ps
-#define V_OR _mm_or_ps
-#define V_ANDNOT _mm_andnot_ps
+/* A comparison's lanes (M): all ones or all zeros, as a vector. */
+#define M __m128
+#define M_AND _mm_and_ps
+#define M_OR _mm_or_ps
+#define M_ANDNOT _mm_andnot_ps /* ~a & b */
+#define M_BITS _mm_movemask_ps
+#define V_SEL(m, a, b) _mm_or_ps(_mm_and_ps(m, a), _mm_andnot_ps(m, b)) /* a where m, else b */
 #define V_ABS(x) _mm_andnot_ps(_mm_set1_ps(-0.0f), x)
 #define V_LT _mm_cmplt_ps
 #define V_LE _mm_cmple_ps
 #define V_GT _mm_cmpgt_ps
 #define V_GE _mm_cmpge_ps
 #define V_EQ _mm_cmpeq_ps
-#define V_MASK _mm_movemask_ps
 #define V_TERR_UP terr_up4
 /* prim_terr_up for four lanes, the same operations lane by lane (for a
  * hit's terr, t >= 0; the other lanes' results are not read): x = terr +
@@ -115,16 +118,18 @@ static inline __m128 terr_up4(__m128 terr, __m128 t)
 #define V_DIV _mm256_div_ps
 #define V_MIN _mm256_min_ps
 #define V_MAX _mm256_max_ps
-#define V_AND _mm256_and_ps
-#define V_OR _mm256_or_ps
-#define V_ANDNOT _mm256_andnot_ps
+#define M __m256
+#define M_AND _mm256_and_ps
+#define M_OR _mm256_or_ps
+#define M_ANDNOT _mm256_andnot_ps
+#define M_BITS _mm256_movemask_ps
+#define V_SEL(m, a, b) _mm256_blendv_ps(b, a, m)
 #define V_ABS(x) _mm256_andnot_ps(_mm256_set1_ps(-0.0f), x)
 #define V_LT(a, b) _mm256_cmp_ps(a, b, _CMP_LT_OS)
 #define V_LE(a, b) _mm256_cmp_ps(a, b, _CMP_LE_OS)
 #define V_GT(a, b) _mm256_cmp_ps(a, b, _CMP_GT_OS)
 #define V_GE(a, b) _mm256_cmp_ps(a, b, _CMP_GE_OS)
 #define V_EQ(a, b) _mm256_cmp_ps(a, b, _CMP_EQ_OQ)
-#define V_MASK _mm256_movemask_ps
 #define V_TERR_UP terr_up8
 /* terr_up4, eight lanes wide. */
 static inline __m256 terr_up8(__m256 terr, __m256 t)
@@ -155,8 +160,8 @@ static inline __m256 terr_up8(__m256 terr, __m256 t)
  * low half and for ray p2 in the high, which share the axes kx, ky, kz.
  * Built for AVX-512F and DQ whatever the file's target, and not inlined
  * (its caller is not): the caller checks the processor. A comparison's
- * mask is made a vector of lanes all ones or all zeros, as the narrower
- * forms' comparisons give, so the body is theirs. */
+ * lanes are a mask register (M), combined as the narrower forms combine
+ * their vectors of all ones or all zeros: the same bits. */
 #define TRI4_AVX512 1
 #define TRI_AVX512 __attribute__((target("avx512f,avx512dq")))
 #define TRI_LANES_DECL static TRI_AVX512
@@ -172,17 +177,18 @@ static inline __m256 terr_up8(__m256 terr, __m256 t)
 #define V_DIV _mm512_div_ps
 #define V_MIN _mm512_min_ps
 #define V_MAX _mm512_max_ps
-#define V_AND _mm512_and_ps
-#define V_OR _mm512_or_ps
-#define V_ANDNOT _mm512_andnot_ps
+#define M __mmask16
+#define M_AND(a, b) ((__mmask16)((a) & (b)))
+#define M_OR(a, b) ((__mmask16)((a) | (b)))
+#define M_ANDNOT(a, b) ((__mmask16)(~(a) & (b)))
+#define M_BITS(m) ((int)(m))
+#define V_SEL(m, a, b) _mm512_mask_blend_ps(m, b, a)
 #define V_ABS(x) _mm512_andnot_ps(_mm512_set1_ps(-0.0f), x)
-#define V_CMP16(a, b, c) _mm512_castsi512_ps(_mm512_movm_epi32(_mm512_cmp_ps_mask(a, b, c)))
-#define V_LT(a, b) V_CMP16(a, b, _CMP_LT_OS)
-#define V_LE(a, b) V_CMP16(a, b, _CMP_LE_OS)
-#define V_GT(a, b) V_CMP16(a, b, _CMP_GT_OS)
-#define V_GE(a, b) V_CMP16(a, b, _CMP_GE_OS)
-#define V_EQ(a, b) V_CMP16(a, b, _CMP_EQ_OQ)
-#define V_MASK(v) ((int)_mm512_movepi32_mask(_mm512_castps_si512(v)))
+#define V_LT(a, b) _mm512_cmp_ps_mask(a, b, _CMP_LT_OS)
+#define V_LE(a, b) _mm512_cmp_ps_mask(a, b, _CMP_LE_OS)
+#define V_GT(a, b) _mm512_cmp_ps_mask(a, b, _CMP_GT_OS)
+#define V_GE(a, b) _mm512_cmp_ps_mask(a, b, _CMP_GE_OS)
+#define V_EQ(a, b) _mm512_cmp_ps_mask(a, b, _CMP_EQ_OQ)
 #define V_TERR_UP terr_up16
 /* terr_up4, sixteen lanes wide. */
 TRI_AVX512 static inline __m512 terr_up16(__m512 terr, __m512 t)
@@ -203,7 +209,6 @@ TRI_AVX512 static inline __m512 terr_up16(__m512 terr, __m512 t)
 }
 #define TRI_LANES tri16_lanes
 #include "tri_lanes.h"
-#undef V_CMP16
 #undef TRI_AVX512
 #endif
 #endif

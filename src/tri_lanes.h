@@ -62,7 +62,7 @@ TRI_LANES_DECL int TRI_LANES(const float *blk, int lanes, const PrimTriRay *p, c
     d = V_ADD(d, V_MUL(ey, ex));
     V bound = V_ADD(V_MUL(V_SET1(GAMMA_F(3)), m), V_MUL(d, V_SET1(1.0f + GAMMA_F(3))));
     V emin = V_MIN(V_ABS(e0), V_MIN(V_ABS(e1), V_ABS(e2)));
-    int unsure = V_MASK(V_LE(emin, bound));
+    int unsure = M_BITS(V_LE(emin, bound));
     /* edges of both signs: the ray passes outside (a NaN lane, from an
      * overflow, is never hit: its t is NaN too) */
     V emn = V_MIN(e0, V_MIN(e1, e2)), emx = V_MAX(e0, V_MAX(e1, e2));
@@ -71,13 +71,13 @@ TRI_LANES_DECL int TRI_LANES(const float *blk, int lanes, const PrimTriRay *p, c
     V azs = V_MUL(az, sz), bzs = V_MUL(bz, sz), czs = V_MUL(cz, sz);
     V ts = V_ADD(V_ADD(V_MUL(e0, azs), V_MUL(e1, bzs)), V_MUL(e2, czs));
     V tmax = V_RAY(r->tmax, r2->tmax), tmd = V_MUL(tmax, det);
-    V neg = V_LT(det, zero);
-    V out_neg = V_OR(V_GE(ts, zero), V_LT(ts, tmd));
-    V out_pos = V_OR(V_LE(ts, zero), V_GT(ts, tmd));
-    V edges_out = V_OR(V_AND(V_LT(emn, zero), V_GT(emx, zero)), V_EQ(det, zero));
-    V t_out = V_OR(V_AND(neg, out_neg), V_ANDNOT(neg, out_pos));
+    M neg = V_LT(det, zero);
+    M out_neg = M_OR(V_GE(ts, zero), V_LT(ts, tmd));
+    M out_pos = M_OR(V_LE(ts, zero), V_GT(ts, tmd));
+    M edges_out = M_OR(M_AND(V_LT(emn, zero), V_GT(emx, zero)), V_EQ(det, zero));
+    M t_out = M_OR(M_AND(neg, out_neg), M_ANDNOT(neg, out_pos));
     *slow = lanes & unsure;
-    int inside = lanes & ~unsure & ~V_MASK(edges_out);
+    int inside = lanes & ~unsure & ~M_BITS(edges_out);
     if (!inside) /* most leaves a ray reaches are missed by here */
         return 0;
     /* the rest of watertight() for the lanes inside, in its order (a lane
@@ -94,12 +94,12 @@ TRI_LANES_DECL int TRI_LANES(const float *blk, int lanes, const PrimTriRay *p, c
     tserr = V_MUL(V_SET1(3.0f), V_ADD(tserr, V_MUL(dze, me)));
     /* a t outside (0, tmax) by less than its error bound (times |det|):
      * watertight() takes it again in double */
-    V tsd = V_OR(V_AND(neg, V_SUB(zero, ts)), V_ANDNOT(neg, ts));
-    int near = V_MASK(V_AND(V_GT(tsd, V_SUB(zero, tserr)), V_LT(tsd, V_ADD(V_ABS(tmd), tserr))));
-    int hit = inside & ~V_MASK(t_out);
+    V tsd = V_SEL(neg, V_SUB(zero, ts), ts);
+    int near = M_BITS(M_AND(V_GT(tsd, V_SUB(zero, tserr)), V_LT(tsd, V_ADD(V_ABS(tmd), tserr))));
+    int hit = inside & ~M_BITS(t_out);
     if (hit) { /* only then the division */
         V inv = V_DIV(V_SET1(1.0f), det), tv = V_MUL(ts, inv);
-        hit &= V_MASK(V_AND(V_GT(tv, zero), V_LT(tv, tmax)));
+        hit &= M_BITS(M_AND(V_GT(tv, zero), V_LT(tv, tmax)));
         V_STORE(ht, tv);
         V_STORE(hterr, V_TERR_UP(V_MUL(tserr, V_ABS(inv)), tv)); /* prim_terr_up, every lane */
         V_STORE(hu, V_MUL(e1, inv));
@@ -124,14 +124,16 @@ TRI_LANES_DECL int TRI_LANES(const float *blk, int lanes, const PrimTriRay *p, c
 #undef V_DIV
 #undef V_MIN
 #undef V_MAX
-#undef V_AND
-#undef V_OR
-#undef V_ANDNOT
+#undef M
+#undef M_AND
+#undef M_OR
+#undef M_ANDNOT
+#undef M_BITS
+#undef V_SEL
 #undef V_ABS
 #undef V_LT
 #undef V_LE
 #undef V_GT
 #undef V_GE
 #undef V_EQ
-#undef V_MASK
 #undef V_TERR_UP
