@@ -390,6 +390,7 @@ __attribute__((target("avx"))) static inline unsigned round_t4(__m256d t, __m256
 #define Q_F __m128
 #define Q_FIELDS ray_fields
 #define Q_ROUND_T round_t4
+#define Q_STORE_I32(p, v) _mm_storeu_si128((__m128i *)(p), _mm256_cvttpd_epi32(v))
 #define Q_V __m256d
 #define Q_M __m256d
 #define QV_SET1 _mm256_set1_pd
@@ -433,6 +434,7 @@ AVX512 static inline unsigned round_t8(__m512d t, __m512d half, __m256 tmax, flo
 #define Q_F __m256
 #define Q_FIELDS ray_fields8
 #define Q_ROUND_T round_t8
+#define Q_STORE_I32(p, v) _mm256_storeu_si256((__m256i *)(p), _mm512_cvttpd_epi32(v))
 #define Q_V __m512d
 #define Q_M __mmask8
 #define QV_SET1 _mm512_set1_pd
@@ -847,7 +849,8 @@ unsigned prim_intersect_rays(const Prim *p, const Ray *r, unsigned rays, PrimVar
 {
     unsigned hit = 0;
 #ifdef PRIM_AVX
-    if ((p->kind == PRIM_SPHERE || p->kind == PRIM_ELLIPSOID) && v == PRIM_ROBUST && prim_avx())
+    if ((p->kind == PRIM_SPHERE || p->kind == PRIM_ELLIPSOID || p->kind == PRIM_BOX) && v == PRIM_ROBUST &&
+        prim_avx())
         while (rays & (rays - 1)) {
             /* two rays or more: four lanes, or eight for five rays or more
              * where avx512_lanes_pay() allows, the last ones repeating the first */
@@ -858,10 +861,15 @@ unsigned prim_intersect_rays(const Prim *p, const Ray *r, unsigned rays, PrimVar
             for (int j = m; j < w; j++)
                 k[j] = k[0];
             float t[8], terr[8];
-            unsigned got = w == 8 ? quadric_rays8(p, r, k, t, terr) : quadric_rays4(p, r, k, t, terr);
+            int face[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+            unsigned got;
+            if (p->kind == PRIM_BOX)
+                got = w == 8 ? box_rays8(&p->g.box, r, k, t, terr, face) : box_rays4(&p->g.box, r, k, t, terr, face);
+            else
+                got = w == 8 ? quadric_rays8(p, r, k, t, terr) : quadric_rays4(p, r, k, t, terr);
             for (int j = 0; j < m; j++)
                 if (got >> j & 1) {
-                    h[k[j]] = (PrimHit){t[j], terr[j], 0.0f, 0.0f, 0};
+                    h[k[j]] = (PrimHit){t[j], terr[j], 0.0f, 0.0f, face[j]};
                     hit |= 1u << k[j];
                 }
         }

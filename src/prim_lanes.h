@@ -8,8 +8,9 @@
  * next width. (Their prefixes are not tri_lanes.h's V_*: each template's
  * names are its own.)
  *
- * prim.c's prim_plane_hit_robust and quadric_hit lane by lane, in the same
- * operations and order, so each lane gets the scalar routine's bits.
+ * prim.c's prim_plane_hit_robust, quadric_hit and prim_box_hit_robust lane
+ * by lane, in the same operations and order, so each lane gets the scalar
+ * routine's bits.
  */
 
 /* prim_plane_hit_robust for the rays r[k0 .. k0 + Q_W - 1] up to tmax[k0
@@ -193,6 +194,39 @@ Q_ATTR static unsigned Q_NAME(quadric_rays)(const Prim *p, const Ray *r, const i
     return Q_NAME(quadric_hit)(f, dd, QV_SET1(1.0), a, o, d, tmax, t_out, terr_out);
 }
 
+/* prim_box_hit_robust for the rays r[k[j]], one a lane: the slabs in the
+ * same operations and order, each comparison a mask that picks the lanes'
+ * new bounds and faces. Returns the lanes hit; their faces into face_out. */
+Q_ATTR static unsigned Q_NAME(box_rays)(const Box *b, const Ray *r, const int *k, float *t_out, float *terr_out,
+                                        int *face_out)
+{
+    Q_F rf[RAY_FIELDS];
+    Q_FIELDS(r, k, rf);
+    const Q_V zero = QV_SET1(0.0), pad = QV_SET1(PRIM_BOX_PAD);
+    Q_V tnear = QV_SET1(-INFINITY), tfar = QV_SET1(INFINITY), texit = QV_SET1(INFINITY);
+    Q_V near_face = zero, far_face = zero; /* small whole numbers, exact in double */
+    for (int i = 0; i < 3; i++) {
+        const Q_V inv = QV_DIV(QV_SET1(1.0), Q_CVT_PD(rf[RAY_D + i])), o = Q_CVT_PD(rf[RAY_O + i]);
+        const Q_V lo = QV_SET1((double)vec_comp(b->lo, i)), hi = QV_SET1((double)vec_comp(b->hi, i));
+        const Q_M neg = QV_CMP(inv, zero, _CMP_LT_OQ);
+        const Q_V t0 = QV_MUL(QV_SUB(QV_BLEND(lo, hi, neg), o), inv);
+        const Q_V t1 = QV_MUL(QV_SUB(QV_BLEND(hi, lo, neg), o), inv);
+        const Q_M in = QV_CMP(t0, tnear, _CMP_GT_OQ), out = QV_CMP(t1, texit, _CMP_LT_OQ);
+        tnear = QV_BLEND(tnear, t0, in);
+        near_face = QV_BLEND(near_face, QV_BLEND(QV_SET1(i), QV_SET1(i + 3), neg), in);
+        texit = QV_BLEND(texit, t1, out);
+        far_face = QV_BLEND(far_face, QV_BLEND(QV_SET1(i + 3), QV_SET1(i), neg), out);
+        const Q_V tp = QV_MUL(t1, pad);
+        tfar = QV_BLEND(tfar, tp, QV_CMP(tp, tfar, _CMP_LT_OQ));
+    }
+    const Q_M ok = QV_CMP(tnear, tfar, _CMP_LE_OQ), outside = QV_CMP(tnear, zero, _CMP_GT_OQ);
+    if (!QM_BITS(ok))
+        return 0;
+    const Q_V t = QV_BLEND(texit, tnear, outside);
+    Q_STORE_I32(face_out, QV_BLEND(far_face, near_face, outside));
+    return QM_BITS(ok) & Q_ROUND_T(t, QV_MUL(QV_SET1(gamma_d(3)), QV_ABS(t)), rf[RAY_TMAX], t_out, terr_out);
+}
+
 #undef Q_NAME
 #undef Q_ATTR
 #undef Q_W
@@ -202,6 +236,7 @@ Q_ATTR static unsigned Q_NAME(quadric_rays)(const Prim *p, const Ray *r, const i
 #undef Q_F
 #undef Q_FIELDS
 #undef Q_ROUND_T
+#undef Q_STORE_I32
 #undef Q_V
 #undef Q_M
 #undef QV_SET1

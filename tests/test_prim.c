@@ -1090,6 +1090,71 @@ static void test_obox_rays_match_scalar(void **state)
     assert_true(boxes > 3000 && hits > 4000 && misses > 4000);
 }
 
+/* prim_intersect_rays on robust axis-aligned boxes, in lanes: the same
+ * verdicts, t, terr and face as prim_intersect one ray at a time, for rays
+ * from outside and inside, at faces, edges and corners, parallel to a face
+ * (a zero component of either sign) and from its plane (0 * inf, not a
+ * number), tiny and huge, short of the hit or at it, and not numbers, in
+ * masks with gaps (of five rays or more: eight lanes where prim.c runs
+ * eight). */
+static void test_box_rays_match_scalar(void **state)
+{
+    (void)state;
+    unsigned long long s = 0xD1B54A32D192ED03ULL;
+    int hits = 0, misses = 0, inside = 0, planes = 0;
+    for (int round = 0; round < 6000; round++) {
+        Prim p;
+        memset(&p, 0, sizeof p);
+        p.kind = PRIM_BOX;
+        float scale = round % 5 == 0 ? 1e-3f : round % 5 == 1 ? 1e3f : 1.0f;
+        Vec3 a = vec_scale(test_rvec(&s, -3, 3), scale), c = vec_scale(test_rvec(&s, -3, 3), scale);
+        p.g.box.lo = vec3(fminf(a.x, c.x), fminf(a.y, c.y), fminf(a.z, c.z));
+        p.g.box.hi = vec3(fmaxf(a.x, c.x), fmaxf(a.y, c.y), fmaxf(a.z, c.z));
+        const Box *b = &p.g.box;
+        Ray r[8];
+        for (int k = 0; k < 8; k++) {
+            int kind = (int)test_uniform(&s, 0, 10);
+            /* a point of the box, its coordinates on a bound now and then: faces, edges, corners */
+            float q[3];
+            for (int i = 0; i < 3; i++) {
+                float lo = vec_comp(b->lo, i), hi = vec_comp(b->hi, i), u = test_uniform(&s, -0.2f, 1.2f);
+                q[i] = test_uniform(&s, 0, 3) < 1 ? (u < 0.5f ? lo : hi) : lo + u * (hi - lo);
+            }
+            Vec3 aim = vec3(q[0], q[1], q[2]);
+            Vec3 o = vec_add(aim, vec_scale(test_rvec(&s, -15, 15), scale));
+            if (kind == 1) { /* from inside */
+                o = vec_scale(vec_add(b->lo, b->hi), 0.5f);
+                inside++;
+            }
+            Vec3 d = vec_sub(aim, o);
+            if (kind == 2) /* parallel to the faces of x, either zero */
+                d.x = (round & 1) ? 0.0f : -0.0f;
+            else if (kind == 3) { /* from a face's plane, parallel to it: 0 * inf */
+                o.y = (round & 2) ? b->lo.y : b->hi.y;
+                d.y = 0.0f;
+                planes++;
+            } else if (kind == 4)
+                d.z = NAN;
+            else if (kind == 5)
+                d = vec3(d.x * 1e-30f, d.y * 1e-41f, d.z * 1e-20f); /* tiny and subnormal */
+            else if (kind == 6)
+                d = vec_scale(d, 1e30f); /* huge */
+            else if (kind == 7)
+                o.x = (round & 4) ? INFINITY : NAN;
+            r[k] = ray_make(o, d, INFINITY);
+            PrimHit h;
+            int m = (int)test_uniform(&s, 0, 4);
+            if (m == 1)
+                r[k].tmax = test_uniform(&s, 0.01f, 2);
+            else if (m == 2 && prim_intersect(&p, &r[k], PRIM_ROBUST, &h)) /* at the hit, or one float past it */
+                r[k].tmax = (round & 8) ? h.t : nextafterf(h.t, INFINITY);
+        }
+        unsigned rays = (unsigned)(round % 4 == 0 ? 0xff : test_uniform(&s, 0, 256)) & 0xff;
+        rays_match_scalar(&p, r, rays, &hits, &misses);
+    }
+    assert_true(hits > 10000 && misses > 5000 && inside > 3000 && planes > 3000);
+}
+
 /* The fields of a Surface that prim_surface sets, bit for bit. */
 static void assert_same_surface(const Surface *a, const Surface *b)
 {
@@ -1533,6 +1598,7 @@ int main(void)
         cmocka_unit_test(test_plane_rays_match_scalar),
         cmocka_unit_test(test_quadric_rays_match_scalar),
         cmocka_unit_test(test_obox_rays_match_scalar),
+        cmocka_unit_test(test_box_rays_match_scalar),
         cmocka_unit_test(test_surface_hits_match_scalar),
         cmocka_unit_test(test_triangle),
         cmocka_unit_test(test_smooth_triangle_normal),
