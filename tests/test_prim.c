@@ -26,6 +26,16 @@ static int tri4_hit(const PrimTri8 *t, int at, int lanes, const PrimTriRay *p, c
     return tri4_hit_watertight(t, at, lanes, p, r, h->t, h->terr, h->u, h->v);
 }
 
+/* Triangle v into lane `lane` of t, as a BVH leaf holds it. */
+static void put_lane(PrimTri8 *t, int lane, const Vec3 v[3])
+{
+    for (int k = 0; k < 3; k++) {
+        t->v[k][0][lane] = v[k].x;
+        t->v[k][1][lane] = v[k].y;
+        t->v[k][2][lane] = v[k].z;
+    }
+}
+
 static Ray ray(float ox, float oy, float oz, float dx, float dy, float dz)
 {
     return ray_make(vec3(ox, oy, oz), vec_normalize(vec3(dx, dy, dz)), INFINITY);
@@ -1246,11 +1256,7 @@ static void test_tri4_matches_scalar(void **state)
             v[i][0] = c;
             v[i][1] = rim[i];
             v[i][2] = rim[(i + 1) % 4];
-            for (int k = 0; k < 3; k++) {
-                t.v[k][0][at + i] = v[i][k].x;
-                t.v[k][1][at + i] = v[i][k].y;
-                t.v[k][2][at + i] = v[i][k].z;
-            }
+            put_lane(&t, at + i, v[i]);
         }
         int i = n % 4, kind = n / 4 % 4;
         float s = test_uniform(&rng, 0, 1);
@@ -1322,11 +1328,7 @@ static void test_tri16_matches_tri8(void **state)
         PrimTri8 t;
         for (int i = 0; i < 8; i++) {
             Vec3 v[3] = {c, rim[i], rim[(i + 1) % 8]};
-            for (int k = 0; k < 3; k++) {
-                t.v[k][0][i] = v[k].x;
-                t.v[k][1][i] = v[k].y;
-                t.v[k][2][i] = v[k].z;
-            }
+            put_lane(&t, i, v);
         }
         Ray r[2];
         PrimTriRay p[2];
@@ -1404,11 +1406,7 @@ static void test_shared_edge_with_an_edge_on_triangle(void **state)
 #undef V3
         PrimTri8 t8 = {0};
         for (int l = 0; l < 2; l++)
-            for (int i = 0; i < 3; i++) {
-                t8.v[i][0][l] = v[l][i].x;
-                t8.v[i][1][l] = v[l][i].y;
-                t8.v[i][2][l] = v[l][i].z;
-            }
+            put_lane(&t8, l, v[l]);
         PrimTriRay p;
         prim_triray_init(&p, &r);
         Hit4 h4;
@@ -1446,11 +1444,7 @@ static void test_edge_on_triangle_hit_near_origin(void **state)
     assert_true(fabs(h.t - t) <= h.terr);
     PrimTri8 t8 = {0};
     for (int l = 0; l < 4; l++)
-        for (int i = 0; i < 3; i++) {
-            t8.v[i][0][l] = v[i].x;
-            t8.v[i][1][l] = v[i].y;
-            t8.v[i][2][l] = v[i].z;
-        }
+        put_lane(&t8, l, v);
     PrimTriRay p;
     prim_triray_init(&p, &r);
     Hit4 h4;
