@@ -781,6 +781,44 @@ static void test_packets_agree_with_single_rays(void **state)
     packets_agree(packet_disagreements);
 }
 
+/* Camera packets of eight rays from one origin, inside the closed mesh
+ * or outside it, in a cone so narrow that all eight reach the same leaves
+ * (two rays to a leaf test on AMD processors with AVX-512), aimed at a
+ * vertex or an edge, where lanes go to the scalar routine: each ray must
+ * get its hit one by one, bit for bit. */
+static void test_narrow_packets_through_edges(void **state)
+{
+    (void)state;
+    Prim *p = calloc(12 * CUBE_G * CUBE_G, sizeof(Prim));
+    assert_non_null(p);
+    int n = grid_cube(p, CUBE_G);
+    Bvh b;
+    build_ok(&b, p, n, 1);
+    unsigned long long tests = 0;
+    int bad = 0, hits = 0;
+    for (int k = 0; k < 20000; k++) {
+        Vec3 o = k % 2 ? test_rvec(&rng, -0.9f, 0.9f) : vec_scale(test_rvec(&rng, -1, 1), 3.0f);
+        Vec3 at = cube_edge_point(p, k);
+        float spread = k % 3 == 0 ? 0x1p-20f : k % 3 == 1 ? 0x1p-12f : 0.0f;
+        Ray r[BVH_PACKET];
+        for (int j = 0; j < BVH_PACKET; j++)
+            r[j] = ray_make(o, vec_sub(vec_add(at, test_rvec(&rng, -spread, spread)), o),
+                            k % 5 ? INFINITY : test_uniform(&rng, 0.5f, 1.5f));
+        PrimHit h[BVH_PACKET], w;
+        int got[BVH_PACKET];
+        bvh_closest_packet(&b, r, BVH_PACKET, h, got, &tests);
+        for (int j = 0; j < BVH_PACKET; j++) {
+            int want = bvh_closest(&b, &r[j], &w, &tests);
+            bad += closest_differs(p, got[j], &h[j], want, &w);
+            hits += want >= 0;
+        }
+    }
+    assert_int_equal(bad, 0);
+    assert_true(hits > 100000);
+    bvh_free(&b);
+    free(p);
+}
+
 /* The same with bvh_occluded_packet and bvh_occluded: shadow rays between
  * random points of random trees (many occluded, many not), and between
  * points on a closed mesh's edges. */
@@ -808,6 +846,7 @@ int main(void)
         cmocka_unit_test(test_tree_lies_in_the_refs_block),
         cmocka_unit_test(test_closed_mesh_has_no_leaks),
         cmocka_unit_test(test_packets_agree_with_single_rays),
+        cmocka_unit_test(test_narrow_packets_through_edges),
         cmocka_unit_test(test_occluded_packets_agree_with_single_rays),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
