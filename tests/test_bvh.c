@@ -622,6 +622,17 @@ static int grid_cube(Prim *p, int g)
     return n;
 }
 
+/* grid_cube's triangles into *p (the caller frees them) and their tree
+ * into b; returns the triangle count. */
+static int cube_tree(Prim **p, Bvh *b)
+{
+    *p = calloc(12 * CUBE_G * CUBE_G, sizeof(Prim));
+    assert_non_null(*p);
+    int n = grid_cube(*p, CUBE_G);
+    build_ok(b, *p, n, 1);
+    return n;
+}
+
 static void test_closed_mesh_has_no_leaks(void **state)
 {
     (void)state;
@@ -630,12 +641,10 @@ static void test_closed_mesh_has_no_leaks(void **state)
      * must hit, and the BVH must agree with brute force, ties included (a
      * ray through a shared edge hits two triangles at the same t; before
      * prim_tmax_past, the one the traversal met first could win). */
-    const int g = CUBE_G, rays = 100000;
-    Prim *p = calloc(12 * g * g, sizeof(Prim));
-    assert_non_null(p);
-    int n = grid_cube(p, g);
+    const int rays = 100000;
+    Prim *p;
     Bvh b;
-    build_ok(&b, p, n, 1);
+    int n = cube_tree(&p, &b);
     unsigned long long tests = 0;
     int bad = 0, leaks = 0;
     for (int k = 0; k < rays; k++) {
@@ -766,10 +775,9 @@ static void packets_agree(PacketCheck check)
         bvh_free(&b);
         free(p);
     }
-    Prim *p = calloc(12 * CUBE_G * CUBE_G, sizeof(Prim));
-    assert_non_null(p);
+    Prim *p;
     Bvh b;
-    build_ok(&b, p, grid_cube(p, CUBE_G), 1);
+    cube_tree(&p, &b);
     assert_int_equal(check(&b, p, 20000, cube_edge_point), 0);
     bvh_free(&b);
     free(p);
@@ -789,11 +797,9 @@ static void test_packets_agree_with_single_rays(void **state)
 static void test_narrow_packets_through_edges(void **state)
 {
     (void)state;
-    Prim *p = calloc(12 * CUBE_G * CUBE_G, sizeof(Prim));
-    assert_non_null(p);
-    int n = grid_cube(p, CUBE_G);
+    Prim *p;
     Bvh b;
-    build_ok(&b, p, n, 1);
+    cube_tree(&p, &b);
     unsigned long long tests = 0;
     int bad = 0, hits = 0;
     for (int k = 0; k < 20000; k++) {
