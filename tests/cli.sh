@@ -242,6 +242,13 @@ if [ "$(sed 's/^mrays=[0-9.]* //; s/ build_ms=[0-9.]*//' "$T/out")" = "$(cat "$T
 else
     bad "bench --kind packet: $(cat "$T/out") against $(cat "$T/one")"
 fi
+# one stream: the same hits and the same sum of t as ray by ray
+expect 0 "$LANCER" bench --mesh "$T/tet.off" --rays "$T/rays/primary.rays" --kind stream --passes 1
+if [ "$(sed 's/^mrays=[0-9.]* //; s/ build_ms=[0-9.]*//' "$T/out")" = "$(cat "$T/one")" ]; then
+    ok
+else
+    bad "bench --kind stream: $(cat "$T/out") against $(cat "$T/one")"
+fi
 # a tight framing: at least 90% of the camera rays hit, more than the loose one
 mkdir "$T/tight"
 expect 0 "$LANCER" bench --gen-rays "$T/tet.off" "$T/tight" 16 16 --tight

@@ -177,16 +177,53 @@ double bench_pass_packet(const Accel *a, const Ray *rays, size_t n, size_t *hits
     return dt;
 }
 
-void bench_trace(const Accel *a, const Ray *rays, size_t n, BenchKind kind, int passes, BenchResult *res)
+double bench_pass_stream(const Accel *a, AccelStream *s, const Ray *rays, size_t n, PrimHit *h, int *best, size_t *hits,
+                         double *sumt)
 {
+    RayStats st = {0, 0, 0, 0, 0, 0, 0};
+    size_t k = 0;
+    double sum = 0.0, t0 = clock_now();
+    accel_closest_stream(a, s, rays, n, h, best, &st);
+    for (size_t i = 0; i < n; i++)
+        if (best[i] >= 0) {
+            k++;
+            sum += h[i].t;
+        }
+    double dt = clock_now() - t0;
+    *hits = k;
+    *sumt = sum;
+    return dt;
+}
+
+int bench_trace(const Accel *a, const Ray *rays, size_t n, BenchKind kind, int passes, BenchResult *res)
+{
+    AccelStream *s = NULL;
+    PrimHit *h = NULL;
+    int *hit = NULL;
+    if (kind == BENCH_STREAM) {
+        s = accel_stream_new(n);
+        h = malloc((n ? n : 1) * sizeof *h);
+        hit = malloc((n ? n : 1) * sizeof *hit);
+        if (!s || !h || !hit) {
+            accel_stream_free(s);
+            free(h);
+            free(hit);
+            return -1;
+        }
+    }
     double best = 0.0;
     for (int p = -1; p < passes; p++) { /* pass -1 warms the caches */
-        double dt = kind == BENCH_PACKET ? bench_pass_packet(a, rays, n, &res->hits, &res->sumt)
-                                         : bench_pass(a, rays, n, kind == BENCH_ANY, &res->hits, &res->sumt);
+        double dt = kind == BENCH_PACKET   ? bench_pass_packet(a, rays, n, &res->hits, &res->sumt)
+                    : kind == BENCH_STREAM ? bench_pass_stream(a, s, rays, n, h, hit, &res->hits, &res->sumt)
+                                           : bench_pass(a, rays, n, kind == BENCH_ANY, &res->hits, &res->sumt);
         if (p < 0)
             continue;
         if (dt > 0.0 && (double)n / dt / 1e6 > best)
             best = (double)n / dt / 1e6;
     }
     res->mrays = best;
+    accel_stream_free(s);
+    free(h);
+    free(hit);
+    return 0;
 }

@@ -30,6 +30,7 @@
 #include <stddef.h>
 
 #include "lancer/accel.h"
+#include "lancer/stream.h"
 
 typedef struct {
     Ray *rays;
@@ -56,12 +57,13 @@ int bench_gen_rays(const Scene *s, const Accel *a, int w, int h, int tight, unsi
 typedef enum {
     BENCH_CLOSEST, /* closest hits, ray by ray */
     BENCH_ANY,     /* any hit, ray by ray */
-    BENCH_PACKET   /* closest hits, ACCEL_PACKET neighbours at a time */
+    BENCH_PACKET,  /* closest hits, ACCEL_PACKET neighbours at a time */
+    BENCH_STREAM   /* closest hits, the whole file at once (stream.h) */
 } BenchKind;
 
 /* Traces the rays on the calling thread: one warm-up pass, then `passes`
- * timed ones. */
-void bench_trace(const Accel *a, const Ray *rays, size_t n, BenchKind kind, int passes, BenchResult *res);
+ * timed ones. Returns 0, or -1 when memory runs out. */
+int bench_trace(const Accel *a, const Ray *rays, size_t n, BenchKind kind, int passes, BenchResult *res);
 
 /* One pass of bench_trace: the seconds it took; the hits, and for closest
  * hit the sum of their t, into *hits and *sumt. */
@@ -70,6 +72,11 @@ double bench_pass(const Accel *a, const Ray *rays, size_t n, int any, size_t *hi
 /* bench_pass for closest hits, ACCEL_PACKET rays at a time in their order
  * (accel_closest_packet), as the renderer traces neighbouring camera rays. */
 double bench_pass_packet(const Accel *a, const Ray *rays, size_t n, size_t *hits, double *sumt);
+
+/* bench_pass for closest hits, all n rays in one accel_closest_stream
+ * through s, which holds room for n; h and best hold n answers. */
+double bench_pass_stream(const Accel *a, AccelStream *s, const Ray *rays, size_t n, PrimHit *h, int *best, size_t *hits,
+                         double *sumt);
 
 void bench_free(RaySet *s);
 

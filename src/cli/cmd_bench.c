@@ -18,7 +18,7 @@
 
 static const char usage[] =
     "usage: lancer bench --gen-rays MESH OUTDIR [W H] [--tight]\n"
-    "       lancer bench --mesh MESH [--pn [--pn-mode M]] --rays FILE --kind closest|any|packet\n"
+    "       lancer bench --mesh MESH [--pn [--pn-mode M]] --rays FILE --kind closest|any|packet|stream\n"
     "                    [--passes N] [--classic]\n"
     "       lancer bench --build-series MESH [--max-mtris M]\n"
     "\n"
@@ -32,9 +32,10 @@ static const char usage[] =
     "per ray 8 little-endian float32 ox oy oz dx dy dz tmin tmax.\n"
     "\n"
     "The second builds the BVH over the mesh, traces every ray of FILE on one\n"
-    "thread (closest hit, any hit, or closest hits eight neighbouring rays at a\n"
-    "time, as the renderer traces camera rays) for one warm-up and N timed passes\n"
-    "(default 3), and prints one line:\n"
+    "thread (closest hit, any hit, closest hits eight neighbouring rays at a\n"
+    "time, as the renderer traces camera rays, or closest hits of the whole file\n"
+    "at once, in an order of lancer's own for incoherent rays) for one warm-up\n"
+    "and N timed passes (default 3), and prints one line:\n"
     "  mrays=<best Mrays/s> hits=<hits> sumt=<sum of t over hits> build_ms=<build> rays=<count>\n"
     "With --pn, every triangle is a PN patch of the mesh's vertex normals\n"
     "(angle-weighted where the file has none), traced in mode M, exact or fast\n"
@@ -174,8 +175,15 @@ static int trace_rays(const Accel *acc, const Args *a, double build_ms)
         return 1;
     }
     BenchResult res;
-    BenchKind kind = !strcmp(a->kind, "any") ? BENCH_ANY : !strcmp(a->kind, "packet") ? BENCH_PACKET : BENCH_CLOSEST;
-    bench_trace(acc, r, n, kind, a->passes, &res);
+    BenchKind kind = !strcmp(a->kind, "any")      ? BENCH_ANY
+                     : !strcmp(a->kind, "packet") ? BENCH_PACKET
+                     : !strcmp(a->kind, "stream") ? BENCH_STREAM
+                                                  : BENCH_CLOSEST;
+    if (bench_trace(acc, r, n, kind, a->passes, &res) != 0) {
+        fprintf(stderr, "lancer: out of memory tracing %s\n", a->rays);
+        free(r);
+        return 1;
+    }
     printf("mrays=%.3f hits=%zu sumt=%.6g build_ms=%.2f rays=%zu\n", res.mrays, res.hits, res.sumt, build_ms, n);
     free(r);
     return 0;
@@ -208,9 +216,10 @@ static int run(void *args, const char **pos, int npos)
         return cli_usage_error("bench", "--tight goes with --gen-rays");
     if (a->mesh &&
         (!a->rays || !a->kind ||
-         (strcmp(a->kind, "closest") != 0 && strcmp(a->kind, "any") != 0 && strcmp(a->kind, "packet") != 0) ||
+         (strcmp(a->kind, "closest") != 0 && strcmp(a->kind, "any") != 0 && strcmp(a->kind, "packet") != 0 &&
+          strcmp(a->kind, "stream") != 0) ||
          npos != 0))
-        return cli_usage_error("bench", "--mesh needs --rays FILE and --kind closest, any or packet");
+        return cli_usage_error("bench", "--mesh needs --rays FILE and --kind closest, any, packet or stream");
     int pn = 0;
     if (a->pn_mode && !a->pn)
         return cli_usage_error("bench", "--pn-mode needs --pn");
