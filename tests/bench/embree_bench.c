@@ -14,7 +14,9 @@
  *   rtcIntersect1, and rtcIntersect8 with a valid mask and the coherent
  *   context flag;
  * - shadow rays: lancer's any-hit query against rtcOccluded1;
- * - diffuse rays: closest hit against rtcIntersect1.
+ * - diffuse rays: closest hit, lancer one by one and as one stream (its
+ *   rays sorted by origin and octant first, the sort timed with the trace:
+ *   stream.h), against rtcIntersect1 in the file's order.
  * A ratio is the median over passes of each pass's own ratio: the two sides
  * ran a moment apart, so the shared machine's slower spells cancel. Hit
  * counts that differ are reported, not hidden.
@@ -195,13 +197,16 @@ static double embree_pass8(RTCScene sc, const Ray *rays, size_t n, size_t *hits)
 }
 
 /* The tracers of one ray file: each fills its Mrays/s of a pass and its hits. */
-enum { LANCER, LANCER8, EMBREE, EMBREE8, TRACERS };
+enum { LANCER, LANCER8, EMBREE, EMBREE8, LANCER_STREAM, TRACERS };
 
 typedef struct {
     const Accel *acc;
     RTCScene sc;
     const Ray *rays;
     size_t n;
+    AccelStream *stream; /* for LANCER_STREAM: room for n rays and their answers */
+    PrimHit *h;
+    int *best;
 } Work;
 
 static double run(const Work *w, int tracer, int any, size_t *hits)
@@ -213,6 +218,9 @@ static double run(const Work *w, int tracer, int any, size_t *hits)
         break;
     case LANCER8:
         s = bench_pass_packet(w->acc, w->rays, w->n, hits, &sumt);
+        break;
+    case LANCER_STREAM:
+        s = bench_pass_stream(w->acc, w->stream, w->rays, w->n, w->h, w->best, hits, &sumt);
         break;
     case EMBREE:
         s = embree_pass(w->sc, w->rays, w->n, any, hits);
@@ -300,7 +308,7 @@ int main(int argc, char **argv)
     for (int d = 4; d < argc; d++) {
         const char *framing = base_name(argv[d]);
         static const char *const files[3] = {"primary", "shadow", "diffuse"};
-        static const char *const targets[3] = {"camera", "shadow", "diffuse"};
+        static const char *const targets[3] = {"camera", "shadow", "diffuse-single"};
         for (int f = 0; f < 3; f++) {
             char path[1024];
             snprintf(path, sizeof path, "%s/%s.rays", argv[d], files[f]);
@@ -310,34 +318,50 @@ int main(int argc, char **argv)
                 fprintf(stderr, "%s\n", err);
                 return 1;
             }
-            Work w = {acc, sr, rays, n};
-            int any = f == 1, tracers = f == 0 ? TRACERS : 2;
-            /* the tracers of this file: lancer and Embree one by one, and for
-             * camera rays their packets */
-            const int which[TRACERS] = {LANCER, EMBREE, LANCER8, EMBREE8};
-            double mr[TRACERS][ROUNDS_MAX], q[2][ROUNDS_MAX];
-            size_t hits[TRACERS];
+            Work w = {acc, sr, rays, n, NULL, NULL, NULL};
+            if (f == 2 && (!(w.stream = accel_stream_new(n)) || !(w.h = malloc(n * sizeof *w.h)) ||
+                           !(w.best = malloc(n * sizeof *w.best)))) {
+                fprintf(stderr, "out of memory\n");
+                return 1;
+            }
+            /* the tracers of this file: lancer and Embree one by one, then
+             * for camera rays their packets, for diffuse rays lancer's stream
+             * (against the same Embree) */
+            const int which[3][4] = {{LANCER, EMBREE, LANCER8, EMBREE8}, {LANCER, EMBREE}, {LANCER, EMBREE, LANCER_STREAM}};
+            int any = f == 1, tracers = f == 0 ? 4 : f == 1 ? 2 : 3;
+            double mr[4][ROUNDS_MAX], q[2][ROUNDS_MAX];
+            size_t hits[4];
             for (int t = 0; t < tracers; t++) /* warm-up */
-                run(&w, which[t], any, &hits[t]);
+                run(&w, which[f][t], any, &hits[t]);
             for (int k = 0; k < passes; k++) {
                 for (int j = 0; j < tracers; j++) {
                     int t = (j + k) % tracers;
-                    mr[t][k] = run(&w, which[t], any, &hits[t]);
+                    mr[t][k] = run(&w, which[f][t], any, &hits[t]);
                 }
                 q[0][k] = mr[0][k] / mr[1][k];
-                if (tracers > 2)
+                if (tracers == 4)
                     q[1][k] = mr[2][k] / mr[3][k];
+                if (tracers == 3)
+                    q[1][k] = mr[2][k] / mr[1][k];
             }
             char c[300];
             snprintf(c, sizeof c, "%s/%s", mesh, framing);
             printf("| %s | %s (%zu) | %.2f | %.2f | %.2f | %zu, %zu |\n", framing, files[f], n, median(mr[0], passes),
                    median(mr[1], passes), median(q[0], passes), hits[0], hits[1]);
             fprintf(out, "%s\t%s\t%.3f\n", targets[f], c, median(q[0], passes));
-            if (tracers > 2) {
+            if (tracers == 3) {
+                printf("| %s | diffuse, one stream | %.2f | %.2f | %.2f | %zu, %zu |\n", framing, median(mr[2], passes),
+                       median(mr[1], passes), median(q[1], passes), hits[2], hits[1]);
+                fprintf(out, "stream\t%s\t%.3f\n", c, median(q[1], passes));
+            }
+            if (tracers == 4) {
                 printf("| %s | primary, packets of 8 | %.2f | %.2f | %.2f | %zu, %zu |\n", framing,
                        median(mr[2], passes), median(mr[3], passes), median(q[1], passes), hits[2], hits[3]);
                 fprintf(out, "packet\t%s\t%.3f\n", c, median(q[1], passes));
             }
+            accel_stream_free(w.stream);
+            free(w.h);
+            free(w.best);
             free(rays);
         }
     }
