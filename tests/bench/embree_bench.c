@@ -197,7 +197,7 @@ static double embree_pass8(RTCScene sc, const Ray *rays, size_t n, size_t *hits)
 }
 
 /* The tracers of one ray file: each fills its Mrays/s of a pass and its hits. */
-enum { LANCER, LANCER8, EMBREE, EMBREE8, LANCER_STREAM, TRACERS };
+enum { LANCER, LANCER8, EMBREE, EMBREE8, LANCER_STREAM };
 
 typedef struct {
     const Accel *acc;
