@@ -39,7 +39,16 @@ static void soup(Scene *s, int n, int planes, unsigned long long *g)
     }
 }
 
-/* Random rays: origins in [-lo_hi, lo_hi]^3 (some outside the scene's box),
+/* soup's scene in *sc and the queries over it. */
+static Accel *soup_accel(Scene *sc, int n, int planes, unsigned long long *g)
+{
+    soup(sc, n, planes, g);
+    Accel *a = accel_build(sc, PRIM_ROBUST, 1);
+    assert_non_null(a);
+    return a;
+}
+
+/* Random rays: origins in [-reach, reach]^3 (some outside the scene's box),
  * directions anywhere. */
 static Ray *scattered(size_t n, float reach, unsigned long long *g)
 {
@@ -89,9 +98,7 @@ static void test_scattered_rays_sorted_answer_as_one_by_one(void **state)
     (void)state;
     unsigned long long g = 0x5eedULL;
     Scene sc;
-    soup(&sc, 3000, 2, &g);
-    Accel *a = accel_build(&sc, PRIM_ROBUST, 1);
-    assert_non_null(a);
+    Accel *a = soup_accel(&sc, 3000, 2, &g);
     Ray *r = scattered(MANY, 6.0f, &g);
     assert_int_equal(check_stream(a, r, MANY, MANY), 1);
     accel_free(a);
@@ -104,9 +111,7 @@ static void test_coherent_rays_keep_their_order(void **state)
     (void)state;
     unsigned long long g = 0xc0ffeeULL;
     Scene sc;
-    soup(&sc, 3000, 0, &g);
-    Accel *a = accel_build(&sc, PRIM_ROBUST, 1);
-    assert_non_null(a);
+    Accel *a = soup_accel(&sc, 3000, 0, &g);
     /* a camera's rays: one origin, directions in scanline order */
     Ray *r = malloc(MANY * sizeof *r);
     assert_non_null(r);
@@ -125,9 +130,7 @@ static void test_cheap_small_and_unbounded_batches_keep_their_order(void **state
     (void)state;
     unsigned long long g = 0xfeedULL;
     Scene sc;
-    soup(&sc, 3000, 0, &g);
-    Accel *a = accel_build(&sc, PRIM_ROBUST, 1);
-    assert_non_null(a);
+    Accel *a = soup_accel(&sc, 3000, 0, &g);
     Ray *r = scattered(MANY, 6.0f, &g);
     /* rays from all around the scene, leaving it: too few tests a ray for
      * a sort to pay (and one ray in MANY / 2 turned back, to hit) */
@@ -139,7 +142,6 @@ static void test_cheap_small_and_unbounded_batches_keep_their_order(void **state
     }
     assert_int_equal(check_stream(a, away, MANY, MANY), 0);
     free(away);
-    assert_non_null(a);
     assert_int_equal(check_stream(a, r, 1000, MANY), 0);       /* too few rays */
     assert_int_equal(check_stream(a, r, MANY, MANY - 1), 0);   /* more than the room */
     assert_int_equal(check_stream(a, r, MANY, MANY), 1);       /* the same rays, sorted */
@@ -148,9 +150,7 @@ static void test_cheap_small_and_unbounded_batches_keep_their_order(void **state
     free(sc.prims);
 
     /* planes alone: tests enough, but no box to sort in */
-    soup(&sc, 0, 8, &g);
-    a = accel_build(&sc, PRIM_ROBUST, 1);
-    assert_non_null(a);
+    a = soup_accel(&sc, 0, 8, &g);
     assert_int_equal(check_stream(a, r, MANY, MANY), 0);
     accel_free(a);
     free(sc.prims);
