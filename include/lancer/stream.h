@@ -28,7 +28,7 @@ typedef struct AccelStream AccelStream;
 /* The most rays one call may take. */
 #define ACCEL_STREAM_MAX ((size_t)1 << 31)
 
-/* Room to order up to max rays (max <= ACCEL_STREAM_MAX), 16 bytes a ray,
+/* Room to order up to max rays (max <= ACCEL_STREAM_MAX), 40 bytes a ray,
  * its pages touched here rather than in the first trace. NULL when memory
  * runs out or max is too large. */
 AccelStream *accel_stream_new(size_t max);
