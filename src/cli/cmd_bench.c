@@ -164,8 +164,21 @@ static int gen_rays(const Scene *s, const Accel *acc, const char *mesh, const ch
     return rc;
 }
 
+/* --kind's name as a BenchKind into *k; -1 when it names none. */
+static int parse_kind(const char *name, BenchKind *k)
+{
+    static const char *const names[] = {"closest", "any", "packet", "stream"};
+    static const BenchKind kinds[] = {BENCH_CLOSEST, BENCH_ANY, BENCH_PACKET, BENCH_STREAM};
+    for (size_t i = 0; name && i < sizeof names / sizeof names[0]; i++)
+        if (!strcmp(name, names[i])) {
+            *k = kinds[i];
+            return 0;
+        }
+    return -1;
+}
+
 /* --mesh: timed passes over a ray file. */
-static int trace_rays(const Accel *acc, const Args *a, double build_ms)
+static int trace_rays(const Accel *acc, const Args *a, BenchKind kind, double build_ms)
 {
     Ray *r;
     size_t n;
@@ -175,10 +188,6 @@ static int trace_rays(const Accel *acc, const Args *a, double build_ms)
         return 1;
     }
     BenchResult res;
-    BenchKind kind = !strcmp(a->kind, "any")      ? BENCH_ANY
-                     : !strcmp(a->kind, "packet") ? BENCH_PACKET
-                     : !strcmp(a->kind, "stream") ? BENCH_STREAM
-                                                  : BENCH_CLOSEST;
     if (bench_trace(acc, r, n, kind, a->passes, &res) != 0) {
         fprintf(stderr, "lancer: out of memory tracing %s\n", a->rays);
         free(r);
@@ -214,11 +223,8 @@ static int run(void *args, const char **pos, int npos)
         return cli_usage_error("bench", "W and H must be whole numbers from 1 to %d", LIMIT_IMAGE_SIDE);
     if (a->tight && !a->gen)
         return cli_usage_error("bench", "--tight goes with --gen-rays");
-    if (a->mesh &&
-        (!a->rays || !a->kind ||
-         (strcmp(a->kind, "closest") != 0 && strcmp(a->kind, "any") != 0 && strcmp(a->kind, "packet") != 0 &&
-          strcmp(a->kind, "stream") != 0) ||
-         npos != 0))
+    BenchKind kind = BENCH_CLOSEST;
+    if (a->mesh && (!a->rays || parse_kind(a->kind, &kind) != 0 || npos != 0))
         return cli_usage_error("bench", "--mesh needs --rays FILE and --kind closest, any, packet or stream");
     int pn = 0;
     if (a->pn_mode && !a->pn)
@@ -240,7 +246,7 @@ static int run(void *args, const char **pos, int npos)
         return 1;
     }
     double build_ms = 1e3 * (clock_now() - t0);
-    rc = a->gen ? gen_rays(&s, acc, a->gen, pos[0], w, h, a->tight) : trace_rays(acc, a, build_ms);
+    rc = a->gen ? gen_rays(&s, acc, a->gen, pos[0], w, h, a->tight) : trace_rays(acc, a, kind, build_ms);
     accel_free(acc);
     scene_free(&s);
     return rc;
