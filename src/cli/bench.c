@@ -156,6 +156,16 @@ double bench_pass(const Accel *a, const Ray *rays, size_t n, int any, size_t *hi
     return dt;
 }
 
+/* The hits among answers best[0 .. n-1] added to *k, their t to *sum. */
+static void tally(const int *best, const PrimHit *h, size_t n, size_t *k, double *sum)
+{
+    for (size_t i = 0; i < n; i++)
+        if (best[i] >= 0) {
+            ++*k;
+            *sum += h[i].t;
+        }
+}
+
 double bench_pass_packet(const Accel *a, const Ray *rays, size_t n, size_t *hits, double *sumt)
 {
     RayStats st = {0, 0, 0, 0, 0, 0, 0};
@@ -165,11 +175,7 @@ double bench_pass_packet(const Accel *a, const Ray *rays, size_t n, size_t *hits
         int m = n - i < ACCEL_PACKET ? (int)(n - i) : ACCEL_PACKET, best[ACCEL_PACKET];
         PrimHit h[ACCEL_PACKET];
         accel_closest_packet(a, rays + i, m, h, best, &st);
-        for (int j = 0; j < m; j++)
-            if (best[j] >= 0) {
-                k++;
-                sum += h[j].t;
-            }
+        tally(best, h, (size_t)m, &k, &sum);
     }
     double dt = clock_now() - t0;
     *hits = k;
@@ -184,11 +190,7 @@ double bench_pass_stream(const Accel *a, AccelStream *s, const Ray *rays, size_t
     size_t k = 0;
     double sum = 0.0, t0 = clock_now();
     accel_closest_stream(a, s, rays, n, h, best, &st);
-    for (size_t i = 0; i < n; i++)
-        if (best[i] >= 0) {
-            k++;
-            sum += h[i].t;
-        }
+    tally(best, h, n, &k, &sum);
     double dt = clock_now() - t0;
     *hits = k;
     *sumt = sum;
