@@ -463,8 +463,10 @@ static inline void lane_range(__m256 v, __m256 *lo, __m256 *hi)
 
 /* 0 when the rays do not share a direction's sign on some axis, or one is
  * parallel to an axis plane or not a number, or an origin is not finite
- * (or there are none): those go one by one. */
-static int packet_pre(const Ray *r, int n, PacketPre *p)
+ * (or there are none): those go one by one. -1 when every ray misses the
+ * root box (b->lo, b->hi) by its own slab test, as misses_root decides for
+ * one ray: the packet then misses every slot, and needs nothing more. */
+static int packet_pre(const Bvh *b, const Ray *r, int n, PacketPre *p)
 {
     if (n < 1)
         return 0;
@@ -482,24 +484,35 @@ static int packet_pre(const Ray *r, int n, PacketPre *p)
      * compiler may not start a division before a branch). */
     for (int a = 0; a < 3; a++)
         iv[a] = _mm256_div_ps(one, f[RAY_D + a]); /* as ray_pre divides (lane by lane) */
+    /* each ray's entry and exit of the root box, as packet_rays_enter's */
+    __m256 tn = zero, tf = _mm256_mul_ps(f[RAY_TMAX], _mm256_set1_ps(BVH_REACH));
+    int neg[3];
     for (int a = 0; a < 3; a++) {
-        __m256 omin, omax, inv = iv[a];
-        if (_mm256_movemask_ps(_mm256_cmp_ps(_mm256_andnot_ps(abs, oa[a]), fmax, _CMP_NLE_UQ)))
-            return 0;
-        lane_range(oa[a], &omin, &omax);
+        const __m256 inv = iv[a];
         /* every lane finite, non-zero and of ray 0's sign: a NaN would
          * slip past the min and max below */
         __m256 bad = _mm256_or_ps(_mm256_cmp_ps(_mm256_andnot_ps(abs, inv), fmax, _CMP_NLE_UQ),
                                   _mm256_cmp_ps(inv, zero, _CMP_EQ_OQ));
-        int neg = _mm256_movemask_ps(_mm256_cmp_ps(inv, zero, _CMP_LT_OQ));
-        if (_mm256_movemask_ps(bad) || (neg != 0 && neg != 0xff))
+        bad = _mm256_or_ps(bad, _mm256_cmp_ps(_mm256_andnot_ps(abs, oa[a]), fmax, _CMP_NLE_UQ));
+        neg[a] = _mm256_movemask_ps(_mm256_cmp_ps(inv, zero, _CMP_LT_OQ));
+        if (_mm256_movemask_ps(bad) || (neg[a] != 0 && neg[a] != 0xff))
             return 0;
+        const __m256 pn = _mm256_set1_ps(neg[a] ? b->hi[a] : b->lo[a]);
+        const __m256 pf = _mm256_set1_ps(neg[a] ? b->lo[a] : b->hi[a]);
+        tn = _mm256_max_ps(_mm256_mul_ps(_mm256_sub_ps(pn, oa[a]), inv), tn);
+        tf = _mm256_min_ps(_mm256_mul_ps(_mm256_sub_ps(pf, oa[a]), _mm256_mul_ps(inv, pad)), tf);
+    }
+    if (!_mm256_movemask_ps(_mm256_cmp_ps(tn, tf, _CMP_LE_OQ)))
+        return -1;
+    for (int a = 0; a < 3; a++) {
+        __m256 omin, omax, inv = iv[a];
+        lane_range(oa[a], &omin, &omax);
         __m256 lo, hi;
         lane_range(inv, &lo, &hi);
-        slab_planes(a, neg != 0, &p->near[a], &p->far[a]);
+        slab_planes(a, neg[a] != 0, &p->near[a], &p->far[a]);
         p->o8[a] = oa[a];
-        p->on8[a] = neg ? omin : omax;
-        p->of8[a] = neg ? omax : omin;
+        p->on8[a] = neg[a] ? omin : omax;
+        p->of8[a] = neg[a] ? omax : omin;
         p->imin8[a] = lo;
         p->imax8[a] = hi;
         p->inv8[a] = inv;
@@ -696,9 +709,10 @@ static void packet_tri_pre(const Ray *r, int n, TriPre *tp)
 void bvh_closest_packet_avx2(const Bvh *b, const Ray *r, int n, PrimHit *h, int *best, unsigned long long *tests)
 {
     PacketPre p;
-    if (b->nnodes == 0 || !packet_pre(r, n, &p)) {
+    const int pre = b->nnodes ? packet_pre(b, r, n, &p) : 0;
+    if (pre <= 0) {
         for (int k = 0; k < n; k++)
-            best[k] = bvh_closest_avx2(b, &r[k], &h[k], tests);
+            best[k] = pre ? -1 : bvh_closest_avx2(b, &r[k], &h[k], tests);
         return;
     }
     const unsigned all = (1u << n) - 1;
@@ -783,7 +797,10 @@ unsigned bvh_occluded_packet_avx2(const Bvh *b, const Ray *r, int n, unsigned lo
 {
     PacketPre p;
     unsigned hit = 0;
-    if (b->nnodes == 0 || !packet_pre(r, n, &p)) {
+    const int pre = b->nnodes ? packet_pre(b, r, n, &p) : 0;
+    if (pre < 0)
+        return 0;
+    if (pre == 0) {
         for (int k = 0; k < n; k++)
             hit |= (unsigned)bvh_occluded_avx2(b, &r[k], tests) << k;
         return hit;

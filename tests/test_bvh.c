@@ -518,7 +518,7 @@ static void test_rays_from_outside_touching_the_root_box(void **state)
      * it their traversal must keep the slab test's padding, or it drops
      * such rays where the triangle test finds a hit. */
     const int trees = 2000, rays = 40;
-    int bad = 0, hits = 0;
+    int bad = 0, hits = 0, split = 0, missed = 0; /* packets: some rays hit, or none */
     unsigned long long tests = 0;
     for (int i = 0; i < trees; i++) {
         Prim *p = random_triangles(1);
@@ -537,10 +537,33 @@ static void test_rays_from_outside_touching_the_root_box(void **state)
             bad += closest_differs(p, got, &h, want, &w) || bvh_occluded(&b, &r, &tests) != (want >= 0);
             hits += want >= 0;
         }
+        /* Packets too, whose rays the root box's test may all send away
+         * at once: eight rays from one origin towards a vertex or an edge,
+         * a few ulps apart, so that some enter the box and some pass it. */
+        for (int k = 0; k < rays / BVH_PACKET; k++) {
+            const Vec3 v[3] = {t->a, t->b, t->c};
+            Vec3 target = vec_add(v[k % 3], vec_scale(vec_sub(v[(k + 1) % 3], v[k % 3]), 0.5f * (float)(k % 2)));
+            Vec3 o = test_rvec(&rng, -14, 14);
+            Ray r[BVH_PACKET];
+            for (int j = 0; j < BVH_PACKET; j++)
+                r[j] = ray_make(o, vec_sub(vec_add(target, test_rvec(&rng, -0x1p-20f, 0x1p-20f)), o), INFINITY);
+            PrimHit h[BVH_PACKET], w = {0, 0, 0, 0, 0};
+            int got[BVH_PACKET], in = 0;
+            bvh_closest_packet(&b, r, BVH_PACKET, h, got, &tests);
+            const unsigned dark = bvh_occluded_packet(&b, r, BVH_PACKET, &tests);
+            for (int j = 0; j < BVH_PACKET; j++) {
+                int want = brute_closest(p, 1, &r[j], &w);
+                bad += closest_differs(p, got[j], &h[j], want, &w) || (int)(dark >> j & 1) != (want >= 0);
+                in += want >= 0;
+            }
+            split += in > 0 && in < BVH_PACKET;
+            missed += in == 0;
+        }
         bvh_free(&b);
         free(p);
     }
     assert_true(hits > trees * rays / 4);
+    assert_true(split > 100 && missed > 100);
     assert_int_equal(bad, 0);
 }
 
