@@ -199,6 +199,28 @@ static double embree_pass8(RTCScene sc, const Ray *rays, size_t n, size_t *hits)
 /* The tracers of one ray file: each fills its Mrays/s of a pass and its hits. */
 enum { LANCER, LANCER8, EMBREE, EMBREE8, LANCER_STREAM };
 
+/* A ray file's tracers, in turns, and its rows: each the ratio of a lancer
+ * tracer to an Embree one (their places in which[]), with its label (NULL:
+ * the file's name and ray count) and its target in the results. Camera rays
+ * one by one and in packets; shadow rays; diffuse rays one by one, and
+ * lancer's stream against the same Embree pass. */
+typedef struct {
+    const char *file;
+    int any, tracers, which[4], rows;
+    struct {
+        int lancer, embree;
+        const char *label, *target;
+    } row[2];
+} FileRuns;
+
+static const FileRuns file_runs[3] = {
+    {"primary", 0, 4, {LANCER, EMBREE, LANCER8, EMBREE8}, 2,
+     {{0, 1, NULL, "camera"}, {2, 3, "primary, packets of 8", "packet"}}},
+    {"shadow", 1, 2, {LANCER, EMBREE, 0, 0}, 1, {{0, 1, NULL, "shadow"}, {0, 0, NULL, NULL}}},
+    {"diffuse", 0, 3, {LANCER, EMBREE, LANCER_STREAM, 0}, 2,
+     {{0, 1, NULL, "diffuse-single"}, {2, 1, "diffuse, one stream", "stream"}}},
+};
+
 typedef struct {
     const Accel *acc;
     RTCScene sc;
@@ -307,11 +329,10 @@ int main(int argc, char **argv)
            "| --- | --- | --- | --- | --- | --- |\n");
     for (int d = 4; d < argc; d++) {
         const char *framing = base_name(argv[d]);
-        static const char *const files[3] = {"primary", "shadow", "diffuse"};
-        static const char *const targets[3] = {"camera", "shadow", "diffuse-single"};
         for (int f = 0; f < 3; f++) {
+            const FileRuns *fr = &file_runs[f];
             char path[1024];
-            snprintf(path, sizeof path, "%s/%s.rays", argv[d], files[f]);
+            snprintf(path, sizeof path, "%s/%s.rays", argv[d], fr->file);
             Ray *rays;
             size_t n;
             if (rayfile_read(path, &rays, &n, err, sizeof err) != 0) {
@@ -319,45 +340,36 @@ int main(int argc, char **argv)
                 return 1;
             }
             Work w = {acc, sr, rays, n, NULL, NULL, NULL};
-            if (f == 2 && (!(w.stream = accel_stream_new(n)) || !(w.h = malloc(n * sizeof *w.h)) ||
-                           !(w.best = malloc(n * sizeof *w.best)))) {
-                fprintf(stderr, "out of memory\n");
-                return 1;
-            }
-            /* the tracers of this file: lancer and Embree one by one, then
-             * for camera rays their packets, for diffuse rays lancer's stream
-             * (against the same Embree) */
-            const int which[3][4] = {{LANCER, EMBREE, LANCER8, EMBREE8}, {LANCER, EMBREE}, {LANCER, EMBREE, LANCER_STREAM}};
-            int any = f == 1, tracers = f == 0 ? 4 : f == 1 ? 2 : 3;
+            for (int t = 0; t < fr->tracers; t++)
+                if (fr->which[t] == LANCER_STREAM && (!(w.stream = accel_stream_new(n)) ||
+                                                      !(w.h = malloc(n * sizeof *w.h)) ||
+                                                      !(w.best = malloc(n * sizeof *w.best)))) {
+                    fprintf(stderr, "out of memory\n");
+                    return 1;
+                }
             double mr[4][ROUNDS_MAX], q[2][ROUNDS_MAX];
             size_t hits[4];
-            for (int t = 0; t < tracers; t++) /* warm-up */
-                run(&w, which[f][t], any, &hits[t]);
+            for (int t = 0; t < fr->tracers; t++) /* warm-up */
+                run(&w, fr->which[t], fr->any, &hits[t]);
             for (int k = 0; k < passes; k++) {
-                for (int j = 0; j < tracers; j++) {
-                    int t = (j + k) % tracers;
-                    mr[t][k] = run(&w, which[f][t], any, &hits[t]);
+                for (int j = 0; j < fr->tracers; j++) {
+                    int t = (j + k) % fr->tracers;
+                    mr[t][k] = run(&w, fr->which[t], fr->any, &hits[t]);
                 }
-                q[0][k] = mr[0][k] / mr[1][k];
-                if (tracers == 4)
-                    q[1][k] = mr[2][k] / mr[3][k];
-                if (tracers == 3)
-                    q[1][k] = mr[2][k] / mr[1][k];
+                for (int r = 0; r < fr->rows; r++)
+                    q[r][k] = mr[fr->row[r].lancer][k] / mr[fr->row[r].embree][k];
             }
-            char c[300];
+            char c[300], label[64];
             snprintf(c, sizeof c, "%s/%s", mesh, framing);
-            printf("| %s | %s (%zu) | %.2f | %.2f | %.2f | %zu, %zu |\n", framing, files[f], n, median(mr[0], passes),
-                   median(mr[1], passes), median(q[0], passes), hits[0], hits[1]);
-            fprintf(out, "%s\t%s\t%.3f\n", targets[f], c, median(q[0], passes));
-            if (tracers == 3) {
-                printf("| %s | diffuse, one stream | %.2f | %.2f | %.2f | %zu, %zu |\n", framing, median(mr[2], passes),
-                       median(mr[1], passes), median(q[1], passes), hits[2], hits[1]);
-                fprintf(out, "stream\t%s\t%.3f\n", c, median(q[1], passes));
-            }
-            if (tracers == 4) {
-                printf("| %s | primary, packets of 8 | %.2f | %.2f | %.2f | %zu, %zu |\n", framing,
-                       median(mr[2], passes), median(mr[3], passes), median(q[1], passes), hits[2], hits[3]);
-                fprintf(out, "packet\t%s\t%.3f\n", c, median(q[1], passes));
+            for (int r = 0; r < fr->rows; r++) {
+                const int l = fr->row[r].lancer, e = fr->row[r].embree;
+                if (fr->row[r].label)
+                    snprintf(label, sizeof label, "%s", fr->row[r].label);
+                else
+                    snprintf(label, sizeof label, "%s (%zu)", fr->file, n);
+                printf("| %s | %s | %.2f | %.2f | %.2f | %zu, %zu |\n", framing, label, median(mr[l], passes),
+                       median(mr[e], passes), median(q[r], passes), hits[l], hits[e]);
+                fprintf(out, "%s\t%s\t%.3f\n", fr->row[r].target, c, median(q[r], passes));
             }
             accel_stream_free(w.stream);
             free(w.h);
