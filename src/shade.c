@@ -6,7 +6,7 @@
  * error bound, not a t_min epsilon, keeps it off its own surface. POV-Ray
  * itself ignores hits closer than 1e-4 (and shadow occluders within 1e-3 of
  * either end); the two differ only on surfaces that touch, a line of pixels
- * at most.
+ * at most. At the light's end a shadow ray stops short (light_reach).
  */
 #include "lancer/shade.h"
 
@@ -38,6 +38,14 @@ static Vec3 pass_factor(const Material *m)
 {
     return vec_add(vec_scale(m->color, m->filter), vec3(m->transmit, m->transmit, m->transmit));
 }
+
+/* A shadow ray's tmax towards a light (or a light's sample) dist away: a
+ * part in 2^13 short of it, so that a surface through the light itself (a
+ * lamp set in a ceiling) does not shadow it by the roundings of the ray, as
+ * POV-Ray ignores an occluder within SHADOW_TOLERANCE, 10^-3, of the light
+ * (trace.cpp). A part of the distance, not a length: the picture does not
+ * change with the scene's scale. */
+static inline float light_reach(float dist) { return dist * (1.0f - 0x1p-13f); }
 
 /* The distance from p to q, and the unit direction towards q into *dir
  * (not a number when they coincide: callers check the distance). */
@@ -91,7 +99,7 @@ static void filtered(const Ctx *c, const Ray *r, int n, const Vec3 *q, Vec3 *f)
             const Vec3 d = cur[j].d, o = prim_spawn_origin(&sf[j], d);
             on[m].o = o; /* m <= j: cur[m] is done with */
             on[m].d = d;
-            on[m].tmax = vec_length(vec_sub(q[k], o));
+            on[m].tmax = light_reach(vec_length(vec_sub(q[k], o)));
             who[m++] = k;
             c->st->shadow++;
         }
@@ -122,7 +130,7 @@ static inline void area_packet(const Ctx *c, PlanShadow mode, const Surface *sf,
     for (int k = 0; k < n; k++) {
         Vec3 d;
         float qd = toward(sf->p, point[idx ? idx[k] : k], &d);
-        sr[k] = ray_make(spawn_toward(sf, o, d), d, qd);
+        sr[k] = ray_make(spawn_toward(sf, o, d), d, light_reach(qd));
     }
     c->st->shadow += (unsigned long long)n;
     if (mode == PLAN_SHADOW_OPAQUE) {
@@ -451,7 +459,7 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
             if (!lit[k] || mode == PLAN_SHADOW_NONE || mode == PLAN_SHADOW_CLEAR)
                 continue; /* the light reaches the point whole */
             if (together) { /* a point light: one shadow ray, in a packet below */
-                sr[ns] = ray_make(spawn_front(&sf[k], front[k], L), L, dist);
+                sr[ns] = ray_make(spawn_front(&sf[k], front[k], L), L, light_reach(dist));
                 c->st->shadow++;
                 who[ns++] = k;
             } else

@@ -7,6 +7,7 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <setjmp.h>
+#include <math.h>
 #include <stdio.h>
 #include <string.h>
 #include <cmocka.h>
@@ -96,6 +97,53 @@ static void test_point_in_shadow(void **state)
     load(&s, "light { position 3 4 0 }\nsphere { center 6 8 0 radius 1 material m }\n");
     assert_vec(trace(&s, EYE, DIR), 0.5f * 0.58f, 0.4f * 0.58f, 0.3f * 0.58f, 1e-6);
     scene_free(&s);
+}
+
+/* How many floor points of a grid, seen from (-3, 2, 0), are not lit in
+ * full by the light at (3, 4, 0): P (0.1 + 0.6 N.L), N.L = 4 / |L - p|. */
+static int floor_points_in_shadow(Scene *s)
+{
+    RenderPlan p;
+    Accel *a = plan_world(&p, s);
+    RayStats st;
+    memset(&st, 0, sizeof st);
+    int dark = 0;
+    for (int i = 0; i <= 60; i++)
+        for (int j = 0; j <= 60; j++) {
+            Vec3 q = vec3(-1.0f + 0.05f * (float)i, 0.0f, -1.5f + 0.05f * (float)j), eye = vec3(-3, 2, 0);
+            Ray r = ray_make(eye, vec_normalize(vec_sub(q, eye)), INFINITY);
+            float nl = 4.0f / vec_length(vec_sub(vec3(3, 4, 0), q));
+            dark += fabsf(shade_trace(&p, a, &r, &st).x - 0.5f * (0.1f + 0.6f * nl)) > 1e-5f;
+        }
+    accel_free(a);
+    plan_free(&p);
+    return dark;
+}
+
+static void test_light_on_a_surface(void **state)
+{
+    (void)state;
+    /* A lamp set in the ceiling: the ceiling passes through the light, and
+     * a shadow ray's roundings must not decide whether it blocks it (as
+     * POV-Ray, which ignores a blocker within 10^-3 of the light). A point
+     * light and an area light (every sample on the ceiling), the ceiling
+     * opaque and of glass (filtered shadows); the ceiling 0.01 lower hides
+     * the light from every point. */
+    const char *lights[] = {"light { position 3 4 0 }", "light { position 3 4 0 area_u 0.5 0 0 area_v 0 0 0.5 area_samples 3 3 }"};
+    const char *offsets[] = {"4", "3.99"};
+    for (int glass = 0; glass < 2; glass++)
+        for (int l = 0; l < 2; l++)
+            for (int o = 0; o < 2; o++) {
+                char extra[512];
+                snprintf(extra, sizeof extra,
+                         "material g { color 1 1 1 ambient 0 diffuse 0 transmit 0.5 }\n%s\n"
+                         "plane { normal 0 1 0 offset %s material %s }\n",
+                         lights[l], offsets[o], glass ? "g" : "m");
+                Scene s;
+                load(&s, extra);
+                assert_int_equal(floor_points_in_shadow(&s), o ? 61 * 61 : 0);
+                scene_free(&s);
+            }
 }
 
 static void test_shadowless_light(void **state)
@@ -675,7 +723,7 @@ int main(void)
         cmocka_unit_test(test_total_internal_reflection), cmocka_unit_test(test_no_self_shadowing_on_spheres),
         cmocka_unit_test(test_traced_is_trace), cmocka_unit_test(test_filtered_shadows_in_packets),
         cmocka_unit_test(test_refraction_in_packets), cmocka_unit_test(test_invisible_sphere_in_glass),
-        cmocka_unit_test(test_adaptive_area_light),
+        cmocka_unit_test(test_adaptive_area_light), cmocka_unit_test(test_light_on_a_surface),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
