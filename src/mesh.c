@@ -182,6 +182,19 @@ static int face_normal(const Mesh *m, int i, double fn[3], double e[3][3])
     return 0;
 }
 
+int mesh_zero_normal(const Mesh *m)
+{
+    int first = -1;
+    for (int i = 0; m->n && i < m->nt; i++)
+        for (int k = 0; k < 3; k++) {
+            const int j = m->ntri[i][k];
+            const Vec3 n = m->n[j];
+            if (n.x == 0.0f && n.y == 0.0f && n.z == 0.0f && (first < 0 || j < first))
+                first = j;
+        }
+    return first;
+}
+
 int mesh_vertex_normals(Mesh *m, char *err, size_t errlen)
 {
     if (m->nt == 0 || m->nv == 0) {

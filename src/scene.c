@@ -1310,6 +1310,15 @@ static int parse_mesh(Parser *P, Loc at)
         mesh_free(&m);
         return fail(P, v[FILE_].value, "mesh: %s has no triangles", path);
     }
+    const int zero = smooth ? mesh_zero_normal(&m) : -1;
+    if (zero >= 0) {
+        mesh_free(&m);
+        return fail(P, v[FILE_].value,
+                    "mesh: %s: its normal %d (counting from 1) has zero length, and a %s mesh shades by its normals "
+                    "(without '%s' it is flat)",
+                    path, zero + 1, v[PN].set ? "pn" : "smooth", v[PN].set ? "pn" : "smooth");
+    }
+    const int before = P->s->nprims;
     int rc = v[PN].set ? scene_add_pn_mesh(P->s, &m, mat, mode, xf, &dropped)
                        : scene_add_mesh(P->s, &m, mat, smooth, xf, &dropped);
     P->cap_prims = P->cap_place = P->s->nprims; /* the arrays hold at least this many */
@@ -1318,6 +1327,8 @@ static int parse_mesh(Parser *P, Loc at)
     mesh_free(&m);
     if (rc != 0)
         return fail(P, at, "mesh: out of memory");
+    if (P->s->nprims == before)
+        return fail(P, at, "mesh: %s: once transformed, every triangle has no area or leaves the range of floats", path);
     return 0;
 }
 

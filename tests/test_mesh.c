@@ -365,6 +365,23 @@ static void test_obj_normals(void **state)
 
 }
 
+/* The first normal of zero length that a corner uses: in index order,
+ * not the corners' order; an unused one and a mesh without normals give -1. */
+static void test_zero_normal(void **state)
+{
+    (void)state;
+    Mesh m;
+    parse_ok(MESH_OBJ, "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvn 0 0 0\nvn 0 0 0\nvn 0 0 0\nf 1//4 2//2 3//1\n", &m);
+    assert_int_equal(mesh_zero_normal(&m), 1);
+    mesh_free(&m);
+    parse_ok(MESH_OBJ, "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvn 0 0 0\nf 1//1 2//1 3//1\n", &m);
+    assert_int_equal(mesh_zero_normal(&m), -1);
+    mesh_free(&m);
+    parse_ok(MESH_OFF, "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n", &m);
+    assert_int_equal(mesh_zero_normal(&m), -1);
+    mesh_free(&m);
+}
+
 static const char ply_ascii[] = "ply\n"
                                 "format ascii 1.0\n"
                                 "comment extra properties and elements to skip\n"
@@ -1521,6 +1538,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_obj_basic),
         cmocka_unit_test(test_obj_negative_and_forward),
         cmocka_unit_test(test_obj_normals),
+        cmocka_unit_test(test_zero_normal),
         cmocka_unit_test(test_ply_ascii),
         cmocka_unit_test(test_ply_binary),
         cmocka_unit_test(test_ply_types),

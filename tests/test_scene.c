@@ -1036,6 +1036,41 @@ static void test_mesh_statement(void **state)
     rmdir(dir);
 }
 
+/* A mesh that would add nothing it can shade is an error at its file,
+ * where both once vanished from the scene without a word: a smooth or pn
+ * mesh with a corner's normal of zero length (each such triangle was
+ * dropped as degenerate), and a mesh whose every triangle leaves the
+ * floats once moved. */
+static void test_mesh_that_vanishes(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/lancer-scene-XXXXXX", path[256], text[1024], err[512];
+    temp_mesh(dir, path, sizeof path, "NOFF\n3 1 0\n0 0 0 0 0 1\n1 0 0 0 0 0\n0 1 0 0 0 1\n3 0 1 2\n");
+    Scene s;
+    const char *kinds[] = {"smooth", "pn"};
+    for (int k = 0; k < 2; k++) {
+        snprintf(text, sizeof text, CAM "material m { }\nmesh { file \"%s\" material m %s }\n", path, kinds[k]);
+        assert_int_equal(scene_parse("t.scn", text, strlen(text), &s, err, sizeof err), -1);
+        assert_non_null(strstr(err, "t.scn:3:13: mesh: "));
+        assert_non_null(strstr(err, "its normal 2 (counting from 1) has zero length"));
+    }
+    /* flat, the normals play no part */
+    snprintf(text, sizeof text, CAM "material m { }\nmesh { file \"%s\" material m }\n", path);
+    parse_ok(text, &s);
+    assert_int_equal(s.nprims, 1);
+    scene_free(&s);
+    remove(path);
+    rmdir(dir);
+    char dir2[] = "/tmp/lancer-scene-XXXXXX";
+    temp_mesh(dir2, path, sizeof path, "OFF\n3 1 0\n0 0 0\n1e30 0 0\n0 1e30 0\n3 0 1 2\n");
+    snprintf(text, sizeof text, CAM "material m { }\nmesh { file \"%s\" material m scale 1e10 }\n", path);
+    assert_int_equal(scene_parse("t.scn", text, strlen(text), &s, err, sizeof err), -1);
+    assert_non_null(strstr(err, "t.scn:3:1: mesh: "));
+    assert_non_null(strstr(err, "every triangle has no area or leaves the range of floats"));
+    remove(path);
+    rmdir(dir2);
+}
+
 /* pn_triangle and pn meshes: patches out of line, normals made unit, the
  * mode from the block, else the image block (wherever it stands), else
  * exact. */
@@ -1463,7 +1498,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_transform),
         cmocka_unit_test(test_object_transforms),
         cmocka_unit_test(test_double_coordinates),
-        cmocka_unit_test(test_mesh_statement),
+        cmocka_unit_test(test_mesh_statement), cmocka_unit_test(test_mesh_that_vanishes),
         cmocka_unit_test(test_pn_statements),
         cmocka_unit_test(test_number_forms),
         cmocka_unit_test(test_names),

@@ -145,6 +145,11 @@ void mesh_free(Mesh *m);
  * unchanged). */
 int mesh_vertex_normals(Mesh *m, char *err, size_t errlen);
 
+/* The first of m's normals that a triangle's corner uses and that has zero
+ * length (which a smooth or PN mesh cannot shade by), or -1 when there is
+ * none or m has no normals. */
+int mesh_zero_normal(const Mesh *m);
+
 /* Checks the promises listed at the top of this file. Returns 0, or -1 with
  * a message naming the first broken one in err. */
 int mesh_validate(const Mesh *m, char *err, size_t errlen);
