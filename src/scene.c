@@ -52,6 +52,7 @@ typedef struct {
     Scene *s;
     int cap_materials, cap_lights, cap_prims, cap_place, cap_patches, cap_ellipsoids;
     int have_image, have_camera, cap_keys;
+    int *names, cap_names; /* the materials by name: open addressing, -1 free */
 } Parser;
 
 LEX_PRINTF(3, 4) static int fail(Parser *P, Loc loc, const char *fmt, ...)
@@ -413,12 +414,50 @@ static Prim *new_prim(Parser *P, PrimKind kind, Loc loc, Place **pl)
     return p;
 }
 
-static int find_material(const Scene *s, const char *name)
+/* FNV-1a (Fowler, Noll and Vo) of a material's name. */
+static uint32_t name_hash(const char *name)
 {
-    for (int i = 0; i < s->nmaterials; i++)
-        if (strcmp(s->materials[i].name, name) == 0)
-            return i;
-    return -1;
+    uint32_t h = 2166136261u;
+    for (; *name; name++)
+        h = (h ^ (unsigned char)*name) * 16777619u;
+    return h;
+}
+
+/* The slot of P->names where name is, or the free one where it would go:
+ * without the table, a scene's materials took time in their count squared. */
+static int name_slot(const Parser *P, const char *name)
+{
+    const int mask = P->cap_names - 1;
+    int j = (int)(name_hash(name) & (uint32_t)mask);
+    while (P->names[j] >= 0 && strcmp(P->s->materials[P->names[j]].name, name) != 0)
+        j = (j + 1) & mask;
+    return j;
+}
+
+static int find_material(const Parser *P, const char *name)
+{
+    return P->cap_names ? P->names[name_slot(P, name)] : -1;
+}
+
+/* Enters material i, the last added, into P->names, twice as large as the
+ * materials at least. Returns 0, or -1 when out of memory. */
+static int name_material(Parser *P, int i)
+{
+    if (2 * (size_t)(i + 1) > (size_t)P->cap_names) {
+        const int cap = P->cap_names ? 2 * P->cap_names : 64;
+        int *t = malloc(sizeof *t * (size_t)cap);
+        if (!t)
+            return -1;
+        free(P->names);
+        P->names = t;
+        P->cap_names = cap;
+        for (int j = 0; j < cap; j++)
+            t[j] = -1;
+        for (int k = 0; k < i; k++)
+            t[name_slot(P, P->s->materials[k].name)] = k;
+    }
+    P->names[name_slot(P, P->s->materials[i].name)] = i;
+    return 0;
 }
 
 /* Resolves a required 'material NAME' property. */
@@ -427,7 +466,7 @@ static int material_ref(Parser *P, const char *what, const Field *f, const Value
 {
     if (require(P, what, f, vals, i, block))
         return -1;
-    *out = find_material(P->s, vals[i].name);
+    *out = find_material(P, vals[i].name);
     if (*out < 0)
         return fail(P, vals[i].value, "%s: undefined material '%s'", what, vals[i].name);
     return 0;
@@ -718,7 +757,7 @@ static int parse_material(Parser *P, Loc at)
     Loc name_at = P->tok.loc;
     if (read_name(P, m.name, "material"))
         return -1;
-    int prev = find_material(P->s, m.name);
+    int prev = find_material(P, m.name);
     if (prev >= 0)
         return fail(P, name_at, "duplicate material name '%s'", m.name);
     if (parse_block(P, "material", f, N, v))
@@ -752,6 +791,8 @@ static int parse_material(Parser *P, Loc at)
         return fail(P, at, "out of memory");
     P->s->materials = arr;
     arr[P->s->nmaterials++] = m;
+    if (name_material(P, P->s->nmaterials - 1) != 0)
+        return fail(P, at, "out of memory");
     return 0;
 }
 
@@ -1899,6 +1940,7 @@ int scene_parse(const char *name, const char *text, size_t len, Scene *s, char *
         rc = parse_statement(&P);
     if (rc == 0 && !P.have_camera)
         rc = fail(&P, P.tok.loc, "the scene has no 'camera' block");
+    free(P.names);
     if (rc != 0) {
         scene_free(s);
         return rc;

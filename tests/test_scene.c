@@ -1036,6 +1036,43 @@ static void test_mesh_statement(void **state)
     rmdir(dir);
 }
 
+/* Many materials, looked up by name through the parser's table: each
+ * object gets the one it names, in any order, and a name defined twice is
+ * found among thousands (the table grows and rehashes on the way). */
+static void test_many_materials(void **state)
+{
+    (void)state;
+    enum { N = 5000 };
+    size_t cap = 80 * (size_t)N * 2 + 256, len = 0;
+    char *text = malloc(cap), err[256];
+    assert_non_null(text);
+    len += (size_t)snprintf(text + len, cap - len, CAM);
+    for (int i = 0; i < N; i++)
+        len += (size_t)snprintf(text + len, cap - len, "material m%d { ambient %g }\n", i, (double)i / N);
+    for (int i = 0; i < N; i++)
+        len += (size_t)snprintf(text + len, cap - len, "sphere { center 0 0 %d radius 0.4 material m%d }\n", i,
+                                N - 1 - i);
+    Scene s;
+    parse_ok(text, &s);
+    assert_int_equal(s.nmaterials, N);
+    for (int i = 0; i < N; i++) {
+        assert_int_equal(s.prims[i].material, N - 1 - i);
+        assert_float_equal(s.materials[s.prims[i].material].ambient, (float)((double)(N - 1 - i) / N), 0);
+    }
+    scene_free(&s);
+    /* m4321 again, on line N + 2 (after the camera's) */
+    len = 0;
+    len += (size_t)snprintf(text + len, cap - len, CAM);
+    for (int i = 0; i < N; i++)
+        len += (size_t)snprintf(text + len, cap - len, "material m%d { }\n", i);
+    len += (size_t)snprintf(text + len, cap - len, "material m4321 { }\n");
+    assert_int_equal(scene_parse("t.scn", text, len, &s, err, sizeof err), -1);
+    char want[64];
+    snprintf(want, sizeof want, "t.scn:%d:10: duplicate material name 'm4321'", N + 2);
+    assert_string_equal(err, want);
+    free(text);
+}
+
 /* A mesh that would add nothing it can shade is an error at its file,
  * where both once vanished from the scene without a word: a smooth or pn
  * mesh with a corner's normal of zero length (each such triangle was
@@ -1498,7 +1535,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_transform),
         cmocka_unit_test(test_object_transforms),
         cmocka_unit_test(test_double_coordinates),
-        cmocka_unit_test(test_mesh_statement), cmocka_unit_test(test_mesh_that_vanishes),
+        cmocka_unit_test(test_mesh_statement), cmocka_unit_test(test_mesh_that_vanishes), cmocka_unit_test(test_many_materials),
         cmocka_unit_test(test_pn_statements),
         cmocka_unit_test(test_number_forms),
         cmocka_unit_test(test_names),
