@@ -45,6 +45,23 @@ has "$T/out" "--threads N"
 expect 2 "$LANCER"
 expect 2 "$LANCER" frobnicate
 has "$T/err" "unknown command 'frobnicate'"
+# Each command's --help and the README's synopsis of it name the same
+# options: every option the help lists (by either of its names) is in the
+# synopsis, and every option of the synopsis is in the help.
+for c in render tiles merge export-pov diff bench; do
+    awk -v c="### lancer $c" '$0 == c { f = 1; next } f && /^### / { exit }
+        f && /^\*\*Synopsis/ { s = 1; next } s && /^\*\*/ { exit } s && /^    / { print }' "$ROOT/README.md" >"$T/syn"
+    [ -s "$T/syn" ] || bad "README.md has no synopsis of lancer $c"
+    "$LANCER" "$c" --help >"$T/help"
+    sed -n '/^options:/,$p' "$T/help" | grep -E '^ +(-[a-zA-Z], )?--[a-z]' | grep -vE -- '--help( |$)' |
+        sed -E 's/^ +(-[a-zA-Z], )?(--[a-z0-9-]+).*/\1\2/; s/, / /' >"$T/opts"
+    while read -r a b; do
+        if grep -qE -- "(^|[^a-z-])($a|${b:-$a})([^a-z-]|$)" "$T/syn"; then ok; else bad "README's lancer $c synopsis lacks $a"; fi
+    done <"$T/opts"
+    for o in $(grep -oE -- '(^|[][ (|])--?[a-z][a-z0-9-]*' "$T/syn" | sed 's/^[][ (|]//' | sort -u); do
+        if grep -qE -- "(^|[^a-z-])$o([^a-z-]|$)" "$T/help"; then ok; else bad "lancer $c --help lacks $o"; fi
+    done
+done
 
 # usage errors
 expect 2 "$LANCER" render

@@ -19,8 +19,8 @@
 static const char usage[] =
     "usage: lancer bench --gen-rays MESH OUTDIR [W H] [--tight]\n"
     "       lancer bench --mesh MESH [--pn [--pn-mode M]] --rays FILE --kind closest|any|packet|stream\n"
-    "                    [--passes N] [--classic]\n"
-    "       lancer bench --build-series MESH [--max-mtris M]\n"
+    "                    [--passes N] [--classic] [--threads N]\n"
+    "       lancer bench --build-series MESH [--max-mtris M] [--classic]\n"
     "\n"
     "The first form writes OUTDIR/primary.rays, shadow.rays and diffuse.rays\n"
     "(OUTDIR made if missing) for a W x H camera framing the mesh (default\n"
@@ -52,6 +52,8 @@ static const char usage[] =
     "      --pn         trace the mesh's PN surface, not its flat triangles\n"
     "      --pn-mode M  exact (default) or fast\n"
     "      --threads N  threads for the BVH build (default 1)\n"
+    "      --max-mtris M  (--build-series) the last size, in millions of\n"
+    "                   triangles (1 to 100, default 10)\n"
     "  -h, --help       show this help\n";
 
 typedef struct {

@@ -15,7 +15,7 @@
 #include "stamp.h"
 
 static const char usage[] =
-    "usage: lancer merge -o OUT.exr TILE.exr...\n"
+    "usage: lancer merge -o OUT.exr [--png OUT.png] [--threads N] [-q] TILE.exr...\n"
     "\n"
     "Assembles tiles that 'lancer render --region' wrote into the full image:\n"
     "each tile's EXR data window says where it lies, and its header which\n"
