@@ -70,7 +70,9 @@ int mesh_read_off(LexReader *R, MeshBuild *B)
     size_t rem = (size_t)(R->end - R->p);
     unsigned long long room = (unsigned long long)rem + 1; /* the last line needs no '\n' */
     int nvals = 3 + 3 * normals;                           /* values a vertex needs */
-    unsigned long long vmin = 2 * (unsigned long long)nvals, fmin = 8;
+    /* the fewest bytes a vertex and a face line take ("0\n" for a face, which
+     * its own check then refuses): past these, the counts are too many */
+    unsigned long long vmin = 2 * (unsigned long long)nvals, fmin = 2;
     char qb2[LEX_QUOTE_LEN]; /* counts are quoted as written: they may have saturated */
     if ((unsigned long long)nv > room / vmin)
         return lex_fail(R, cline, "%s vertices announced, more than the %zu bytes after the counts line can hold",
@@ -84,7 +86,10 @@ int mesh_read_off(LexReader *R, MeshBuild *B)
         return lex_fail(R, cline, "%lld vertices announced, more than %d", nv, INT_MAX);
     if (mesh_alloc_vertices(R, cline, B, nv, normals) != 0)
         return -1;
-    if (nf > 0 && mesh_reserve_tris(R, cline, B, (size_t)(nf < INT_MAX ? nf : INT_MAX)) != 0)
+    /* room for the triangles of faces of 3 corners ("3 0 1 2\n"), at most:
+     * the faces read then grow the arrays as they need */
+    unsigned long long reserve = (unsigned long long)nf < room / 8 ? (unsigned long long)nf : room / 8;
+    if (reserve > 0 && mesh_reserve_tris(R, cline, B, (size_t)(reserve < INT_MAX ? reserve : INT_MAX)) != 0)
         return -1;
 
     static const char *const expect[2][2] = {{"3", "6 (position, normal)"},
@@ -131,7 +136,7 @@ int mesh_read_off(LexReader *R, MeshBuild *B)
             if (lex_parse_int(t, &idx) != 0)
                 return lex_fail(R, R->line, "malformed vertex index '%s'", lex_quote(t, qb));
             if (idx < 0 || idx >= nv)
-                return lex_fail(R, R->line, "vertex index %lld out of range (%lld vertices)", idx, nv);
+                return lex_fail(R, R->line, "vertex index %s out of range (%lld vertices)", lex_quote(t, qb), nv);
             if (mesh_fan_corner(R, B, j, (int)idx, 0, c, NULL) != 0)
                 return -1;
         }

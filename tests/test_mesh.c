@@ -934,6 +934,11 @@ static const BadCase bad_cases[] = {
         "t.off:6: vertex index -1 out of range (3 vertices)"),
     BAD("off huge index", MESH_OFF, OFF3 "0 0 0\n1 0 0\n0 1 0\n3 0 1 4294967298\n",
         "t.off:6: vertex index 4294967298 out of range (3 vertices)"),
+    /* past 64 bits, as written (it was echoed saturated) */
+    BAD("off index past 64 bits", MESH_OFF, OFF3 "0 0 0\n1 0 0\n0 1 0\n3 0 1 99999999999999999999\n",
+        "t.off:6: vertex index 99999999999999999999 out of range (3 vertices)"),
+    BAD("obj index past 64 bits", MESH_OBJ, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99999999999999999999\n",
+        "t.obj:4: vertex index 99999999999999999999 out of range (3 vertices)"),
     BAD("off nan", MESH_OFF, OFF3 "0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n", "t.off:4: non-finite coordinate 'nan'"),
     BAD("off -inf", MESH_OFF, OFF3 "0 0 0\n1 0 0\n0 -inf 0\n3 0 1 2\n", "t.off:5: non-finite coordinate '-inf'"),
     BAD("off Infinity", MESH_OFF, OFF3 "0 0 Infinity\n1 0 0\n0 1 0\n3 0 1 2\n",
@@ -962,6 +967,12 @@ static const BadCase bad_cases[] = {
     BAD("off two corners", MESH_OFF, OFF3 "0 0 0\n1 0 0\n0 1 0\n2 0 1\n" PAD,
         "t.off:6: face with 2 corners (at least 3 needed)"),
     BAD("off zero corners", MESH_OFF, OFF3 "0 0 0\n1 0 0\n0 1 0\n0\n" PAD,
+        "t.off:6: face with 0 corners (at least 3 needed)"),
+    /* without the padding too: the counts' bound takes a face to be at least
+     * "0\n", so the face's own error speaks (it blamed the counts) */
+    BAD("off two corners, short file", MESH_OFF, OFF3 "0 0 0\n1 0 0\n0 1 0\n2 0 1\n",
+        "t.off:6: face with 2 corners (at least 3 needed)"),
+    BAD("off zero corners, short file", MESH_OFF, OFF3 "0 0 0\n1 0 0\n0 1 0\n0",
         "t.off:6: face with 0 corners (at least 3 needed)"),
     BAD("off colour too long", MESH_OFF, OFF3 "0 0 0\n1 0 0\n0 1 0\n3 0 1 2 1 1 1 1 1\n",
         "t.off:6: face has 5 values after its 3 corners, at most 4 (a colour) allowed"),
