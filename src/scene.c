@@ -585,8 +585,12 @@ static int parse_camera(Parser *P, Loc at)
     if (!(vec_length(vec_cross(vec_normalize(fwd), vec_normalize(c->up))) > 1e-6f))
         return fail(P, v[UP].set ? v[UP].value : at, "camera: 'up'%s must not be parallel to the view direction",
                     v[UP].set ? "" : " (by default 0 1 0)");
-    if (!(c->fovy > 0.0f && c->fovy < 180.0f))
+    if (!(c->fovy > 0.0f && c->fovy < 180.0f)) {
+        if (v[FOV].v[0] > 0.0 && v[FOV].v[0] < 180.0) /* in range, but not as a float */
+            return fail(P, v[FOV].value, "camera: 'fov' must be between 0 and 180 degrees (it is %g in single precision)",
+                        (double)c->fovy);
         return fail(P, v[FOV].value, "camera: 'fov' must be between 0 and 180 degrees");
+    }
     return 0;
 }
 
