@@ -43,6 +43,9 @@ has "$T/out" "usage: lancer render SCENE"
 expect 0 "$LANCER" help render
 has "$T/out" "--threads N"
 expect 2 "$LANCER"
+expect 2 "$LANCER" --version extra
+has "$T/err" "'--version' takes no arguments"
+expect 2 "$LANCER" help render extra
 expect 2 "$LANCER" frobnicate
 has "$T/err" "unknown command 'frobnicate'"
 # Each command's --help and the README's synopsis of it name the same
@@ -71,6 +74,14 @@ has "$T/err" "--threads needs a whole number"
 expect 2 "$LANCER" render "$T/tiny.scn" --width abc
 expect 2 "$LANCER" render "$T/tiny.scn" --bogus
 has "$T/err" "unknown option '--bogus'"
+# after "--", a file whose name starts with '-'
+cp "$T/tiny.scn" "$T/-dash.scn"
+cd "$T"
+expect 2 "$LANCER" render -q -o "$T/dash.exr" -dash.scn
+has "$T/err" "unknown option '-dash.scn'"
+expect 0 "$LANCER" render -q -o "$T/dash.exr" -- -dash.scn
+cd "$ROOT"
+if [ -s "$T/dash.exr" ]; then ok; else bad "render -- -dash.scn wrote no image"; fi
 expect 2 "$LANCER" render "$T/tiny.scn" -o
 
 # a bad scene: file:line:col message, exit 1, and the user's file untouched

@@ -67,19 +67,25 @@ static int set_value(const Command *c, const Opt *o, const char *val, char *args
 }
 
 /* Parses argv against the command's options into args; other arguments
- * are positional, at most c->maxpos of them. Returns 0, HELP_SHOWN, or 2
- * after a usage message. Options that take a value accept "--opt value"
- * and "--opt=value". */
+ * are positional, at most c->maxpos of them, and so is every argument
+ * after "--" (a scene named -x.scn). Returns 0, HELP_SHOWN, or 2 after a
+ * usage message. Options that take a value accept "--opt value" and
+ * "--opt=value". */
 static int parse_opts(const Command *c, int argc, char **argv, char *args, const char **pos, int *npos)
 {
     *npos = 0;
+    int options = 1; /* until "--": after it, every argument is positional */
     for (int i = 0; i < argc; i++) {
         const char *arg = argv[i];
-        if (!strcmp(arg, "-h") || !strcmp(arg, "--help")) {
+        if (options && !strcmp(arg, "--")) {
+            options = 0;
+            continue;
+        }
+        if (options && (!strcmp(arg, "-h") || !strcmp(arg, "--help"))) {
             fputs(c->usage, stdout);
             return HELP_SHOWN;
         }
-        if (arg[0] != '-' || arg[1] == '\0') {
+        if (!options || arg[0] != '-' || arg[1] == '\0') {
             if (*npos == c->maxpos)
                 return cli_usage_error(c->name, "unexpected argument '%s'", arg);
             pos[(*npos)++] = arg;
@@ -152,6 +158,10 @@ int main(int argc, char **argv)
         return 2;
     }
     const char *cmd = argv[1];
+    if ((!strcmp(cmd, "--help") || !strcmp(cmd, "-h") || !strcmp(cmd, "--version")) && argc > 2) {
+        fprintf(stderr, "lancer: '%s' takes no arguments (see 'lancer --help')\n", cmd);
+        return 2;
+    }
     if (!strcmp(cmd, "--help") || !strcmp(cmd, "-h") || (!strcmp(cmd, "help") && argc == 2)) {
         fputs(usage_main, stdout);
         return 0;
@@ -161,6 +171,10 @@ int main(int argc, char **argv)
         return 0;
     }
     int help = !strcmp(cmd, "help");
+    if (help && argc > 3) {
+        fprintf(stderr, "lancer: 'help' takes one command (see 'lancer --help')\n");
+        return 2;
+    }
     const char *name = help ? argv[2] : cmd;
     for (int i = 0; i < NCOMMANDS; i++) {
         if (strcmp(name, commands[i]->name) != 0)
