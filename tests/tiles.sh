@@ -59,6 +59,9 @@ expect 2 "$LANCER" tiles "$T/orbit.scn" --size 8by8
 has "$T/err" "--size needs WxH"
 expect 1 "$LANCER" tiles "$T/orbit.scn" --count 7 --width 5 --height 5
 has "$T/err" "cannot be split into 7 regions"
+# an image render refuses, tiles refuses too
+expect 1 "$LANCER" tiles "$T/orbit.scn" --count 4 --width 32768 --height 32768
+has "$T/err" "more than the 268435456 pixels lancer renders"
 
 # regions: bad ones are refused before any work
 expect 2 "$LANCER" render "$T/orbit.scn" --region 0:10 -o "$T/r.exr"

@@ -56,6 +56,10 @@ static int run(void *args, const char **pos, int npos)
     }
     int w = a->width ? a->width : s.image.width, h = a->height ? a->height : s.image.height;
     scene_free(&s);
+    if ((long)w * h > LIMIT_IMAGE_PIXELS) { /* as render refuses it */
+        fprintf(stderr, "lancer: a %dx%d image has more than the %ld pixels lancer renders\n", w, h, LIMIT_IMAGE_PIXELS);
+        return 1;
+    }
     int cols, rows;
     if (a->size) {
         cols = (w + tw - 1) / tw;
