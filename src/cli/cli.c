@@ -125,3 +125,13 @@ int cli_check_outputs(const CliOutput *out, int nout, const char *const *in, int
     }
     return 0;
 }
+
+int cli_image_size(int width, int height, int sw, int sh, int *w, int *h)
+{
+    *w = width ? width : sw;
+    *h = height ? height : sh;
+    if ((long)*w * *h <= LIMIT_IMAGE_PIXELS)
+        return 0;
+    fprintf(stderr, "lancer: a %dx%d image has more than the %ld pixels lancer renders\n", *w, *h, LIMIT_IMAGE_PIXELS);
+    return 1;
+}

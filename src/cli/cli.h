@@ -68,6 +68,11 @@ int cli_frame_path(const char *option, const char *path, int frame, char *buf, s
 /* 0 when path (NULL: none) can be written, else -1 after a message. */
 int cli_check_output(const char *path);
 
+/* The image's size into *w and *h: width and height where set (not 0),
+ * else the scene's sw and sh. Returns 0, or 1 after a message when it has
+ * more pixels than lancer renders (as plan_build would refuse it). */
+int cli_image_size(int width, int height, int sw, int sh, int *w, int *h);
+
 /* A file a command writes: the option that names it ("--png"), its path
  * (NULL: not written this run). */
 typedef struct {

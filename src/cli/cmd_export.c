@@ -52,11 +52,8 @@ static int run(void *args, const char **pos, int npos)
         scene_free(&s);
         return 1;
     }
-    int w = a->width ? a->width : s.image.width, h = a->height ? a->height : s.image.height;
-    int rc = 0;
-    if ((long)w * h > LIMIT_IMAGE_PIXELS) {
-        fprintf(stderr, "lancer: a %dx%d image has more than the %ld pixels lancer renders\n", w, h,
-                LIMIT_IMAGE_PIXELS);
+    int w, h, rc = 0;
+    if (cli_image_size(a->width, a->height, s.image.width, s.image.height, &w, &h) != 0) {
         rc = 1;
     } else if (out && !strcmp(out, "-")) {
         if (pov_export(&s, w, h, a->pn_segments, stdout) != 0 || fflush(stdout) != 0) {

@@ -54,12 +54,11 @@ static int run(void *args, const char **pos, int npos)
         fprintf(stderr, "%s\n", err);
         return 1;
     }
-    int w = a->width ? a->width : s.image.width, h = a->height ? a->height : s.image.height;
+    int w, h;
+    const int big = cli_image_size(a->width, a->height, s.image.width, s.image.height, &w, &h);
     scene_free(&s);
-    if ((long)w * h > LIMIT_IMAGE_PIXELS) { /* as render refuses it */
-        fprintf(stderr, "lancer: a %dx%d image has more than the %ld pixels lancer renders\n", w, h, LIMIT_IMAGE_PIXELS);
+    if (big)
         return 1;
-    }
     int cols, rows;
     if (a->size) {
         cols = (w + tw - 1) / tw;

@@ -158,19 +158,20 @@ int main(int argc, char **argv)
         return 2;
     }
     const char *cmd = argv[1];
-    if ((!strcmp(cmd, "--help") || !strcmp(cmd, "-h") || !strcmp(cmd, "--version")) && argc > 2) {
+    const int version = !strcmp(cmd, "--version"), usage = !strcmp(cmd, "--help") || !strcmp(cmd, "-h");
+    const int help = !strcmp(cmd, "help");
+    if ((version || usage) && argc > 2) {
         fprintf(stderr, "lancer: '%s' takes no arguments (see 'lancer --help')\n", cmd);
         return 2;
     }
-    if (!strcmp(cmd, "--help") || !strcmp(cmd, "-h") || (!strcmp(cmd, "help") && argc == 2)) {
+    if (usage || (help && argc == 2)) {
         fputs(usage_main, stdout);
         return 0;
     }
-    if (!strcmp(cmd, "--version")) {
+    if (version) {
         printf("lancer %s\n", LANCER_VERSION);
         return 0;
     }
-    int help = !strcmp(cmd, "help");
     if (help && argc > 3) {
         fprintf(stderr, "lancer: 'help' takes one command (see 'lancer --help')\n");
         return 2;
