@@ -357,6 +357,13 @@ int plan_notes(const RenderPlan *p, PlanNote *notes, int max)
          p->transparent ? "some material lets light through"
          : p->full      ? "no material lets light through; traced all the same, weighed 0 (--no-plan)"
                         : "no material lets light through");
+    if (s->vanished) {
+        snprintf(why, sizeof why,
+                 "%d box%s or triangle%s too thin, seen from this far, for a double to tell their sides apart: no "
+                 "ray can hit them",
+                 s->vanished, s->vanished > 1 ? "es" : "", s->vanished > 1 ? "s" : "");
+        note(notes, max, &n, 1, "objects too thin to see", why);
+    }
     for (int i = 0; i < s->nprims; i++)
         smooth += s->prims[i].kind == PRIM_SMOOTH_TRIANGLE || s->prims[i].kind == PRIM_PN;
     snprintf(why, sizeof why, smooth ? "%d smooth triangles or PN patches" : "no smooth triangle or PN patch: the shading normal is the geometric one", smooth);

@@ -1626,6 +1626,35 @@ static Vec3 scaled(Vec3 v, double scale)
     return vec3((float)(v.x * scale), (float)(v.y * scale), (float)(v.z * scale));
 }
 
+/* What the move left of a box or triangle q that had extent before it:
+ * 1 when no double tells its sides apart any more, so that no ray can hit
+ * it; a box flat along one axis only is kept, one double thick, since it
+ * still shows its faces. 0 when it keeps its shape. */
+static int vanished(PrimKind kind, Place *q, int had_extent)
+{
+    if (!had_extent)
+        return 0; /* degenerate already: scene_validate says so */
+    if (kind == PRIM_BOX) {
+        int flat = 0, axis = 0;
+        for (int k = 0; k < 3; k++)
+            if (q->p[0][k] == q->p[1][k])
+                flat++, axis = k;
+        if (flat == 1) /* the far side, rounded outwards */
+            q->p[1][axis] = nextafter(q->p[1][axis], INFINITY);
+        return flat > 1;
+    }
+    return !tri_has_area_d(q->p[0], q->p[1], q->p[2]);
+}
+
+/* 1 when q, a box or triangle of kind `kind`, has extent in double. */
+static int has_extent(PrimKind kind, const Place *q)
+{
+    if (kind == PRIM_BOX)
+        return q->p[0][0] < q->p[1][0] && q->p[0][1] < q->p[1][1] && q->p[0][2] < q->p[1][2];
+    return (kind == PRIM_TRIANGLE || kind == PRIM_SMOOTH_TRIANGLE || kind == PRIM_PN) &&
+           tri_has_area_d(q->p[0], q->p[1], q->p[2]);
+}
+
 int scene_transform(Scene *s, double scale, const double offset[3])
 {
     if (place_from_floats(s) != 0)
@@ -1643,9 +1672,11 @@ int scene_transform(Scene *s, double scale, const double offset[3])
         l->area_v = scaled(l->area_v, scale);
         l->fade_distance = (float)(l->fade_distance * scale);
     }
+    int kept = 0, gone = 0;
     for (int i = 0; i < s->nprims; i++) {
         Prim *p = &s->prims[i];
         Place *q = &s->place[i];
+        int extent = has_extent(p->kind, q);
         switch (p->kind) {
         case PRIM_SPHERE:
             move(q->p[0], scale, offset);
@@ -1680,9 +1711,20 @@ int scene_transform(Scene *s, double scale, const double offset[3])
             break;
         }
         }
-        if (derive(s, i) != 0)
+        /* A shape thinner than a double's step where it now lies, next to
+         * a camera far out, is one no ray can hit: it leaves the scene,
+         * rather than fail it for a rounding lancer chose. */
+        if (vanished(p->kind, q, extent)) {
+            gone++;
+            continue;
+        }
+        s->prims[kept] = *p;
+        s->place[kept] = *q;
+        if (derive(s, kept++) != 0)
             return -1;
     }
+    s->nprims = kept;
+    s->vanished += gone;
     char err[128];
     return scene_validate(s, err, sizeof err); /* nothing overflowed or collapsed */
 }

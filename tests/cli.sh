@@ -361,6 +361,14 @@ expect 2 "$LANCER" render "$T/floor.scn" --accel kd
 has "$T/err" "--accel must be bvh or loop, not 'kd'"
 expect 0 "$LANCER" render "$T/floor.scn" -o "$T/loop.exr" --accel loop --explain -q
 has "$T/out" "skipped  the BVH: 1 primitives: a plain loop over them is faster than a tree"
+# Shapes thinner than a double can tell apart next to the camera: the
+# box and the sliver leave the scene, the slab stays and shows its face
+printf 'image { width 32 height 24 }\ncamera { eye 0.3 0.2 -3 target 0 0 0 fov 40 }\nlight { position 1 5 -2 }\nmaterial m { }\nbox { min 0 0 0 max 1e-30 1e-30 1e-30 material m }\ntriangle { a -1 0 0 b 1 0 0 c 0 1e-30 0 material m }\nbox { min -1 -1 0 max 1 1 1e-30 material m }\n' >"$T/thin.scn"
+expect 0 "$LANCER" render "$T/thin.scn" -o "$T/thin.exr" --explain -q
+has "$T/out" "skipped  objects too thin to see: 2 boxes or triangles too thin"
+expect 0 "$LANCER" render "$T/thin.scn" -o "$T/thin-c.exr" --classic -q
+expect 0 "$LANCER" diff "$T/thin.exr" "$T/thin-c.exr"
+has "$T/out" "max=0 "
 printf 'image { width 32 height 24 adc_bailout 1.5 }\ncamera { eye 0 2 -6 target 0 0 0 fov 40 }\n' >"$T/adc.scn"
 expect 1 "$LANCER" render "$T/adc.scn" -o "$T/adc.exr"
 has "$T/err" "adc.scn:1:40: image: 'adc_bailout' must be a number from 0 to 1"

@@ -971,6 +971,33 @@ static void test_double_coordinates(void **state)
     scene_free(&s);
 }
 
+/* Next to a camera 3 away, shapes 1e-30 across have no extent in double:
+ * the move drops a box and a sliver no ray can hit, and keeps a box flat
+ * along one axis, which still shows its face, one double thick. */
+static void test_too_thin_once_moved(void **state)
+{
+    (void)state;
+    Scene s;
+    parse_ok("camera { eye 0.3 0.2 -3 target 0 0 0 fov 40 }\nmaterial m { }\n"
+             "box { min 0 0 0 max 1e-30 1e-30 1e-30 material m }\n"
+             "triangle { a -1 0 0 b 1 0 0 c 0 1e-30 0 material m }\n"
+             "box { min -1 -1 0 max 1 1 1e-30 material m }\n"
+             "sphere { center 0 0 0 radius 1e-30 material m }\n",
+             &s);
+    assert_int_equal(scene_transform(&s, 1.0, (double[3]){-0.3, -0.2, 3}), 0);
+    assert_int_equal(s.vanished, 2);
+    assert_int_equal(s.nprims, 2);
+    assert_int_equal(s.prims[0].kind, PRIM_BOX);
+    assert_int_equal(s.prims[1].kind, PRIM_SPHERE);
+    assert_true(s.place[0].p[0][2] == 3.0 && s.place[0].p[1][2] == nextafter(3.0, 4.0));
+    /* the flat box's face stops a ray from the eye at z = 3 */
+    Ray r = {vec3(0, 0, 0), vec_normalize(vec3(-0.3f, -0.2f, 3)), INFINITY};
+    PrimHit h;
+    assert_true(prim_intersect(&s.prims[0], &r, PRIM_ROBUST, &h));
+    assert_float_equal(h.t * r.d.z, 3.0f, 1e-6);
+    scene_free(&s);
+}
+
 /* Makes the folder dir (a mkdtemp template) and in it quad.off holding
  * `off`, whose path goes into path. */
 static void temp_mesh(char *dir, char *path, size_t len, const char *off)
@@ -1538,6 +1565,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_transform),
         cmocka_unit_test(test_object_transforms),
         cmocka_unit_test(test_double_coordinates),
+        cmocka_unit_test(test_too_thin_once_moved),
         cmocka_unit_test(test_mesh_statement), cmocka_unit_test(test_mesh_that_vanishes), cmocka_unit_test(test_many_materials),
         cmocka_unit_test(test_pn_statements),
         cmocka_unit_test(test_number_forms),

@@ -126,6 +126,7 @@ typedef struct {
     Place *place;
     int placed;
     int degenerate; /* mesh triangles dropped for having no area */
+    int vanished;   /* boxes and triangles that scene_transform dropped */
     char **inputs;  /* the files read: each mesh, then the scene file (scene_load) */
     unsigned char (*input_sha256)[SHA256_BYTES]; /* each input's bytes' digest */
     int ninputs;
@@ -172,9 +173,12 @@ int scene_split_triangles(Scene *s);
 /* Moves the whole scene, camera and lights included, by p -> p*scale +
  * offset (scale > 0), in double, then rounds it to float again. Shading
  * does not change: fade distances scale too, and every angle stays. The
- * render plan moves scenes so (plan.h). Returns 0, or -1 when the moved
- * scene no longer passes scene_validate: a coordinate overflowed, or a
- * shape or the camera degenerated in float. */
+ * render plan moves scenes so (plan.h). A box or triangle that the move
+ * leaves with no extent in double (a small one far from the new origin)
+ * can be hit by no ray: it is dropped and counted in `vanished`, and a box
+ * flat along one axis only is kept one double thick there. Returns 0, or
+ * -1 when the moved scene no longer passes scene_validate: a coordinate
+ * overflowed, or a shape or the camera degenerated in float. */
 int scene_transform(Scene *s, double scale, const double offset[3]);
 
 /* Primitive i's Place: its doubles, or for a scene built in code its
