@@ -114,6 +114,39 @@ static int light_is_clear(const Scene *s, const Light *l)
     return 1;
 }
 
+/* 0, or -2 with "line:col: ..." in err for the first ellipsoid of s too
+ * flat, seen from the eye, for the robust routine to certify its hits. Its
+ * thinnest half-axis is at least 1/|A|, its largest at most |M| (Frobenius
+ * norms of the maps). */
+static int too_flat(const Scene *s, char *err, size_t errlen)
+{
+    for (int i = 0; i < s->nprims; i++) {
+        if (s->prims[i].kind != PRIM_ELLIPSOID)
+            continue;
+        const Ellipsoid *e = s->prims[i].g.ell.e;
+        double a2 = 0.0, m2 = 0.0, d2 = 0.0;
+        for (int k = 0; k < 9; k++) {
+            a2 += e->a[k] * e->a[k];
+            m2 += e->m[k] * e->m[k];
+        }
+        for (int k = 0; k < 3; k++) {
+            double eye = s->placed ? s->camera.eye_at[k] : (double)vec_comp(s->camera.eye, k);
+            d2 += (e->m[9 + k] - eye) * (e->m[9 + k] - eye);
+        }
+        double flat = 1.0 / sqrt(a2) / (sqrt(d2) + sqrt(m2));
+        if (!(flat >= PLAN_FLATTEST)) {
+            int idx = s->prims[i].g.ell.index;
+            snprintf(err, errlen,
+                     "%d:%d: sphere: too flat to trace from this camera: its thinnest half-axis over its distance "
+                     "from the eye plus its largest is %.2g, below the %.2g down to which lancer certifies hits",
+                     s->ellipsoid_at ? s->ellipsoid_at[idx][0] : 0, s->ellipsoid_at ? s->ellipsoid_at[idx][1] : 0,
+                     flat, PLAN_FLATTEST);
+            return -2;
+        }
+    }
+    return 0;
+}
+
 static int fail(char *err, size_t errlen, const char *msg)
 {
     snprintf(err, errlen, "%s", msg);
@@ -286,6 +319,8 @@ int plan_build(RenderPlan *p, Scene *s, const PlanOptions *o, char *err, size_t 
     } else if (o->move && scene_transform(s, scale, t) != 0) {
         return fail(err, errlen, "the scene degenerates at that scale or offset");
     }
+    if (too_flat(s, err, errlen) != 0)
+        return -2;
     for (int i = 0; i < s->nmaterials; i++) {
         const Material *m = &s->materials[i];
         p->transparent |= m->filter + m->transmit > 0.0f;

@@ -50,7 +50,7 @@ typedef struct {
     char *err;
     size_t errlen;
     Scene *s;
-    int cap_materials, cap_lights, cap_prims, cap_place, cap_patches, cap_ellipsoids;
+    int cap_materials, cap_lights, cap_prims, cap_place, cap_patches, cap_ellipsoids, cap_ellipsoid_at;
     int have_image, have_camera, cap_keys;
     int *names, cap_names; /* the materials by name: open addressing, -1 free */
 } Parser;
@@ -1064,6 +1064,12 @@ static int parse_sphere(Parser *P, Loc at)
             return fail(P, at, "out of memory");
         P->s->ellipsoids = arr;
         arr[P->s->nellipsoids] = e;
+        int(*line_col)[2] = grow(P->s->ellipsoid_at, &P->cap_ellipsoid_at, P->s->nellipsoids, sizeof *line_col);
+        if (!line_col)
+            return fail(P, at, "out of memory");
+        P->s->ellipsoid_at = line_col;
+        line_col[P->s->nellipsoids][0] = at.line;
+        line_col[P->s->nellipsoids][1] = at.col;
         if (!(p = new_prim(P, PRIM_ELLIPSOID, at, &pl)))
             return -1;
         p->g.ell.index = P->s->nellipsoids++;
@@ -1943,6 +1949,7 @@ void scene_free(Scene *s)
     free(s->place);
     free(s->patches);
     free(s->ellipsoids);
+    free(s->ellipsoid_at);
     for (int i = 0; i < s->ninputs; i++)
         free(s->inputs[i]);
     free(s->inputs);

@@ -369,6 +369,13 @@ has "$T/out" "skipped  objects too thin to see: 2 boxes or triangles too thin"
 expect 0 "$LANCER" render "$T/thin.scn" -o "$T/thin-c.exr" --classic -q
 expect 0 "$LANCER" diff "$T/thin.exr" "$T/thin-c.exr"
 has "$T/out" "max=0 "
+# A sphere flattened past what double certifies, seen from the camera: an
+# error at its statement; 100 times less flat, it renders
+printf 'camera { eye 0 0 -3 target 0 0 0 fov 40 }\nmaterial m { }\nsphere { center 0 0 0 radius 1\n  scale 1 1 1e-12 material m }\n' >"$T/flat.scn"
+expect 1 "$LANCER" render "$T/flat.scn" -o "$T/flat.exr"
+has "$T/err" "flat.scn:3:1: sphere: too flat to trace from this camera"
+sed 's/1e-12/1e-10/' "$T/flat.scn" >"$T/flat2.scn"
+expect 0 "$LANCER" render "$T/flat2.scn" -o "$T/flat2.exr" -q
 printf 'image { width 32 height 24 adc_bailout 1.5 }\ncamera { eye 0 2 -6 target 0 0 0 fov 40 }\n' >"$T/adc.scn"
 expect 1 "$LANCER" render "$T/adc.scn" -o "$T/adc.exr"
 has "$T/err" "adc.scn:1:40: image: 'adc_bailout' must be a number from 0 to 1"

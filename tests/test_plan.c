@@ -1,6 +1,7 @@
 /* Tests for plan.c: the settings the plan resolves from the scene and the
  * options, the coordinates it puts the scene in, and the decisions it
  * derives (camera interiors, transparency, reflection, shadow modes). */
+#include <math.h>
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -197,6 +198,63 @@ static void test_errors(void **state)
     assert_int_equal(plan_build(&p, &s, &o, err, sizeof err), -1);
     assert_string_equal(err, "the scene degenerates at that scale or offset");
     scene_free(&s);
+}
+
+/* A unit sphere flattened to a disk by `scale 1 1 F`, seen from k times
+ * (0.3, 0.2, -3): a hair flatter than PLAN_FLATTEST, seen from there, is
+ * refused at its statement; a hair less flat, the robust routine hits it
+ * on a grid of rays across the disk and on rings next to its rim, at the
+ * disk. */
+static void test_flattest(void **state)
+{
+    (void)state;
+    static const double ks[] = {1, 10, 100, 1000};
+    for (size_t i = 0; i < sizeof ks / sizeof ks[0]; i++) {
+        double k = ks[i], eye[3] = {0.3 * k, 0.2 * k, -3 * k};
+        double dist = sqrt(eye[0] * eye[0] + eye[1] * eye[1] + eye[2] * eye[2]);
+        for (int ok = 0; ok < 2; ok++) {
+            /* 1/|A| is F / sqrt(1 + 2 F^2) and |M| is sqrt(2 + F^2): F to first order */
+            double f = (ok ? 1.02 : 0.98) * PLAN_FLATTEST * (dist + sqrt(2.0));
+            char text[512], err[256];
+            snprintf(text, sizeof text,
+                     "camera { eye %.17g %.17g %.17g target 0 0 0 fov 40 }\nmaterial m { }\n"
+                     "sphere { center 0 0 0 radius 1 scale 1 1 %.17g material m }\n",
+                     eye[0], eye[1], eye[2], f);
+            Scene s;
+            RenderPlan p;
+            PlanOptions o = plan_options();
+            assert_int_equal(scene_parse("t.scn", text, strlen(text), &s, err, sizeof err), 0);
+            int rc = plan_build(&p, &s, &o, err, sizeof err);
+            if (!ok) {
+                assert_int_equal(rc, -2);
+                assert_true(strncmp(err, "3:1: sphere: too flat to trace from this camera", 47) == 0);
+                scene_free(&s);
+                continue;
+            }
+            assert_int_equal(rc, 0);
+            int missed = 0; /* a grid over the disk, and rings close to its rim, where it is thinnest */
+            for (int a = -10; a <= 10; a++)
+                for (int b = -10; b <= 10 + 3 * 64; b++) {
+                    double x = a * 0.095, y = b * 0.095;
+                    if (b > 10) {
+                        double rho = 1.0 - 0.001 / (double)(1 + (b - 11) / 64), phi = (b - 11) % 64 * (3.14159265358979323846 / 32);
+                        x = rho * cos(phi);
+                        y = rho * sin(phi);
+                        if (a != 0)
+                            continue;
+                    } else if (x * x + y * y > 0.95 * 0.95) {
+                        continue;
+                    }
+                    Vec3 rel = vec3((float)(x - eye[0]), (float)(y - eye[1]), (float)-eye[2]);
+                    Ray r = {vec3(0, 0, 0), vec_normalize(rel), INFINITY};
+                    PrimHit h;
+                    missed += !prim_intersect(&s.prims[0], &r, PRIM_ROBUST, &h) ||
+                              !(fabsf(h.t - vec_length(rel)) <= 1e-5f * vec_length(rel));
+                }
+            assert_int_equal(missed, 0);
+            done(&s, &p);
+        }
+    }
 }
 
 static void assert_offset(const RenderPlan *p, double x, double y, double z)
@@ -438,6 +496,7 @@ int main(void)
         cmocka_unit_test(test_area_samples),
         cmocka_unit_test(test_area_first),
         cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_flattest),
         cmocka_unit_test(test_coordinates),
         cmocka_unit_test(test_decisions),
         cmocka_unit_test(test_pn_modes),

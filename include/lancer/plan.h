@@ -84,6 +84,12 @@ typedef enum {
  * crossover). */
 #define PLAN_LOOP_PRIMS 3
 
+/* The flattest ellipsoid traced: its thinnest half-axis over its distance
+ * from the eye plus its largest half-axis. Flatter, the robust routine
+ * cannot certify its hits in double and would lose them (docs/robustness.md
+ * measures where). */
+#define PLAN_FLATTEST 0x1p-36
+
 /* An area light's samples, sample (i, j) at j * area_n1 + i. */
 typedef struct {
     Vec3 *point;   /* POV-Ray's grid, corners included */
@@ -118,7 +124,10 @@ PlanOptions plan_options(void);
  * the scene's floats are rounded after the last move (Scene.place). Returns 0, or
  * -1 with a message in err: a setting out of range, a move that is not
  * finite or makes an oriented box degenerate (s may then be partly
- * moved: load it again), or no memory. On error p needs no plan_free. */
+ * moved: load it again), or no memory; or -2 when a statement of the scene
+ * file is at fault (an ellipsoid flatter than PLAN_FLATTEST from the
+ * camera): err then holds "line:col: what is wrong", for the caller to
+ * put the file's name before. On error p needs no plan_free. */
 int plan_build(RenderPlan *p, Scene *s, const PlanOptions *o, char *err, size_t errlen);
 
 void plan_free(RenderPlan *p);

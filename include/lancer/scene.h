@@ -117,6 +117,7 @@ typedef struct {
     int npatches;
     Ellipsoid *ellipsoids; /* the ellipsoids, which PRIM_ELLIPSOID primitives point into */
     int nellipsoids;
+    int (*ellipsoid_at)[2]; /* per ellipsoid, its sphere statement's line and column (NULL: built in code) */
     /* The coordinates in double: a scene far from the origin is kept as
      * written until the render plan has moved it next to the camera, and
      * only then rounded to float. place is NULL or parallel to prims;

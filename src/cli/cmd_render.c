@@ -467,8 +467,12 @@ static int render_one(Args *a, const char *scene, const PlanOptions *po, int fra
     if (!a->quiet && phase[0] > PROGRESS_PHASE)
         fprintf(stderr, "lancer: read %s (%d primitives) in %.1f s; building the BVH\n", scene, s.nprims, phase[0]);
     RenderPlan plan;
-    if (plan_build(&plan, &s, po, err, sizeof err) != 0) {
-        fprintf(stderr, "lancer: %s: %s\n", scene, err);
+    int rc = plan_build(&plan, &s, po, err, sizeof err);
+    if (rc != 0) {
+        if (rc == -2) /* a place in the scene file */
+            fprintf(stderr, "%s:%s\n", scene, err);
+        else
+            fprintf(stderr, "lancer: %s: %s\n", scene, err);
         scene_free(&s);
         return 1;
     }
@@ -484,7 +488,7 @@ static int render_one(Args *a, const char *scene, const PlanOptions *po, int fra
 
     Image img;
     RayStats st = {0, 0, 0, 0, 0, 0, 0};
-    int w = plan.x1 - plan.x0, h = plan.y1 - plan.y0, rc;
+    int w = plan.x1 - plan.x0, h = plan.y1 - plan.y0;
     unsigned char *done = calloc((size_t)h, 1);
     if (!done || image_init(&img, w, h) != 0) {
         fprintf(stderr, "lancer: out of memory for a %dx%d image\n", w, h);
