@@ -83,6 +83,10 @@ expect 0 "$LANCER" render -q -o "$T/dash.exr" -- -dash.scn
 cd "$ROOT"
 if [ -s "$T/dash.exr" ]; then ok; else bad "render -- -dash.scn wrote no image"; fi
 expect 2 "$LANCER" render "$T/tiny.scn" -o
+# an empty path is a usage error, before the render (it used to run, then fail to rename)
+expect 2 "$LANCER" render "$T/tiny.scn" -o ""
+has "$T/err" "--output needs a value, not an empty string"
+expect 2 "$LANCER" render "$T/tiny.scn" -o "$T/e.exr" --png ""
 
 # a bad scene: file:line:col message, exit 1, and the user's file untouched
 echo "precious" >"$T/keep.exr"
@@ -235,6 +239,12 @@ if [ -e "$T/same" ]; then bad "a file was written for -o X --png X"; else ok; fi
 expect 1 "$LANCER" diff "$T/t1.exr" "$T/t2.exr" --heatmap "$T/t2.exr"
 has "$T/err" "is the input"
 expect 0 "$LANCER" diff "$T/t1.exr" "$T/t2.exr"
+# an answer on stdout that cannot be written fails the run
+if [ -w /dev/full ]; then
+    "$LANCER" diff "$T/t1.exr" "$T/t2.exr" >/dev/full 2>"$T/err"
+    if [ $? -eq 1 ]; then ok; else bad "diff into a full stdout did not exit 1"; fi
+    has "$T/err" "lancer: cannot write the standard output"
+fi
 mkdir "$T/rays-in" && ln -s ../tet.off "$T/rays-in/primary.rays"
 expect 1 "$LANCER" bench --gen-rays "$T/tet.off" "$T/rays-in" 4 4
 has "$T/err" "is the input '$T/tet.off'"

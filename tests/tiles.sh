@@ -57,6 +57,10 @@ has "$T/err" "needs one of --count N and --size WxH"
 expect 2 "$LANCER" tiles "$T/orbit.scn" --count 4 --size 8x8
 expect 2 "$LANCER" tiles "$T/orbit.scn" --size 8by8
 has "$T/err" "--size needs WxH"
+# numbers past int are refused, not wrapped (4294967301 wrapped to 5); no sign, no blank
+expect 2 "$LANCER" tiles "$T/orbit.scn" --size 4294967301x5
+has "$T/err" "--size needs WxH"
+expect 2 "$LANCER" tiles "$T/orbit.scn" --size +5x5
 expect 1 "$LANCER" tiles "$T/orbit.scn" --count 7 --width 5 --height 5
 has "$T/err" "cannot be split into 7 regions"
 # an image render refuses, tiles refuses too
@@ -67,6 +71,9 @@ has "$T/err" "more than the 268435456 pixels lancer renders"
 expect 2 "$LANCER" render "$T/orbit.scn" --region 0:10 -o "$T/r.exr"
 has "$T/err" "--region needs X0:X1,Y0:Y1"
 expect 2 "$LANCER" render "$T/orbit.scn" --region 5:5,0:4 -o "$T/r.exr"
+expect 2 "$LANCER" render "$T/orbit.scn" --region 0:4294967306,0:10 -o "$T/r.exr"
+has "$T/err" "--region needs X0:X1,Y0:Y1"
+expect 2 "$LANCER" render "$T/orbit.scn" --region "0:4, 0:4" -o "$T/r.exr"
 expect 1 "$LANCER" render "$T/orbit.scn" $O --region 0:62,0:4 -o "$T/r.exr"
 has "$T/err" "the region 0:62,0:4 is empty or not inside the 61x45 image"
 
@@ -156,7 +163,12 @@ has "$T/err" "several frames need a frame pattern in the name, such as %04d"
 expect 2 "$LANCER" render "$T/orbit.scn" --frames 3:3
 has "$T/err" "--frames needs A:B"
 expect 2 "$LANCER" render "$T/orbit.scn" --frame 1 --frames 0:2
-expect 1 "$LANCER" render "$T/orbit.scn" --frames 0:2 -o "$T/f.%s.exr"
+expect 2 "$LANCER" render "$T/orbit.scn" --frames 0:4294967298 -o "$T/f.%d.exr"
+has "$T/err" "--frames needs A:B"
+expect 2 "$LANCER" render "$T/orbit.scn" --frames 0:2 -o "$T/f.%s.exr"
+has "$T/err" "a frame pattern is %d or %0Nd"
+# a malformed pattern is a usage error with one frame too, before the scene is read
+expect 2 "$LANCER" render "$T/orbit.scn" --frame 1 -o "$T/f.%010d.exr"
 has "$T/err" "a frame pattern is %d or %0Nd"
 expect 1 "$LANCER" render "$T/mesh.scn" --frame 1 -o "$T/x.exr"
 has "$T/err" "the scene has no camera path"

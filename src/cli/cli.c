@@ -4,6 +4,7 @@
 #include "cli.h"
 
 #include <errno.h>
+#include <limits.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -40,6 +41,24 @@ int cli_parse_int(const char *s, int lo, int hi, int *out)
         return -1;
     *out = (int)v;
     return 0;
+}
+
+int cli_parse_ints(const char *s, const char *seps, int n, int *out)
+{
+    for (int i = 0; i < n; i++) {
+        if (*s < '0' || *s > '9') /* strtol would take a sign or spaces */
+            return -1;
+        char *end;
+        errno = 0;
+        long v = strtol(s, &end, 10);
+        if (errno || v > INT_MAX)
+            return -1;
+        out[i] = (int)v;
+        s = end;
+        if (i < n - 1 && *s++ != seps[i])
+            return -1;
+    }
+    return *s ? -1 : 0;
 }
 
 int cli_default_output(const char *path, const char *ext, char *buf, size_t len)

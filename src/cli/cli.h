@@ -54,6 +54,11 @@ int cli_default_threads(void);
 /* The whole number s, if it is one from lo to hi: 0, else -1 (*out kept). */
 int cli_parse_int(const char *s, int lo, int hi, int *out);
 
+/* n whole numbers from 0 to INT_MAX, in decimal digits only, the i-th
+ * followed by the separator seps[i] ("0:4,0:4" with seps ":,:"), into
+ * out. Returns 0, or -1 when s is anything else or a number overflows. */
+int cli_parse_ints(const char *s, const char *seps, int n, int *out);
+
 /* "out/<basename of path without extension><ext>" into buf, creating out/.
  * Returns 0, or -1 after a message. */
 int cli_default_output(const char *path, const char *ext, char *buf, size_t len);

@@ -584,8 +584,12 @@ static int paths_of(const Args *a, int frame, Paths *pp)
 /* "A:B" into *a and *b, the numbers lo <= A < B <= hi. */
 static int parse_range(const char *s, int lo, int hi, int *a, int *b)
 {
-    char tail;
-    return sscanf(s, "%d:%d%c", a, b, &tail) == 2 && lo <= *a && *a < *b && *b <= hi ? 0 : -1;
+    int v[2];
+    if (cli_parse_ints(s, ":", 2, v) != 0 || !(lo <= v[0] && v[0] < v[1] && v[1] <= hi))
+        return -1;
+    *a = v[0];
+    *b = v[1];
+    return 0;
 }
 
 static int run(void *args, const char **pos, int npos)
@@ -599,12 +603,15 @@ static int run(void *args, const char **pos, int npos)
     if (rc)
         return rc;
     if (a->region) {
-        char tail;
+        int r[4];
         po.region = 1;
-        if (sscanf(a->region, "%d:%d,%d:%d%c", &po.rx0, &po.rx1, &po.ry0, &po.ry1, &tail) != 4 ||
-            !(0 <= po.rx0 && po.rx0 < po.rx1 && 0 <= po.ry0 && po.ry0 < po.ry1))
+        if (cli_parse_ints(a->region, ":,:", 4, r) != 0 || !(r[0] < r[1] && r[2] < r[3]))
             return cli_usage_error("render", "--region needs X0:X1,Y0:Y1 with 0 <= X0 < X1 and 0 <= Y0 < Y1, not '%s'",
                                    a->region);
+        po.rx0 = r[0];
+        po.rx1 = r[1];
+        po.ry0 = r[2];
+        po.ry1 = r[3];
     }
     int first = -1, last = 0; /* frames first..last-1; -1: a still */
     if (a->frame >= 0 && a->frames)
@@ -623,14 +630,14 @@ static int run(void *args, const char **pos, int npos)
             return 1;
         a->exr = exr_default;
     }
-    if (last - first > 1) { /* each frame needs files of its own */
+    if (first >= 0) { /* frame patterns well formed; with several frames, each frame's files its own */
         const char *const opt_names[3] = {"-o", "--png", "--stats"}, *const paths[3] = {a->exr, a->png, a->stats};
         char buf[AFILE_PATH_MAX];
         for (int i = 0; i < 3; i++) {
             int n = 0;
             if (paths[i] && cli_frame_path(opt_names[i], paths[i], 0, buf, sizeof buf, &n) != 0)
-                return 1;
-            if (paths[i] && n == 0)
+                return 2;
+            if (paths[i] && n == 0 && last - first > 1)
                 return cli_usage_error("render", "%s %s: several frames need a frame pattern in the name, such as %%04d",
                                        opt_names[i], paths[i]);
         }

@@ -42,12 +42,12 @@ static int run(void *args, const char **pos, int npos)
         return cli_usage_error("tiles", "missing SCENE");
     if (!a->count == !a->size)
         return cli_usage_error("tiles", "needs one of --count N and --size WxH");
-    int tw = 0, th = 0;
-    char tail;
-    if (a->size && (sscanf(a->size, "%dx%d%c", &tw, &th, &tail) != 2 || tw < 1 || th < 1 || tw > LIMIT_IMAGE_SIDE ||
-                    th > LIMIT_IMAGE_SIDE))
+    int size[2] = {0, 0};
+    if (a->size && (cli_parse_ints(a->size, "x", 2, size) != 0 || size[0] < 1 || size[1] < 1 ||
+                    size[0] > LIMIT_IMAGE_SIDE || size[1] > LIMIT_IMAGE_SIDE))
         return cli_usage_error("tiles", "--size needs WxH, two whole numbers from 1 to %d, not '%s'",
                                LIMIT_IMAGE_SIDE, a->size);
+    int tw = size[0], th = size[1];
     Scene s;
     char err[1024];
     if (scene_load(pos[0], &s, err, sizeof err) != 0) {

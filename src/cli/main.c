@@ -44,7 +44,9 @@ static const Command *const commands[] = {&cmd_render, &cmd_tiles, &cmd_merge, &
 static int set_value(const Command *c, const Opt *o, const char *val, char *args)
 {
     void *dst = args + o->offset;
-    if (o->kind == OPT_STRING) {
+    if (o->kind == OPT_STRING) { /* no option takes an empty string: a path or a list */
+        if (!*val)
+            return cli_usage_error(c->name, "%s needs a value, not an empty string", o->name);
         *(const char **)dst = val;
         return 0;
     }
@@ -143,7 +145,25 @@ static int run(const Command *c, int argc, char **argv)
     return rc;
 }
 
+static int dispatch(int argc, char **argv);
+
 int main(int argc, char **argv)
+{
+    int rc = dispatch(argc, argv);
+    /* What a command printed on stdout is its answer (diff's figures,
+     * --explain's plan): lost to a full disk or a closed pipe, the run
+     * failed, though the command found nothing wrong. */
+    errno = 0;
+    if ((fflush(stdout) != 0 || ferror(stdout)) && rc == 0) {
+        fprintf(stderr, "lancer: cannot write the standard output%s%s\n", errno ? ": " : "",
+                errno ? strerror(errno) : "");
+        rc = 1;
+    }
+    return rc;
+}
+
+/* The command line's command, run. Returns the exit status. */
+static int dispatch(int argc, char **argv)
 {
 #ifdef __GLIBC__
     /* Keep the heap's free top for the next allocation: glibc gives it
