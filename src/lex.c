@@ -53,8 +53,14 @@ int lex_next_line(LexReader *R, const char **ls, const char **le)
     if (R->p >= R->end)
         return 0;
     const char *s = R->p;
-    const char *nl = memchr(s, '\n', (size_t)(R->end - s));
+    const char *nl = R->no_lf && s >= R->no_lf ? NULL : memchr(s, '\n', (size_t)(R->end - s));
     const char *e = nl ? nl : R->end;
+    if (!nl) { /* none left, as in an old Mac OS file, whose lines end at a lone CR */
+        R->no_lf = s;
+        const char *cr = memchr(s, '\r', (size_t)(e - s));
+        if (cr && cr + 1 < e)
+            e = nl = cr;
+    }
     R->p = nl ? nl + 1 : R->end;
     R->line++;
     if (e > s && e[-1] == '\r')

@@ -38,6 +38,7 @@ typedef struct {
     const char *data, *end; /* the whole input */
     const char *p;          /* start of the next line */
     long line;              /* number of the line last returned, 0 before the first */
+    const char *no_lf;      /* NULL, or a point past which the input holds no '\n' */
     char *err;
     size_t errlen;
 } LexReader;
@@ -59,7 +60,8 @@ LEX_PRINTF(4, 5) int lex_fail_at(const LexReader *R, long line, size_t off, cons
 /* The line an "unexpected end of file" is reported on: the last one. */
 long lex_eof_line(const LexReader *R);
 
-/* Next line as [*ls, *le), without "\n" or "\r\n". Returns 0 at the end. */
+/* Next line as [*ls, *le), without "\n", "\r\n" or the lone "\r" that ends
+ * an old Mac OS line. Returns 0 at the end. */
 int lex_next_line(LexReader *R, const char **ls, const char **le);
 /* Next line that holds a token. With `comments`, '#' cuts the rest of a
  * line first. */

@@ -69,10 +69,17 @@ LEX_PRINTF(3, 4) static int fail(Parser *P, Loc loc, const char *fmt, ...)
 static int is_ident_start(int c) { return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || c == '_'; }
 static int is_ident_char(int c) { return is_ident_start(c) || lex_is_digit(c); }
 
+/* 1 when p, before end, ends a line: a newline, or a carriage return not
+ * followed by one (old Mac OS files). */
+static int line_end(const char *p, const char *end)
+{
+    return *p == '\n' || (*p == '\r' && (p + 1 >= end || p[1] != '\n'));
+}
+
 static void advance(Parser *P, size_t n)
 {
     while (n-- > 0) {
-        if (*P->p == '\n') {
+        if (line_end(P->p, P->end)) {
             P->at.line++;
             P->at.col = 1;
         } else {
@@ -88,7 +95,7 @@ static int next(Parser *P)
         while (P->p < P->end && (*P->p == ' ' || *P->p == '\t' || *P->p == '\r' || *P->p == '\n'))
             advance(P, 1);
         if (P->p < P->end && *P->p == '#') {
-            while (P->p < P->end && *P->p != '\n')
+            while (P->p < P->end && !line_end(P->p, P->end))
                 advance(P, 1);
             continue;
         }
@@ -145,9 +152,10 @@ static int next(Parser *P)
             if (P->p[m] == '\\' && P->p + m + 1 < P->end && P->p[m + 1] != '\n')
                 m++;
             /* A NUL would cut the path short without a word ("ok.off\0x"
-             * loaded ok.off); no control byte belongs in a path. */
+             * loaded ok.off); no control byte, tab and DEL included,
+             * belongs in a path, and messages echo the path raw. */
             unsigned char b = (unsigned char)P->p[m];
-            if (b < 0x20 && b != '\t') {
+            if (b < 0x20 || b == 0x7f) {
                 Loc at = {t->loc.line, t->loc.col + (int)m};
                 return fail(P, at, "byte 0x%02x in a string", b);
             }

@@ -687,6 +687,9 @@ static const CountCase count_cases[] = {
            "element vertex 3\r\nproperty float x\r\nproperty float y\r\nproperty float z\r\nend_header\r\n"
            "3 0 1 2\r\n0 0 0\r\n1 0 0\r\n0 1 0",
            3, 1, 0, 0),
+    COUNTS("obj with old Mac OS line endings, a lone CR each", MESH_OBJ,
+           "v 0 0 0\rv 1 0 0\rv 0 1 0\r\rf 1 2 3\r", 3, 1, 0, 0),
+    COUNTS("off with old Mac OS line endings", MESH_OFF, "OFF\r3 1 0\r0 0 0\r1 0 0\r0 1 0\r3 0 1 2", 3, 1, 0, 0),
     COUNTS("ply point cloud", MESH_PLY,
            "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
            "end_header\n1 2 3\n",
