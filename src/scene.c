@@ -1640,14 +1640,22 @@ static Vec3 scaled(Vec3 v, double scale)
     return vec3((float)(v.x * scale), (float)(v.y * scale), (float)(v.z * scale));
 }
 
-/* What the move left of a box or triangle q that had extent before it:
- * 1 when no double tells its sides apart any more, so that no ray can hit
- * it; a box flat along one axis only is kept, one double thick, since it
- * still shows its faces. 0 when it keeps its shape. */
-static int vanished(PrimKind kind, Place *q, int had_extent)
+/* 1 when q, a box or triangle of kind `kind`, has extent in double. */
+static int has_extent(PrimKind kind, const Place *q)
 {
-    if (!had_extent)
-        return 0; /* degenerate already: scene_validate says so */
+    if (kind == PRIM_BOX)
+        return q->p[0][0] < q->p[1][0] && q->p[0][1] < q->p[1][1] && q->p[0][2] < q->p[1][2];
+    return (kind != PRIM_TRIANGLE && kind != PRIM_SMOOTH_TRIANGLE && kind != PRIM_PN) ||
+           tri_has_area_d(q->p[0], q->p[1], q->p[2]);
+}
+
+/* 1 when the move left box or triangle q, which had extent before it (as
+ * `was`), with none in double, so that no ray can hit it; a box flat along
+ * one axis only still shows its faces, and is kept one double thick. */
+static int vanished(PrimKind kind, Place *q, const Place *was)
+{
+    if (has_extent(kind, q) || !has_extent(kind, was))
+        return 0; /* intact, or degenerate already: scene_validate says so */
     if (kind == PRIM_BOX) {
         int flat = 0, axis = 0;
         for (int k = 0; k < 3; k++)
@@ -1657,16 +1665,7 @@ static int vanished(PrimKind kind, Place *q, int had_extent)
             q->p[1][axis] = nextafter(q->p[1][axis], INFINITY);
         return flat > 1;
     }
-    return !tri_has_area_d(q->p[0], q->p[1], q->p[2]);
-}
-
-/* 1 when q, a box or triangle of kind `kind`, has extent in double. */
-static int has_extent(PrimKind kind, const Place *q)
-{
-    if (kind == PRIM_BOX)
-        return q->p[0][0] < q->p[1][0] && q->p[0][1] < q->p[1][1] && q->p[0][2] < q->p[1][2];
-    return (kind == PRIM_TRIANGLE || kind == PRIM_SMOOTH_TRIANGLE || kind == PRIM_PN) &&
-           tri_has_area_d(q->p[0], q->p[1], q->p[2]);
+    return 1;
 }
 
 int scene_transform(Scene *s, double scale, const double offset[3])
@@ -1689,8 +1688,7 @@ int scene_transform(Scene *s, double scale, const double offset[3])
     int kept = 0, gone = 0;
     for (int i = 0; i < s->nprims; i++) {
         Prim *p = &s->prims[i];
-        Place *q = &s->place[i];
-        int extent = has_extent(p->kind, q);
+        Place *q = &s->place[i], was = *q;
         switch (p->kind) {
         case PRIM_SPHERE:
             move(q->p[0], scale, offset);
@@ -1728,12 +1726,14 @@ int scene_transform(Scene *s, double scale, const double offset[3])
         /* A shape thinner than a double's step where it now lies, next to
          * a camera far out, is one no ray can hit: it leaves the scene,
          * rather than fail it for a rounding lancer chose. */
-        if (vanished(p->kind, q, extent)) {
+        if (vanished(p->kind, q, &was)) {
             gone++;
             continue;
         }
-        s->prims[kept] = *p;
-        s->place[kept] = *q;
+        if (kept != i) {
+            s->prims[kept] = *p;
+            s->place[kept] = *q;
+        }
         if (derive(s, kept++) != 0)
             return -1;
     }
