@@ -176,6 +176,9 @@ has "$T/err" "the scene has no camera path"
 expect 0 "$LANCER" render "$T/orbit.scn" --width 48 --height 36 --frames 10:15 --resume -o "$T/f.%04d.exr"
 has "$T/err" "$T/f.0013.exr is complete, from this scene and these settings; nothing to do"
 has "$T/err" "wrote $T/f.0014.exr"
+# a complete output leaves --png and --stats unwritten, and says so even with -q
+expect 0 "$LANCER" render "$T/orbit.scn" --width 48 --height 36 --frame 13 --resume -q -o "$T/f.0013.exr" --png "$T/f13.png"
+has "$T/err" "--png not written: it comes with a render, and there was none"
 
 # resume: stopped by SIGTERM, resumed on another thread count, the same file
 R="--width 2000 --height 1500 --spp 3 --aa-threshold 0.05"

@@ -509,6 +509,10 @@ static int render_one(Args *a, const char *scene, const PlanOptions *po, int fra
     if (a->resume && (rc = resume(pp, &stamp, &img, done, a->quiet)) != 0) {
         if (rc == 2 && !a->quiet)
             fprintf(stderr, "lancer: %s is complete, from this scene and these settings; nothing to do\n", pp->exr);
+        if (rc == 2 && (a->png || a->stats)) /* said even with -q: the run leaves out what it was asked for */
+            fprintf(stderr, "lancer: %s%s%s not written: %s with a render, and there was none\n",
+                    a->png ? "--png" : "", a->png && a->stats ? " and " : "", a->stats ? "--stats" : "",
+                    a->png && a->stats ? "they come" : "it comes");
         rc = rc == 2 ? 0 : 1;
         goto out;
     }
