@@ -165,6 +165,10 @@ has "$T/err" "--frames needs A:B"
 expect 2 "$LANCER" render "$T/orbit.scn" --frame 1 --frames 0:2
 expect 2 "$LANCER" render "$T/orbit.scn" --frames 0:4294967298 -o "$T/f.%d.exr"
 has "$T/err" "--frames needs A:B"
+# frame 10's image would replace frame 0's preview: refused before the first frame
+expect 2 "$LANCER" render "$T/orbit.scn" --width 8 --height 6 --frames 0:11 -o "$T/c%d.exr" --png "$T/c1%d.exr"
+has "$T/err" "-o of frame 10 and --png of frame 0 are both $T/c10.exr; each output needs a file of its own"
+if [ -e "$T/c0.exr" ]; then bad "a frame was rendered before the clash was found"; else ok; fi
 expect 2 "$LANCER" render "$T/orbit.scn" --frames 0:2 -o "$T/f.%s.exr"
 has "$T/err" "a frame pattern is %d or %0Nd"
 # a malformed pattern is a usage error with one frame too, before the scene is read

@@ -585,6 +585,51 @@ static int paths_of(const Args *a, int frame, Paths *pp)
     return outputs_partial_name(pp->exr, pp->partial, sizeof pp->partial) != 0;
 }
 
+/* The frame f in [lo, hi) whose file under frame pattern pat (well
+ * formed) is name, or -1 for none. */
+static int frame_of(const char *pat, const char *name, int lo, int hi)
+{
+    size_t at = 0;
+    const char *p = pat;
+    for (; *p && !(p[0] == '%' && p[1] != '%'); p++, at++) { /* the literal part before the first number */
+        if (p[0] == '%')
+            p++; /* "%%", one percent sign */
+        if (name[at] != *p)
+            return -1;
+    }
+    if (!*p)
+        return -1;
+    char buf[AFILE_PATH_MAX];
+    long f = 0;
+    for (size_t k = at; name[k] >= '0' && name[k] <= '9' && f <= LIMIT_FRAME; k++) { /* each length of number */
+        f = f * 10 + (name[k] - '0');
+        if (f >= lo && f < hi && cli_frame_path("-o", pat, (int)f, buf, sizeof buf, NULL) == 0 && !strcmp(buf, name))
+            return (int)f;
+    }
+    return -1;
+}
+
+/* 0 when no two outputs of frames first..last-1 name one file, else 2
+ * after a message (each frame's own outputs are checked as it starts). */
+static int frames_apart(const char *const opt[3], const char *const pat[3], int first, int last)
+{
+    char name[AFILE_PATH_MAX];
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++) {
+            if (i == j || !pat[i] || !pat[j])
+                continue;
+            for (int f = first; f < last; f++) {
+                if (cli_frame_path(opt[i], pat[i], f, name, sizeof name, NULL) != 0)
+                    return 2;
+                int g = frame_of(pat[j], name, first, last);
+                if (g >= 0 && g != f)
+                    return cli_usage_error("render", "%s of frame %d and %s of frame %d are both %s; each output needs a file of its own",
+                                           opt[i], f, opt[j], g, name);
+            }
+        }
+    return 0;
+}
+
 /* "A:B" into *a and *b, the numbers lo <= A < B <= hi. */
 static int parse_range(const char *s, int lo, int hi, int *a, int *b)
 {
@@ -628,7 +673,7 @@ static int run(void *args, const char **pos, int npos)
         return cli_usage_error("render", "--frames needs A:B, frames A to B-1 with 0 <= A < B <= %d, not '%s'",
                                LIMIT_FRAME + 1, a->frames);
 
-    char exr_default[AFILE_PATH_MAX];
+    static char exr_default[AFILE_PATH_MAX]; /* a->exr points here till the end of the run */
     if (!a->exr) {
         if (cli_default_output(scene, first >= 0 ? ".%04d.exr" : ".exr", exr_default, sizeof exr_default) != 0)
             return 1;
@@ -645,6 +690,8 @@ static int run(void *args, const char **pos, int npos)
                 return cli_usage_error("render", "%s %s: several frames need a frame pattern in the name, such as %%04d",
                                        opt_names[i], paths[i]);
         }
+        if (frames_apart(opt_names, paths, first, last) != 0)
+            return 2;
     }
     outputs_catch_signals();
     for (int f = first; f < last; f++) { /* once, at -1, for a still */
