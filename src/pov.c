@@ -290,7 +290,7 @@ static void prim(FILE *f, const Scene *s, const Prim *p, const PnGrid *grid)
     }
     const Material *m = &s->materials[p->material];
     fprintf(f, " texture { M_%s }", m->name);
-    if (m->filter + m->transmit > 0.0f) {
+    if (m->filter + m->transmit > 0.0f || m->ior != 1.0f) { /* an opaque solid's counts where a ray starts in it */
         key(f, " interior { ior", m->ior);
         fputs(" }", f);
     }

@@ -24,7 +24,9 @@ static const char *scene_text =
     "obox { center 1 2 3 u 1 0 0 v 0 2 0 w 0 0 3 material red }\n"
     "smooth_triangle { a 0 0 0 b 1 0 0 c 0 1 0 na 0 0 1 nb 0 0 1 nc 0 0 1 material red }\n"
     "material glass { color 0.9 1 0.8 filter 0.5 transmit 0.25 ior 1.5 }\n"
-    "sphere { center 0 1 0 radius 0.5 material glass }\n";
+    "sphere { center 0 1 0 radius 0.5 material glass }\n"
+    "material room { ior 1.33 }\n"
+    "box { min -9 -9 -9 max 9 9 9 material room }\n";
 
 /* The export of text (NULL: scene_text), as a string the caller frees. */
 static char *export_of(const char *text)
@@ -90,6 +92,9 @@ static void test_lights_materials_objects(void **state)
     expect(t, "area_light <2, 0, 0>, <0, 0, 1>, 5, 3\n}");
     expect(t, "pigment { color rgbft <0.9, 1, 0.8, 0.5, 0.25> }");
     expect(t, "sphere { <0, 1, 0>, 0.5 texture { M_glass } interior { ior 1.5 } }");
+    /* an opaque solid's ior too: a ray that starts inside it (a camera in a
+     * room) leaves through its neighbours' surfaces by it */
+    expect(t, "texture { M_room } interior { ior 1.33 } }");
     expect(t, "matrix <1, 0, 0,  0, 2, 0,  0, 0, 3,  1, 2, 3>");
     /* a smooth triangle goes out as a one-face mesh2 */
     expect(t, "mesh2 {\n  vertex_vectors { 3, <0, 0, 0>, <1, 0, 0>, <0, 1, 0> }\n"
