@@ -23,12 +23,49 @@ PlanOptions plan_options(void)
     return o;
 }
 
+/* The volume of a solid primitive (one prim_inside can hold a point in). */
+static double solid_volume(const Prim *p)
+{
+    static const double ball = 4.0 / 3.0 * 3.14159265358979323846;
+    switch (p->kind) {
+    case PRIM_SPHERE:
+        return ball * (double)p->g.sphere.r * p->g.sphere.r * p->g.sphere.r;
+    case PRIM_BOX: {
+        const Box *b = &p->g.box;
+        return ((double)b->hi.x - b->lo.x) * ((double)b->hi.y - b->lo.y) * ((double)b->hi.z - b->lo.z);
+    }
+    case PRIM_OBOX: {
+        const OBox *b = &p->g.obox;
+        return 8.0 * fabs(vec_dot(b->u, vec_cross(b->v, b->w)));
+    }
+    case PRIM_ELLIPSOID: {
+        const double *m = p->g.ell.e->m;
+        return ball * fabs(m[0] * (m[4] * m[8] - m[5] * m[7]) - m[1] * (m[3] * m[8] - m[5] * m[6]) +
+                           m[2] * (m[3] * m[7] - m[4] * m[6]));
+    }
+    default:
+        return INFINITY;
+    }
+}
+
 void plan_interiors_at(const Scene *s, Vec3 q, Interiors *in)
 {
+    double vol[LIMIT_INTERIORS];
     in->n = 0;
-    for (int i = 0; i < s->nprims && in->n < LIMIT_INTERIORS; i++)
-        if (prim_inside(&s->prims[i], q))
-            in->prim[in->n++] = i;
+    for (int i = 0; i < s->nprims && in->n < LIMIT_INTERIORS; i++) {
+        if (!prim_inside(&s->prims[i], q))
+            continue;
+        /* Outermost first, so that the last, the medium a ray starts in, is
+         * the innermost: a solid inside another has the smaller volume. */
+        double v = solid_volume(&s->prims[i]);
+        int k = in->n++;
+        for (; k > 0 && vol[k - 1] < v; k--) {
+            vol[k] = vol[k - 1];
+            in->prim[k] = in->prim[k - 1];
+        }
+        vol[k] = v;
+        in->prim[k] = i;
+    }
 }
 
 /* Where the box lo..hi lies against plane pl and point l: 1 when every

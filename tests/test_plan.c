@@ -375,7 +375,7 @@ static void test_decisions(void **state)
     assert_int_equal(p.camera_in.prim[0], 0);
     done(&s, &p);
 
-    /* nested solids, in scene order, and none: a scene without lights */
+    /* nested solids, outermost first, and none: a scene without lights */
     const char *nested = "camera { eye 0 0 0 target 0 0 1 fov 40 }\nmaterial m { transmit 0.5 }\n"
                          "sphere { center 0 0 0 radius 2 material m }\n"
                          "sphere { center 5 0 0 radius 1 material m }\n"
@@ -387,6 +387,18 @@ static void test_decisions(void **state)
     assert_int_equal(p.camera_in.prim[0], 0);
     assert_int_equal(p.camera_in.prim[1], 2);
     assert_null(p.shadow);
+    done(&s, &p);
+    /* the inner solid written first: still the last, the medium at the eye */
+    const char *inner_first = "camera { eye 0 0 0 target 0 0 1 fov 40 }\nmaterial m { transmit 0.5 }\n"
+                              "sphere { center 0 0 0.2 radius 0.5 scale 1 1 2 material m }\n"
+                              "box { min -3 -3 -3 max 3 3 3 material m }\n"
+                              "sphere { center 0 0 0 radius 2 material m }\n";
+    assert_int_equal(scene_parse("n.scn", inner_first, strlen(inner_first), &s, err, sizeof err), 0);
+    build_ok(&p, &s, &o);
+    assert_int_equal(p.camera_in.n, 3);
+    assert_int_equal(p.camera_in.prim[0], 1);
+    assert_int_equal(p.camera_in.prim[1], 2);
+    assert_int_equal(p.camera_in.prim[2], 0);
     done(&s, &p);
 }
 

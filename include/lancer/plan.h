@@ -158,7 +158,9 @@ typedef struct {
  * patches. Returns how many there are (which may exceed max). */
 int plan_notes(const RenderPlan *p, PlanNote *notes, int max);
 
-/* The solids of s that contain point q, in scene order. */
+/* The solids of s that contain point q, by decreasing volume: of nested
+ * solids, the innermost last (the medium there), as refraction reads the
+ * list; solids of one volume in scene order. */
 void plan_interiors_at(const Scene *s, Vec3 q, Interiors *in);
 
 #endif
