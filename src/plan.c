@@ -307,8 +307,8 @@ int plan_build(RenderPlan *p, Scene *s, const PlanOptions *o, char *err, size_t 
     p->aa_threshold = o->aa_threshold >= 0.0 ? (float)o->aa_threshold : s->image.aa_threshold;
     if (!(p->aa_threshold >= 0.0f) || !isfinite(p->aa_threshold))
         return fail(err, errlen, "aa_threshold must be a number from 0 up");
-    if (!(p->adc_bailout >= 0.0f && p->adc_bailout <= 1.0f))
-        return fail(err, errlen, "adc_bailout must be a number from 0 to 1");
+    if (!(p->adc_bailout >= 0.0f && p->adc_bailout < 1.0f)) /* at 1 POV-Ray shades no surface (docs/povray-rules.md) */
+        return fail(err, errlen, "adc_bailout must be a number from 0 up to 1, 1 excluded");
     if (o->area_samples < 0 || o->area_samples > LIMIT_AREA_SAMPLES || o->area_adaptive < 0 ||
         o->area_adaptive > LIMIT_AREA_ADAPTIVE + 1)
         return fail(err, errlen, "area light setting out of range");

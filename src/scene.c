@@ -532,8 +532,8 @@ static int parse_image(Parser *P, Loc at)
     if (v[SPP].set && !whole(&v[SPP], 0, 1, LIMIT_SPP))
         return fail(P, v[SPP].value, "image: 'spp' must be a whole number from 1 to %d", LIMIT_SPP);
     P->s->image.spp = (int)num_or(&v[SPP], (float)P->s->image.spp);
-    if (v[ADC_BAILOUT].set && !(v[ADC_BAILOUT].v[0] >= 0.0 && v[ADC_BAILOUT].v[0] <= 1.0))
-        return fail(P, v[ADC_BAILOUT].value, "image: 'adc_bailout' must be a number from 0 to 1");
+    if (v[ADC_BAILOUT].set && !(v[ADC_BAILOUT].v[0] >= 0.0 && (float)v[ADC_BAILOUT].v[0] < 1.0f))
+        return fail(P, v[ADC_BAILOUT].value, "image: 'adc_bailout' must be a number from 0 up to 1, 1 excluded");
     P->s->image.adc_bailout = num_or(&v[ADC_BAILOUT], P->s->image.adc_bailout);
     if (v[AA_THRESHOLD].set && !(v[AA_THRESHOLD].v[0] > 0.0 && v[AA_THRESHOLD].v[0] <= 3.0))
         return fail(P, v[AA_THRESHOLD].value, "image: 'aa_threshold' must be a number above 0, at most 3");

@@ -365,6 +365,9 @@ expect 2 "$LANCER" render "$T/floor.scn" --quality best
 has "$T/err" "--quality must be draft, preview or final, not 'best'"
 expect 2 "$LANCER" render "$T/floor.scn" --adc-bailout 2
 has "$T/err" "--adc-bailout needs a number from 0 to 1, not '2'"
+# at 1 POV-Ray shades no surface: lancer stops below it
+expect 2 "$LANCER" render "$T/floor.scn" --adc-bailout 1
+has "$T/err" "--adc-bailout needs a number from 0 up to 1, 1 excluded, not '1'"
 expect 2 "$LANCER" render "$T/floor.scn" --aa-threshold -1
 expect 2 "$LANCER" render "$T/floor.scn" --area-adaptive 17
 expect 2 "$LANCER" render "$T/floor.scn" --accel kd
@@ -388,7 +391,10 @@ sed 's/1e-12/1e-10/' "$T/flat.scn" >"$T/flat2.scn"
 expect 0 "$LANCER" render "$T/flat2.scn" -o "$T/flat2.exr" -q
 printf 'image { width 32 height 24 adc_bailout 1.5 }\ncamera { eye 0 2 -6 target 0 0 0 fov 40 }\n' >"$T/adc.scn"
 expect 1 "$LANCER" render "$T/adc.scn" -o "$T/adc.exr"
-has "$T/err" "adc.scn:1:40: image: 'adc_bailout' must be a number from 0 to 1"
+has "$T/err" "adc.scn:1:40: image: 'adc_bailout' must be a number from 0 up to 1, 1 excluded"
+sed 's/adc_bailout 1.5/adc_bailout 1/' "$T/adc.scn" >"$T/adc1.scn"
+expect 1 "$LANCER" render "$T/adc1.scn" -o "$T/adc.exr"
+has "$T/err" "adc1.scn:1:40: image: 'adc_bailout' must be a number from 0 up to 1, 1 excluded"
 printf 'camera { eye 0 2 -6 target 0 0 0 fov 40 }\nlight { position 0 5 0 area_adaptive 1 }\n' >"$T/ad.scn"
 expect 1 "$LANCER" render "$T/ad.scn" -o "$T/ad.exr"
 has "$T/err" "ad.scn:2:24: light: 'area_adaptive' is for an area light"

@@ -327,6 +327,8 @@ static int plan_options_of(const Args *a, PlanOptions *o)
     }
     if (a->adc >= 0.0) /* -1 unless given, from 0 to 1 (opts) */
         o->adc_bailout = a->adc;
+    if (!((float)a->adc < 1.0f))
+        return cli_usage_error("render", "--adc-bailout needs a number from 0 up to 1, 1 excluded, not '%g'", a->adc);
     if (a->aa >= 0.0) /* likewise, from 0 to 3 */
         o->aa_threshold = a->aa;
     if (a->pn_mode) {
