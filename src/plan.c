@@ -48,24 +48,32 @@ static double solid_volume(const Prim *p)
     }
 }
 
-void plan_interiors_at(const Scene *s, Vec3 q, Interiors *in)
+int plan_interiors_at(const Scene *s, Vec3 q, Interiors *in)
 {
-    double vol[LIMIT_INTERIORS];
+    double vol[LIMIT_INTERIORS + 1];
+    int lost = 0;
     in->n = 0;
-    for (int i = 0; i < s->nprims && in->n < LIMIT_INTERIORS; i++) {
+    for (int i = 0; i < s->nprims; i++) {
         if (!prim_inside(&s->prims[i], q))
             continue;
         /* Outermost first, so that the last, the medium a ray starts in, is
          * the innermost: a solid inside another has the smaller volume. */
         double v = solid_volume(&s->prims[i]);
-        int k = in->n++;
+        int prim[LIMIT_INTERIORS + 1], k = in->n;
+        memcpy(prim, in->prim, sizeof(int) * (size_t)in->n);
         for (; k > 0 && vol[k - 1] < v; k--) {
             vol[k] = vol[k - 1];
-            in->prim[k] = in->prim[k - 1];
+            prim[k] = prim[k - 1];
         }
         vol[k] = v;
-        in->prim[k] = i;
+        prim[k] = i;
+        int drop = in->n == LIMIT_INTERIORS; /* full: the outermost goes */
+        lost += drop;
+        in->n += !drop;
+        memcpy(in->prim, prim + drop, sizeof(int) * (size_t)in->n);
+        memmove(vol, vol + drop, sizeof(double) * (size_t)in->n);
     }
+    return lost;
 }
 
 /* Where the box lo..hi lies against plane pl and point l: 1 when every
@@ -364,7 +372,7 @@ int plan_build(RenderPlan *p, Scene *s, const PlanOptions *o, char *err, size_t 
         p->reflective |= m->reflection > 0.0f;
     }
     if (p->transparent || o->full) /* only refraction reads the solids a ray is in */
-        plan_interiors_at(s, s->camera.eye, &p->camera_in);
+        p->camera_in_lost = plan_interiors_at(s, s->camera.eye, &p->camera_in);
     if (s->nlights > 0) {
         p->shadow = malloc(sizeof(PlanShadow) * (size_t)s->nlights);
         p->area = calloc((size_t)s->nlights, sizeof(PlanArea));

@@ -210,7 +210,7 @@ static void finish_row(Job *job)
 static void worker(void *arg)
 {
     Job *job = arg;
-    RayStats st = {0, 0, 0, 0, 0, 0, 0};
+    RayStats st = {0};
     for (;;) {
         int i = claim_row(job);
         if (i < 0 || !pass_row(job, job->rows[i], &st))

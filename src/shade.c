@@ -339,6 +339,8 @@ static int refraction(const Ctx *c, int prim, const Material *m, const Surface *
         eta = material_of(c, in->prim[in->n - 1])->ior / m->ior;
         if (out->n < LIMIT_INTERIORS)
             out->prim[out->n++] = prim;
+        else /* its exit will read as an entry: the render warns */
+            c->st->too_deep++;
     }
     if (fabsf(eta - 1.0f) < 1e-10f) { /* straight through, at the same level */
         if (!worth(c, wt))

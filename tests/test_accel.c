@@ -102,7 +102,7 @@ static void test_closest_and_occluded_match_brute_force(void **state)
         int hits = 0, plane_hits = 0;
         for (int k = 0; k < 20000; k++) {
             Ray r = random_ray(&g);
-            RayStats st = {0, 0, 0, 0, 0, 0, 0};
+            RayStats st = {0};
             PrimHit h, w;
             int got = accel_closest(a, &r, &h, &st), want = brute_closest(&s, &r, var, &w);
             assert_int_equal(got, want);
@@ -145,7 +145,7 @@ static void test_ties_between_planes_and_the_bvh(void **state)
         Ray r[3];
         for (int k = 0; k < 3; k++)
             r[k] = ray_make(vec3(0.1f * (float)k, 2, 0), vec3(0, -1, 0), INFINITY);
-        RayStats st = {0, 0, 0, 0, 0, 0, 0};
+        RayStats st = {0};
         PrimHit h[3];
         int best[3];
         assert_int_equal(accel_closest(a, &r[0], &h[0], &st), 0);
@@ -175,7 +175,7 @@ static void test_closest_packet_is_closest(void **state)
             r[j] = ray_make(o, vec_normalize(vec_add(d, test_rvec(&g, -0.05f, 0.05f))), INFINITY);
         PrimHit h[2 * ACCEL_PACKET + 3], w;
         int best[2 * ACCEL_PACKET + 3];
-        RayStats st = {0, 0, 0, 0, 0, 0, 0};
+        RayStats st = {0};
         accel_closest_packet(a, r, n, h, best, &st);
         for (int j = 0; j < n; j++) {
             assert_int_equal(best[j], accel_closest(a, &r[j], &w, &st));
@@ -223,7 +223,7 @@ static void test_occluded_packet_is_occluded(void **state)
             float len = vec_length(d);
             r[j] = ray_make(o, vec_scale(d, 1.0f / len), len);
         }
-        RayStats st = {0, 0, 0, 0, 0, 0, 0};
+        RayStats st = {0};
         unsigned got = accel_occluded_packet(a, r, n, &st);
         assert_true(got >> n == 0);
         for (int j = 0; j < n; j++) {
@@ -269,7 +269,7 @@ static void test_accessors(void **state)
     assert_int_equal(accel_bounds(a, &lo, &hi), -1);
     Ray r = ray_make(vec3(0, 0, 0), vec3(0, 0, 1), INFINITY);
     PrimHit h;
-    RayStats st = {0, 0, 0, 0, 0, 0, 0};
+    RayStats st = {0};
     assert_int_equal(accel_closest(a, &r, &h, &st), -1);
     assert_int_equal(accel_occluded(a, &r, &st), 0);
     accel_free(a);
@@ -299,7 +299,7 @@ static void test_loop_answers_as_the_bvh(void **state)
         Accel *tree = accel_build_as(&s, PRIM_ROBUST, 1, 0), *loop = accel_build_as(&s, PRIM_ROBUST, 1, 1);
         assert_non_null(tree);
         assert_non_null(loop);
-        RayStats st = {0, 0, 0, 0, 0, 0, 0};
+        RayStats st = {0};
         Ray r[ACCEL_PACKET];
         for (int k = 0; k < 4000; k++) {
             Vec3 o = test_rvec(&g, -6, 6);
@@ -383,7 +383,7 @@ static void check_split_patches(PnMode mode)
     assert_int_equal(accel_pn_split(whole, &pieces), 0);
     assert_int_equal(pieces, 0);
     accel_free(whole);
-    RayStats st = {0, 0, 0, 0, 0, 0, 0};
+    RayStats st = {0};
     int hits = 0;
     for (int k = 0; k < 6000; k++) {
         Vec3 o = test_rvec(&g, -5, 5);

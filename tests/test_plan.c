@@ -399,6 +399,21 @@ static void test_decisions(void **state)
     assert_int_equal(p.camera_in.prim[0], 1);
     assert_int_equal(p.camera_in.prim[1], 2);
     assert_int_equal(p.camera_in.prim[2], 0);
+    assert_int_equal(p.camera_in_lost, 0);
+    done(&s, &p);
+
+    /* inside 18 nested balls, written inner first: the 16 innermost are
+     * kept, outermost first, and the two outermost left out and counted */
+    char text[2048];
+    int len = snprintf(text, sizeof text, "camera { eye 0 0 0 target 0 0 1 fov 40 }\nmaterial m { transmit 0.5 }\n");
+    for (int i = 0; i < LIMIT_INTERIORS + 2; i++)
+        len += snprintf(text + len, sizeof text - (size_t)len, "sphere { center 0 0 0 radius %d material m }\n", i + 1);
+    assert_int_equal(scene_parse("n.scn", text, (size_t)len, &s, err, sizeof err), 0);
+    build_ok(&p, &s, &o);
+    assert_int_equal(p.camera_in.n, LIMIT_INTERIORS);
+    assert_int_equal(p.camera_in_lost, 2);
+    for (int i = 0; i < LIMIT_INTERIORS; i++)
+        assert_int_equal(p.camera_in.prim[i], LIMIT_INTERIORS - 1 - i);
     done(&s, &p);
 }
 
@@ -422,7 +437,7 @@ static RayStats rays_of(const char *text, int full, Image *img, PlanShadow *shad
     Image own;
     Image *im = img ? img : &own;
     assert_int_equal(image_init(im, p.width, p.height), 0);
-    RayStats st = {0, 0, 0, 0, 0, 0, 0};
+    RayStats st = {0};
     assert_int_equal(render_image(&p, a, NULL, im, &st), 0);
     if (!img)
         image_free(im);

@@ -6,6 +6,7 @@
 #include <stdint.h>
 #include <setjmp.h>
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 #include <cmocka.h>
 
@@ -121,7 +122,7 @@ static void test_pixels_are_single_rays(void **state)
             RenderPlan p;
             Accel *a;
             Image img;
-            RayStats st, st1 = {0, 0, 0, 0, 0, 0, 0};
+            RayStats st, st1 = {0};
             render_scene(scenes[sc], 1, 29, 23, k, &s, &p, &a, &img, &st, NULL);
             Camera cam;
             camera_init(&cam, &s.camera, p.width, p.height);
@@ -169,6 +170,44 @@ static void stop_after(void *ctx, int done, int total)
 /* A stopped render returns 1, marks exactly the rows it finished, and each
  * of those rows is the full render's, bit for bit; stopped before it
  * starts, it does no row. */
+/* Concentric glass balls seen from outside: with 16 a refracted ray's list
+ * holds every ball it enters; with 17 the rays toward the centre enter one
+ * more, and the render counts them. */
+static void test_nesting_past_the_limit_is_counted(void **state)
+{
+    (void)state;
+    for (int n = LIMIT_INTERIORS; n <= LIMIT_INTERIORS + 1; n++) {
+        char text[4096];
+        int len = snprintf(text, sizeof text,
+                           "image { width 8 height 8 max_depth 64 }\ncamera { eye 0 0 -4 target 0 0 0 fov 10 }\n"
+                           "material a { transmit 1 ior 1.2 }\nmaterial b { transmit 1 ior 1.4 }\n");
+        for (int i = 0; i < n; i++)
+            len += snprintf(text + len, sizeof text - (size_t)len, "sphere { center 0 0 0 radius %g material %s }\n",
+                            1.9 - 0.1 * i, i % 2 ? "b" : "a");
+        Scene s;
+        RenderPlan p;
+        char err[256];
+        assert_int_equal(scene_parse("n.scn", text, (size_t)len, &s, err, sizeof err), 0);
+        PlanOptions o = plan_options();
+        assert_int_equal(plan_build(&p, &s, &o, err, sizeof err), 0);
+        Accel *a = accel_build(&s, p.variant, 1);
+        assert_non_null(a);
+        Image img;
+        assert_int_equal(image_init(&img, 8, 8), 0);
+        RayStats st = {0};
+        RenderOptions opt = {NULL, NULL, NULL, NULL};
+        assert_int_equal(render_image(&p, a, &opt, &img, &st), 0);
+        if (n == LIMIT_INTERIORS)
+            assert_true(st.too_deep == 0);
+        else
+            assert_true(st.too_deep > 0);
+        image_free(&img);
+        accel_free(a);
+        plan_free(&p);
+        scene_free(&s);
+    }
+}
+
 static void test_stop_keeps_finished_rows(void **state)
 {
     (void)state;
@@ -408,6 +447,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_thread_count_does_not_change_pixels),
         cmocka_unit_test(test_counts_and_progress),
+        cmocka_unit_test(test_nesting_past_the_limit_is_counted),
         cmocka_unit_test(test_pixels_are_single_rays),
         cmocka_unit_test(test_stop_keeps_finished_rows),
         cmocka_unit_test(test_adaptive_antialiasing),

@@ -493,7 +493,7 @@ static void test_traced_is_trace(void **state)
             Ray r[2 * ACCEL_PACKET];
             PrimHit h[2 * ACCEL_PACKET];
             int best[2 * ACCEL_PACKET];
-            RayStats st = {0, 0, 0, 0, 0, 0, 0}, st1 = st;
+            RayStats st = {0}, st1 = st;
             for (int k = 0; k < n; k++)
                 r[k] = ray_make(EYE, vec_normalize(vec_add(dirs[k % 5], vec3(0, 0, 0.01f * (float)(k / 5)))), INFINITY);
             accel_closest_packet(a, r, n, h, best, &st);
@@ -550,7 +550,7 @@ static void test_filtered_shadows_in_packets(void **state)
         const int m = sizes[z];
         PrimHit h[ACCEL_PACKET];
         int best[ACCEL_PACKET];
-        RayStats st = {0, 0, 0, 0, 0, 0, 0}, st1 = st;
+        RayStats st = {0}, st1 = st;
         accel_closest_packet(a, r, m, h, best, &st);
         Vec3 all[ACCEL_PACKET];
         shade_traced_packet(&p, a, r, m, best, h, &st, all);
@@ -608,7 +608,7 @@ static void test_refraction_in_packets(void **state)
             assert_non_null(a);
             PrimHit h[N];
             int best[N];
-            RayStats st = {0, 0, 0, 0, 0, 0, 0}, st1 = st;
+            RayStats st = {0}, st1 = st;
             accel_closest_packet(a, r, 8, h, best, &st);
             accel_closest_packet(a, r + 8, 8, h + 8, best + 8, &st);
             Vec3 all[N];
@@ -653,7 +653,7 @@ static void test_invisible_sphere_in_glass(void **state)
         Accel *a0 = plan_world(&p0, &s0), *a1 = plan_world(&p1, &s1);
         PrimHit h[ACCEL_PACKET];
         int best[ACCEL_PACKET];
-        RayStats st = {0, 0, 0, 0, 0, 0, 0};
+        RayStats st = {0};
         Vec3 got[ACCEL_PACKET];
         accel_closest_packet(a1, r, ACCEL_PACKET, h, best, &st);
         shade_traced_packet(&p1, a1, r, ACCEL_PACKET, best, h, &st, got);

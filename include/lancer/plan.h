@@ -105,7 +105,8 @@ typedef struct {
     PrimVariant variant;
     int patches[2];        /* the PN patches traced in each PnMode: all exact (robust) or all fast (classic) */
     double offset[3];      /* added to the plan's coordinates, gives the scene's as moved by the options */
-    Interiors camera_in;   /* the solids the camera is inside, in scene order: where camera rays start */
+    Interiors camera_in;   /* the solids the camera is inside, outermost first: where camera rays start */
+    int camera_in_lost;    /* the outermost solids around the camera past LIMIT_INTERIORS, left out */
     int transparent;       /* some material lets light through (filter or transmit) */
     int reflective;        /* some material reflects */
     int full;              /* --no-plan: every skip below is off */
@@ -160,7 +161,8 @@ int plan_notes(const RenderPlan *p, PlanNote *notes, int max);
 
 /* The solids of s that contain point q, by decreasing volume: of nested
  * solids, the innermost last (the medium there), as refraction reads the
- * list; solids of one volume in scene order. */
-void plan_interiors_at(const Scene *s, Vec3 q, Interiors *in);
+ * list; solids of one volume in scene order. Past LIMIT_INTERIORS, the
+ * innermost are kept; returns how many were left out. */
+int plan_interiors_at(const Scene *s, Vec3 q, Interiors *in);
 
 #endif

@@ -35,6 +35,7 @@ typedef struct {
     unsigned long long isect_tests; /* primitive intersection routines called */
     unsigned long long cut;         /* secondary rays not traced: their weight was below adc_bailout */
     unsigned long long supersampled; /* pixels adaptive anti-aliasing supersampled */
+    unsigned long long too_deep;     /* refracted rays into a solid past LIMIT_INTERIORS nested ones */
 } RayStats;
 
 static inline void raystats_add(RayStats *sum, const RayStats *s)
@@ -46,6 +47,7 @@ static inline void raystats_add(RayStats *sum, const RayStats *s)
     sum->isect_tests += s->isect_tests;
     sum->cut += s->cut;
     sum->supersampled += s->supersampled;
+    sum->too_deep += s->too_deep;
 }
 
 #endif

@@ -30,7 +30,7 @@ static double hit_fraction(const Accel *a, const CameraSpec *spec, int w, int h)
 {
     Camera cam;
     camera_init(&cam, spec, w, h);
-    RayStats st = {0, 0, 0, 0, 0, 0, 0};
+    RayStats st = {0};
     int hits = 0;
     for (int y = 0; y < 32; y++)
         for (int x = 0; x < 32; x++) {
@@ -51,7 +51,7 @@ static void tighten(const Accel *a, CameraSpec *spec, int w, int h)
     camera_init(&cam, spec, 1, 1);
     Ray r = camera_ray(&cam, 0.5f, 0.5f);
     PrimHit hit;
-    RayStats st = {0, 0, 0, 0, 0, 0, 0};
+    RayStats st = {0};
     if (accel_closest(a, &r, &hit, &st) >= 0)
         spec->target = vec_madd(r.o, r.d, hit.t);
     CameraSpec best = *spec;
@@ -96,7 +96,7 @@ int bench_gen_rays(const Scene *s, const Accel *a, int w, int h, int tight, unsi
     Vec3 light = vec_madd(c, vec3(1.5f, 3.0f, 2.0f), radius);
     Camera cam;
     camera_init(&cam, &spec, w, h);
-    RayStats st = {0, 0, 0, 0, 0, 0, 0};
+    RayStats st = {0};
     for (int y = 0; y < h; y++)
         for (int x = 0; x < w; x++) {
             Ray r = camera_ray(&cam, (float)x + 0.5f, (float)y + 0.5f);
@@ -136,7 +136,7 @@ int bench_gen_rays(const Scene *s, const Accel *a, int w, int h, int tight, unsi
 
 double bench_pass(const Accel *a, const Ray *rays, size_t n, int any, size_t *hits, double *sumt)
 {
-    RayStats st = {0, 0, 0, 0, 0, 0, 0};
+    RayStats st = {0};
     size_t k = 0;
     double sum = 0.0, t0 = clock_now();
     for (size_t i = 0; i < n; i++) {
@@ -168,7 +168,7 @@ static void tally(const int *best, const PrimHit *h, size_t n, size_t *k, double
 
 double bench_pass_packet(const Accel *a, const Ray *rays, size_t n, size_t *hits, double *sumt)
 {
-    RayStats st = {0, 0, 0, 0, 0, 0, 0};
+    RayStats st = {0};
     size_t k = 0;
     double sum = 0.0, t0 = clock_now();
     for (size_t i = 0; i < n; i += ACCEL_PACKET) {
@@ -186,7 +186,7 @@ double bench_pass_packet(const Accel *a, const Ray *rays, size_t n, size_t *hits
 double bench_pass_stream(const Accel *a, AccelStream *s, const Ray *rays, size_t n, PrimHit *h, int *best, size_t *hits,
                          double *sumt)
 {
-    RayStats st = {0, 0, 0, 0, 0, 0, 0};
+    RayStats st = {0};
     size_t k = 0;
     double sum = 0.0, t0 = clock_now();
     accel_closest_stream(a, s, rays, n, h, best, &st);

@@ -280,6 +280,7 @@ static int write_stats(const char *file, const char *path, const char *scene, co
             st->camera, st->shadow, st->reflection, st->refraction,
             st->camera + st->shadow + st->reflection + st->refraction, st->cut);
     fprintf(f, "  \"supersampled_pixels\": %llu,\n", st->supersampled);
+    fprintf(f, "  \"too_deep_rays\": %llu,\n", st->too_deep);
     fprintf(f, "  \"intersection_tests\": %llu\n}\n", st->isect_tests);
     int bad = ferror(f), saved = errno;
     if (fclose(f) != 0 || bad) {
@@ -489,7 +490,7 @@ static int render_one(Args *a, const char *scene, const PlanOptions *po, int fra
     }
 
     Image img;
-    RayStats st = {0, 0, 0, 0, 0, 0, 0};
+    RayStats st = {0};
     int w = plan.x1 - plan.x0, h = plan.y1 - plan.y0;
     unsigned char *done = calloc((size_t)h, 1);
     if (!done || image_init(&img, w, h) != 0) {
@@ -550,6 +551,12 @@ static int render_one(Args *a, const char *scene, const PlanOptions *po, int fra
             fprintf(stderr, "lancer: wrote %s%s%s (%dx%d, %d thread%s, render %.3f s)\n", pp->exr,
                     a->png ? " and " : "", a->png ? pp->png : "", w, h, plan.threads, plan.threads > 1 ? "s" : "",
                     phase[2]);
+        /* Said even with -q: the picture is not the scene's there. */
+        if (st.too_deep || plan.camera_in_lost)
+            fprintf(stderr,
+                    "lancer: warning: solids nested more than %d deep (%llu refracted rays went deeper, and the camera "
+                    "is inside %d more): lancer does not follow them, and refraction there is not the scene's\n",
+                    LIMIT_INTERIORS, st.too_deep, plan.camera_in_lost);
         if (a->explain)
             explain(stdout, scene, &plan, &ai, phase, &st);
     } else
