@@ -186,6 +186,24 @@ typedef struct {
     int (*faces)[3];
 } PnGrid;
 
+/* 1 when the vertex normals of triangle q all lie on one side of its
+ * face, computed in double. */
+static int normals_one_side(const Place *q, const Triangle *t)
+{
+    double u[3], w[3], n[3], s[3];
+    for (int k = 0; k < 3; k++) {
+        u[k] = q->p[1][k] - q->p[0][k];
+        w[k] = q->p[2][k] - q->p[0][k];
+    }
+    n[0] = u[1] * w[2] - u[2] * w[1];
+    n[1] = u[2] * w[0] - u[0] * w[2];
+    n[2] = u[0] * w[1] - u[1] * w[0];
+    const Vec3 v[3] = {t->na, t->nb, t->nc};
+    for (int k = 0; k < 3; k++)
+        s[k] = n[0] * v[k].x + n[1] * v[k].y + n[2] * v[k].z;
+    return (s[0] > 0.0 && s[1] > 0.0 && s[2] > 0.0) || (s[0] < 0.0 && s[1] < 0.0 && s[2] < 0.0);
+}
+
 /* A PN patch as a mesh2 of n segments per edge: the patch's points on the
  * (u, v) grid of step 1/n, with its shading normals, in the triangles'
  * order of (P1, P2, P3). Its error falls as 1/n^2 (docs/parity.md). */
@@ -254,15 +272,43 @@ static void prim(FILE *f, const Scene *s, const Prim *p, const PnGrid *grid)
         fprintf(f, "triangle { ");
         dvec3s(f, &q);
         break;
-    case PRIM_SMOOTH_TRIANGLE:
-        /* As a one-face mesh2: POV-Ray silently drops a smooth_triangle
-         * whose vertex normals are not all on one side of its face. */
-        fprintf(f, "mesh2 {\n  vertex_vectors { 3, ");
-        dvec3s(f, &q);
+    case PRIM_SMOOTH_TRIANGLE: {
+        if (normals_one_side(&q, t)) {
+            /* A smooth_triangle holds its vertices in double, and takes
+             * its normals as they are; POV-Ray's mesh shades a face whose
+             * normals are all one flat, and holds its vertices in float. */
+            fprintf(f, "smooth_triangle { ");
+            dvec(f, q.p[0]);
+            fputs(", ", f);
+            vec(f, t->na);
+            fputs(", ", f);
+            dvec(f, q.p[1]);
+            fputs(", ", f);
+            vec(f, t->nb);
+            fputs(", ", f);
+            dvec(f, q.p[2]);
+            fputs(", ", f);
+            vec(f, t->nc);
+            break;
+        }
+        /* Else as a one-face mesh2: POV-Ray silently drops a
+         * smooth_triangle whose vertex normals are not all on one side of
+         * its face. Its float vertices go out relative to the first, which
+         * a translate in double puts back. */
+        double o[3] = {q.p[0][0], q.p[0][1], q.p[0][2]};
+        fprintf(f, "mesh2 {\n  vertex_vectors { 3");
+        for (int k = 0; k < 3; k++) {
+            double v[3] = {q.p[k][0] - o[0], q.p[k][1] - o[1], q.p[k][2] - o[2]};
+            fputs(", ", f);
+            dvec(f, v);
+        }
         fprintf(f, " }\n  normal_vectors { 3, ");
         vec3s(f, t->na, t->nb, t->nc);
-        fprintf(f, " }\n  face_indices { 1, <0, 1, 2> }\n  normal_indices { 1, <0, 1, 2> }\n ");
+        fprintf(f, " }\n  face_indices { 1, <0, 1, 2> }\n  normal_indices { 1, <0, 1, 2> }\n  translate ");
+        dvec(f, o);
+        fputs("\n ", f);
         break;
+    }
     case PRIM_BOX:
         fprintf(f, "box { ");
         dvec(f, q.p[0]);
@@ -284,9 +330,19 @@ static void prim(FILE *f, const Scene *s, const Prim *p, const PnGrid *grid)
         fprintf(f, "\n ");
         break;
     }
-    case PRIM_PN:
-        pn_mesh2(f, p->g.pn.patch, grid);
+    case PRIM_PN: { /* its net from its vertices relative to the first, as above */
+        const PnPatch *pa = p->g.pn.patch;
+        Vec3 v[3], n[3] = {pa->n[0], pa->n[1], pa->n[2]};
+        for (int k = 0; k < 3; k++)
+            v[k] = vec3((float)(q.p[k][0] - q.p[0][0]), (float)(q.p[k][1] - q.p[0][1]), (float)(q.p[k][2] - q.p[0][2]));
+        PnPatch local;
+        pn_patch_init(&local, v, n);
+        pn_mesh2(f, &local, grid);
+        fputs(" translate ", f);
+        dvec(f, q.p[0]);
+        fputs("\n ", f);
         break;
+    }
     }
     const Material *m = &s->materials[p->material];
     fprintf(f, " texture { M_%s }", m->name);

@@ -23,6 +23,7 @@ static const char *scene_text =
     "plane { normal 0 2 0 offset -1 material red }\n"
     "obox { center 1 2 3 u 1 0 0 v 0 2 0 w 0 0 3 material red }\n"
     "smooth_triangle { a 0 0 0 b 1 0 0 c 0 1 0 na 0 0 1 nb 0 0 1 nc 0 0 1 material red }\n"
+    "smooth_triangle { a 1000000 0 0 b 1000001 0 0 c 1000000 1 0 na 0 0 1 nb 0 0.6 -0.8 nc 0 0 1 material red }\n"
     "material glass { color 0.9 1 0.8 filter 0.5 transmit 0.25 ior 1.5 }\n"
     "sphere { center 0 1 0 radius 0.5 material glass }\n"
     "material room { ior 1.33 }\n"
@@ -96,10 +97,17 @@ static void test_lights_materials_objects(void **state)
      * room) leaves through its neighbours' surfaces by it */
     expect(t, "texture { M_room } interior { ior 1.33 } }");
     expect(t, "matrix <1, 0, 0,  0, 2, 0,  0, 0, 3,  1, 2, 3>");
-    /* a smooth triangle goes out as a one-face mesh2 */
+    /* a smooth triangle whose normals lie on one side of it goes out as a
+     * smooth_triangle, in double (a mesh would shade a face of one normal
+     * flat, and hold its vertices in float) */
+    expect(t, "smooth_triangle { <0, 0, 0>, <0, 0, 1>, <1, 0, 0>, <0, 0, 1>, <0, 1, 0>, <0, 0, 1> texture { M_red } }");
+    /* any other as a one-face mesh2 (POV-Ray drops such a
+     * smooth_triangle), its float vertices relative to the first and moved
+     * back in double */
     expect(t, "mesh2 {\n  vertex_vectors { 3, <0, 0, 0>, <1, 0, 0>, <0, 1, 0> }\n"
-              "  normal_vectors { 3, <0, 0, 1>, <0, 0, 1>, <0, 0, 1> }\n"
-              "  face_indices { 1, <0, 1, 2> }\n  normal_indices { 1, <0, 1, 2> }\n  texture { M_red } }");
+              "  normal_vectors { 3, <0, 0, 1>, <0, 0.6, -0.8>, <0, 0, 1> }\n"
+              "  face_indices { 1, <0, 1, 2> }\n  normal_indices { 1, <0, 1, 2> }\n"
+              "  translate <1e+06, 0, 0>\n  texture { M_red } }");
     free(t);
 }
 
