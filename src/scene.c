@@ -1366,7 +1366,11 @@ static int parse_mesh(Parser *P, Loc at)
         return fail(P, at, "mesh: %s", err);
     }
     if (m.nt == 0) {
+        int degenerate = m.degenerate;
         mesh_free(&m);
+        if (degenerate)
+            return fail(P, v[FILE_].value, "mesh: %s has no triangle with area (%d dropped for having none)", path,
+                        degenerate);
         return fail(P, v[FILE_].value, "mesh: %s has no triangles", path);
     }
     const int zero = smooth ? mesh_zero_normal(&m) : -1;
