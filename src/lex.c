@@ -48,20 +48,29 @@ int lex_fail_at(const LexReader *R, long line, size_t off, const char *fmt, ...)
 
 long lex_eof_line(const LexReader *R) { return R->line > 0 ? R->line : 1; }
 
+/* The first byte c at or after s, or R->end; *from and *at cache the last
+ * search, so that each c is searched for once however long the lines
+ * between them (and a reader sent back to its start searches again). */
+static const char *next_byte(const LexReader *R, const char **from, const char **at, const char *s, int c)
+{
+    if (!*at || s < *from || s > *at) {
+        const char *x = memchr(s, c, (size_t)(R->end - s));
+        *from = s;
+        *at = x ? x : R->end;
+    }
+    return *at;
+}
+
 int lex_next_line(LexReader *R, const char **ls, const char **le)
 {
     if (R->p >= R->end)
         return 0;
     const char *s = R->p;
-    const char *nl = R->no_lf && s >= R->no_lf ? NULL : memchr(s, '\n', (size_t)(R->end - s));
-    const char *e = nl ? nl : R->end;
-    if (!nl) { /* none left, as in an old Mac OS file, whose lines end at a lone CR */
-        R->no_lf = s;
-        const char *cr = memchr(s, '\r', (size_t)(e - s));
-        if (cr && cr + 1 < e)
-            e = nl = cr;
-    }
-    R->p = nl ? nl + 1 : R->end;
+    const char *e = next_byte(R, &R->lf_from, &R->lf, s, '\n');
+    const char *cr = next_byte(R, &R->cr_from, &R->cr, s, '\r'), *next = e < R->end ? e + 1 : R->end;
+    if (cr < e && cr + 1 < e) /* a lone CR, as old Mac OS files end their lines */
+        e = cr, next = cr + 1;
+    R->p = next;
     R->line++;
     if (e > s && e[-1] == '\r')
         e--;

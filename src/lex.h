@@ -38,7 +38,8 @@ typedef struct {
     const char *data, *end; /* the whole input */
     const char *p;          /* start of the next line */
     long line;              /* number of the line last returned, 0 before the first */
-    const char *no_lf;      /* NULL, or a point past which the input holds no '\n' */
+    const char *lf_from, *lf; /* no '\n' in [lf_from, lf): the next one, cached (NULL: none yet) */
+    const char *cr_from, *cr; /* the same for '\r' */
     char *err;
     size_t errlen;
 } LexReader;

@@ -35,7 +35,7 @@ int mesh_parse(const char *name, const char *data, size_t len, MeshFormat fmt, M
     R.end = data + len;
     R.p = data;
     R.line = 0;
-    R.no_lf = NULL;
+    R.lf_from = R.lf = R.cr_from = R.cr = NULL;
     R.err = err;
     R.errlen = errlen;
     if (len >= 3 && memcmp(data, "\xef\xbb\xbf", 3) == 0) /* a UTF-8 byte-order mark */

@@ -34,9 +34,11 @@ static double solid_volume(const Prim *p)
         const Box *b = &p->g.box;
         return ((double)b->hi.x - b->lo.x) * ((double)b->hi.y - b->lo.y) * ((double)b->hi.z - b->lo.z);
     }
-    case PRIM_OBOX: {
+    case PRIM_OBOX: { /* in double: the product of three float axes may pass float's range */
         const OBox *b = &p->g.obox;
-        return 8.0 * fabs(vec_dot(b->u, vec_cross(b->v, b->w)));
+        const double u[3] = {b->u.x, b->u.y, b->u.z}, v[3] = {b->v.x, b->v.y, b->v.z}, w[3] = {b->w.x, b->w.y, b->w.z};
+        return 8.0 * fabs(u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) +
+                          u[2] * (v[0] * w[1] - v[1] * w[0]));
     }
     case PRIM_ELLIPSOID: {
         const double *m = p->g.ell.e->m;
@@ -159,31 +161,49 @@ static int light_is_clear(const Scene *s, const Light *l)
     return 1;
 }
 
+/* The largest singular value of the 3x3 matrix m (rows): the square root
+ * of the largest eigenvalue of m^T m, by the closed form of Smith, "Eigenvalues
+ * of a symmetric 3 x 3 matrix" (CACM 1961), exact to rounding relative to
+ * itself however small the others are. */
+static double largest_singular(const double m[9])
+{
+    double s[9];
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            s[3 * i + j] = m[i] * m[j] + m[3 + i] * m[3 + j] + m[6 + i] * m[6 + j];
+    double q = (s[0] + s[4] + s[8]) / 3.0, p1 = s[1] * s[1] + s[2] * s[2] + s[5] * s[5];
+    double p2 = (s[0] - q) * (s[0] - q) + (s[4] - q) * (s[4] - q) + (s[8] - q) * (s[8] - q) + 2.0 * p1;
+    if (!(p2 > 0.0))
+        return sqrt(q);
+    double p = sqrt(p2 / 6.0), b[9];
+    for (int k = 0; k < 9; k++)
+        b[k] = (s[k] - (k % 4 == 0 ? q : 0.0)) / p;
+    double r = (b[0] * (b[4] * b[8] - b[5] * b[7]) - b[1] * (b[3] * b[8] - b[5] * b[6]) +
+                b[2] * (b[3] * b[7] - b[4] * b[6])) / 2.0;
+    return sqrt(q + 2.0 * p * cos(acos(fmin(1.0, fmax(-1.0, r))) / 3.0));
+}
+
 /* 0, or -2 with "line:col: ..." in err for the first ellipsoid of s too
- * flat, seen from the eye, for the robust routine to certify its hits. Its
- * thinnest half-axis is at least 1/|A|, its largest at most |M| (Frobenius
- * norms of the maps). */
+ * flat, seen from the eye, for the robust routine to certify its hits: its
+ * thinnest half-axis, 1 over A's largest singular value, over its distance
+ * from the eye plus its largest, M's. */
 static int too_flat(const Scene *s, char *err, size_t errlen)
 {
     for (int i = 0; i < s->nprims; i++) {
         if (s->prims[i].kind != PRIM_ELLIPSOID)
             continue;
         const Ellipsoid *e = s->prims[i].g.ell.e;
-        double a2 = 0.0, m2 = 0.0, d2 = 0.0;
-        for (int k = 0; k < 9; k++) {
-            a2 += e->a[k] * e->a[k];
-            m2 += e->m[k] * e->m[k];
-        }
+        double d2 = 0.0;
         for (int k = 0; k < 3; k++) {
             double eye = s->placed ? s->camera.eye_at[k] : (double)vec_comp(s->camera.eye, k);
             d2 += (e->m[9 + k] - eye) * (e->m[9 + k] - eye);
         }
-        double flat = 1.0 / sqrt(a2) / (sqrt(d2) + sqrt(m2));
+        double flat = 1.0 / largest_singular(e->a) / (sqrt(d2) + largest_singular(e->m));
         if (!(flat >= PLAN_FLATTEST)) {
             int idx = s->prims[i].g.ell.index;
             snprintf(err, errlen,
                      "%d:%d: sphere: too flat to trace from this camera: its thinnest half-axis over its distance "
-                     "from the eye plus its largest is %.2g, below the %.2g down to which lancer certifies hits",
+                     "from the eye plus its largest is %.3g, below 2^-36 (%.3g), down to which lancer certifies hits",
                      s->ellipsoid_at ? s->ellipsoid_at[idx][0] : 0, s->ellipsoid_at ? s->ellipsoid_at[idx][1] : 0,
                      flat, PLAN_FLATTEST);
             return -2;
@@ -331,14 +351,9 @@ int plan_build(RenderPlan *p, Scene *s, const PlanOptions *o, char *err, size_t 
     }
     if (o->pn_mode < 0 || o->pn_mode > PN_FAST + 1)
         return fail(err, errlen, "pn_mode out of range");
-    for (int i = 0; i < s->nprims; i++) {
-        PnRef *r = &s->prims[i].g.pn;
-        if (s->prims[i].kind != PRIM_PN)
-            continue;
-        if (o->pn_mode)
-            r->mode = o->pn_mode - 1;
-        p->patches[p->variant == PRIM_CLASSIC ? PN_FAST : PN_EXACT]++; /* as prim.c traces them */
-    }
+    for (int i = 0; i < s->nprims; i++)
+        if (s->prims[i].kind == PRIM_PN && o->pn_mode)
+            s->prims[i].g.pn.mode = o->pn_mode - 1;
     double scale = o->move ? o->scale : 1.0, t[3] = {0.0, 0.0, 0.0};
     if (o->move) {
         memcpy(t, o->translate, sizeof t);
@@ -366,6 +381,9 @@ int plan_build(RenderPlan *p, Scene *s, const PlanOptions *o, char *err, size_t 
     }
     if (too_flat(s, err, errlen) != 0)
         return -2;
+    for (int i = 0; i < s->nprims; i++) /* those the move left */
+        if (s->prims[i].kind == PRIM_PN)
+            p->patches[p->variant == PRIM_CLASSIC ? PN_FAST : PN_EXACT]++; /* as prim.c traces them */
     for (int i = 0; i < s->nmaterials; i++) {
         const Material *m = &s->materials[i];
         p->transparent |= m->filter + m->transmit > 0.0f;

@@ -148,8 +148,8 @@ static int next(Parser *P)
     }
     if (c == '"') { /* a string: to the closing quote on the same line; \" and \\ escape */
         size_t m = 1;
-        while (P->p + m < P->end && P->p[m] != '"' && P->p[m] != '\n') {
-            if (P->p[m] == '\\' && P->p + m + 1 < P->end && P->p[m + 1] != '\n')
+        while (P->p + m < P->end && P->p[m] != '"' && P->p[m] != '\n' && P->p[m] != '\r') {
+            if (P->p[m] == '\\' && P->p + m + 1 < P->end && P->p[m + 1] != '\n' && P->p[m + 1] != '\r')
                 m++;
             /* A NUL would cut the path short without a word ("ok.off\0x"
              * loaded ok.off); no control byte, tab and DEL included,
@@ -533,7 +533,8 @@ static int parse_image(Parser *P, Loc at)
         return fail(P, v[SPP].value, "image: 'spp' must be a whole number from 1 to %d", LIMIT_SPP);
     P->s->image.spp = (int)num_or(&v[SPP], (float)P->s->image.spp);
     if (v[ADC_BAILOUT].set && !(v[ADC_BAILOUT].v[0] >= 0.0 && (float)v[ADC_BAILOUT].v[0] < 1.0f))
-        return fail(P, v[ADC_BAILOUT].value, "image: 'adc_bailout' must be a number from 0 up to 1, 1 excluded");
+        return fail(P, v[ADC_BAILOUT].value, "image: 'adc_bailout' must be a number from 0 up to 1, 1 excluded%s",
+                    v[ADC_BAILOUT].v[0] < 1.0 ? " (it rounds to 1 as a float)" : "");
     P->s->image.adc_bailout = num_or(&v[ADC_BAILOUT], P->s->image.adc_bailout);
     if (v[AA_THRESHOLD].set && !(v[AA_THRESHOLD].v[0] > 0.0 && v[AA_THRESHOLD].v[0] <= 3.0))
         return fail(P, v[AA_THRESHOLD].value, "image: 'aa_threshold' must be a number above 0, at most 3");
@@ -1731,12 +1732,19 @@ int scene_transform(Scene *s, double scale, const double offset[3])
          * a camera far out, is one no ray can hit: it leaves the scene,
          * rather than fail it for a rounding lancer chose. */
         if (vanished(p->kind, q, &was)) {
+            if (!s->origin) { /* from now on primitive k is the file's origin[k] */
+                if (!(s->origin = malloc(sizeof(int) * (size_t)s->nprims)))
+                    return -1;
+                for (int k = 0; k < s->nprims; k++)
+                    s->origin[k] = k;
+            }
             gone++;
             continue;
         }
         if (kept != i) {
             s->prims[kept] = *p;
             s->place[kept] = *q;
+            s->origin[kept] = s->origin[i];
         }
         if (derive(s, kept++) != 0)
             return -1;
@@ -1962,6 +1970,7 @@ void scene_free(Scene *s)
     free(s->patches);
     free(s->ellipsoids);
     free(s->ellipsoid_at);
+    free(s->origin);
     for (int i = 0; i < s->ninputs; i++)
         free(s->inputs[i]);
     free(s->inputs);

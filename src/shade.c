@@ -321,7 +321,7 @@ static int refraction(const Ctx *c, int prim, const Material *m, const Surface *
 {
     *out = *in;
     float eta; /* incident index over transmitted index */
-    int k = -1;
+    int k = -1, lost = 0;
     for (int i = 0; i < in->n; i++)
         if (in->prim[i] == prim)
             k = i;
@@ -339,14 +339,15 @@ static int refraction(const Ctx *c, int prim, const Material *m, const Surface *
         eta = material_of(c, in->prim[in->n - 1])->ior / m->ior;
         if (out->n < LIMIT_INTERIORS)
             out->prim[out->n++] = prim;
-        else /* its exit will read as an entry: the render warns */
-            c->st->too_deep++;
+        else /* its exit will read as an entry: counted if a ray goes on, and the render warns */
+            lost = 1;
     }
     if (fabsf(eta - 1.0f) < 1e-10f) { /* straight through, at the same level */
         if (!worth(c, wt))
             return REFRACT_NONE;
         *t = ray_make(prim_spawn_origin(sf, r->d), r->d, INFINITY);
         c->st->refraction++;
+        c->st->too_deep += (unsigned)lost;
         return REFRACT_ON;
     }
     float cosi = -vec_dot(r->d, sf->ns);
@@ -359,6 +360,7 @@ static int refraction(const Ctx *c, int prim, const Material *m, const Surface *
     Vec3 d = vec_normalize(vec_madd(vec_scale(r->d, eta), sf->ns, eta * cosi - sqrtf(disc)));
     *t = ray_make(prim_spawn_origin(sf, d), d, INFINITY);
     c->st->refraction++;
+    c->st->too_deep += (unsigned)lost;
     return REFRACT_RAY;
 }
 

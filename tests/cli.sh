@@ -364,10 +364,12 @@ has "$T/q.json" '"aa_threshold": 0.0299999993'
 expect 2 "$LANCER" render "$T/floor.scn" --quality best
 has "$T/err" "--quality must be draft, preview or final, not 'best'"
 expect 2 "$LANCER" render "$T/floor.scn" --adc-bailout 2
-has "$T/err" "--adc-bailout needs a number from 0 to 1, not '2'"
+has "$T/err" "--adc-bailout needs a number from 0 up to 1, 1 excluded, not '2'"
 # at 1 POV-Ray shades no surface: lancer stops below it
 expect 2 "$LANCER" render "$T/floor.scn" --adc-bailout 1
 has "$T/err" "--adc-bailout needs a number from 0 up to 1, 1 excluded, not '1'"
+expect 2 "$LANCER" render "$T/floor.scn" --adc-bailout 0.99999999
+has "$T/err" "not '0.99999999'"
 expect 2 "$LANCER" render "$T/floor.scn" --aa-threshold -1
 expect 2 "$LANCER" render "$T/floor.scn" --area-adaptive 17
 expect 2 "$LANCER" render "$T/floor.scn" --accel kd
@@ -379,6 +381,12 @@ has "$T/out" "skipped  the BVH: 1 primitives: a plain loop over them is faster t
 printf 'image { width 32 height 24 }\ncamera { eye 0.3 0.2 -3 target 0 0 0 fov 40 }\nlight { position 1 5 -2 }\nmaterial m { }\nbox { min 0 0 0 max 1e-30 1e-30 1e-30 material m }\ntriangle { a -1 0 0 b 1 0 0 c 0 1e-30 0 material m }\nbox { min -1 -1 0 max 1 1 1e-30 material m }\n' >"$T/thin.scn"
 expect 0 "$LANCER" render "$T/thin.scn" -o "$T/thin.exr" --explain -q
 has "$T/out" "skipped  objects too thin to see: 2 boxes or triangles too thin"
+# the camera's solids keep their numbers in the scene, past the two dropped
+{ cat "$T/thin.scn"; printf 'material g { transmit 0.5 }\nsphere { center 0.3 0.2 -3 radius 0.5 material g }\n'; } >"$T/thin-g.scn"
+expect 0 "$LANCER" render "$T/thin-g.scn" -o "$T/thin-g.exr" --stats "$T/thin.json" -q
+has "$T/thin.json" '"camera_inside": [3]'
+has "$T/thin.json" '"vanished_primitives": 2,'
+
 expect 0 "$LANCER" render "$T/thin.scn" -o "$T/thin-c.exr" --classic -q
 expect 0 "$LANCER" diff "$T/thin.exr" "$T/thin-c.exr"
 has "$T/out" "max=0 "

@@ -690,6 +690,8 @@ static const CountCase count_cases[] = {
     COUNTS("obj with old Mac OS line endings, a lone CR each", MESH_OBJ,
            "v 0 0 0\rv 1 0 0\rv 0 1 0\r\rf 1 2 3\r", 3, 1, 0, 0),
     COUNTS("off with old Mac OS line endings", MESH_OFF, "OFF\r3 1 0\r0 0 0\r1 0 0\r0 1 0\r3 0 1 2", 3, 1, 0, 0),
+    COUNTS("obj with lone CRs and a final LF, and a CR before a CRLF", MESH_OBJ,
+           "v 0 0 0\rv 1 0 0\r\r\nv 0 1 0\rf 1 2 3\r\n", 3, 1, 0, 0),
     COUNTS("ply point cloud", MESH_PLY,
            "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
            "end_header\n1 2 3\n",

@@ -213,8 +213,8 @@ static void test_flattest(void **state)
         double k = ks[i], eye[3] = {0.3 * k, 0.2 * k, -3 * k};
         double dist = sqrt(eye[0] * eye[0] + eye[1] * eye[1] + eye[2] * eye[2]);
         for (int ok = 0; ok < 2; ok++) {
-            /* 1/|A| is F / sqrt(1 + 2 F^2) and |M| is sqrt(2 + F^2): F to first order */
-            double f = (ok ? 1.02 : 0.98) * PLAN_FLATTEST * (dist + sqrt(2.0));
+            /* the thinnest half-axis is F, the largest 1 */
+            double f = (ok ? 1.001 : 0.999) * PLAN_FLATTEST * (dist + 1.0);
             char text[512], err[256];
             snprintf(text, sizeof text,
                      "camera { eye %.17g %.17g %.17g target 0 0 0 fov 40 }\nmaterial m { }\n"
@@ -254,6 +254,25 @@ static void test_flattest(void **state)
             assert_int_equal(missed, 0);
             done(&s, &p);
         }
+    }
+    /* turned and stretched to half-axes 3, 2 and F: the bound reads the
+     * true thinnest and largest half-axes, whatever the turn */
+    for (int ok = 0; ok < 2; ok++) {
+        double f = (ok ? 1.001 : 0.999) * PLAN_FLATTEST * (sqrt(9.13) + 3.0);
+        char text[512], err[256];
+        snprintf(text, sizeof text,
+                 "camera { eye 0.3 0.2 -3 target 0 0 0 fov 40 }\nmaterial m { }\n"
+                 "sphere { center 0 0 0 radius 1 scale 3 2 %.17g rotate 30 40 50 material m }\n",
+                 f);
+        Scene s;
+        RenderPlan p;
+        PlanOptions o = plan_options();
+        assert_int_equal(scene_parse("t.scn", text, strlen(text), &s, err, sizeof err), 0);
+        int rc = plan_build(&p, &s, &o, err, sizeof err);
+        assert_int_equal(rc, ok ? 0 : -2);
+        if (ok)
+            plan_free(&p);
+        scene_free(&s);
     }
 }
 

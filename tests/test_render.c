@@ -167,9 +167,6 @@ static void stop_after(void *ctx, int done, int total)
         sa->stop = 1;
 }
 
-/* A stopped render returns 1, marks exactly the rows it finished, and each
- * of those rows is the full render's, bit for bit; stopped before it
- * starts, it does no row. */
 /* Concentric glass balls seen from outside: with 16 a refracted ray's list
  * holds every ball it enters; with 17 the rays toward the centre enter one
  * more, and the render counts them. */
@@ -208,6 +205,9 @@ static void test_nesting_past_the_limit_is_counted(void **state)
     }
 }
 
+/* A stopped render returns 1, marks exactly the rows it finished, and each
+ * of those rows is the full render's, bit for bit; stopped before it
+ * starts, it does no row. */
 static void test_stop_keeps_finished_rows(void **state)
 {
     (void)state;

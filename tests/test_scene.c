@@ -1068,6 +1068,9 @@ static void test_mesh_statement(void **state)
     const char *open = CAM "mesh { file \"quad.off material m }\n";
     assert_int_equal(scene_parse("t.scn", open, strlen(open), &s, err, sizeof err), -1);
     assert_string_equal(err, "t.scn:2:13: unterminated string");
+    const char *open_crlf = CAM "mesh { file \"quad.off material m }\r\n";
+    assert_int_equal(scene_parse("t.scn", open_crlf, strlen(open_crlf), &s, err, sizeof err), -1);
+    assert_string_equal(err, "t.scn:2:13: unterminated string");
     const char *two = CAM "material m { }\nmesh { file \"q.off\" material m scale 1 2 }\n";
     assert_int_equal(scene_parse("t.scn", two, strlen(two), &s, err, sizeof err), -1);
     assert_string_equal(err, "t.scn:3:42: mesh: missing value for 'scale' (expects one or three numbers, got 2)");

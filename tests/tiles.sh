@@ -169,6 +169,11 @@ has "$T/err" "--frames needs A:B"
 expect 2 "$LANCER" render "$T/orbit.scn" --width 8 --height 6 --frames 0:11 -o "$T/c%d.exr" --png "$T/c1%d.exr"
 has "$T/err" "-o of frame 10 and --png of frame 0 are both $T/c10.exr; each output needs a file of its own"
 if [ -e "$T/c0.exr" ]; then bad "a frame was rendered before the clash was found"; else ok; fi
+# a '%' in the scene's name is not a pattern of the default output's
+mkdir "$T/pct" && cp "$T/orbit.scn" "$T/pct/o%x.scn"
+if (cd "$T/pct" && "$LANCER" render "o%x.scn" --frame 1 --width 8 --height 6 -q) && [ -s "$T/pct/out/o%x.0001.exr" ]; then ok; else
+    bad "render --frame of o%x.scn did not write out/o%x.0001.exr"
+fi
 expect 2 "$LANCER" render "$T/orbit.scn" --frames 0:2 -o "$T/f.%s.exr"
 has "$T/err" "a frame pattern is %d or %0Nd"
 # a malformed pattern is a usage error with one frame too, before the scene is read

@@ -128,6 +128,7 @@ typedef struct {
     int placed;
     int degenerate; /* mesh triangles dropped for having no area */
     int vanished;   /* boxes and triangles that scene_transform dropped */
+    int *origin;    /* NULL, or since a drop, each primitive's number in the scene as written */
     char **inputs;  /* the files read: each mesh, then the scene file (scene_load) */
     unsigned char (*input_sha256)[SHA256_BYTES]; /* each input's bytes' digest */
     int ninputs;
@@ -176,7 +177,8 @@ int scene_split_triangles(Scene *s);
  * does not change: fade distances scale too, and every angle stays. The
  * render plan moves scenes so (plan.h). A box or triangle that the move
  * leaves with no extent in double (a small one far from the new origin)
- * can be hit by no ray: it is dropped and counted in `vanished`, and a box
+ * can be hit by no ray: it is dropped, counted in `vanished` (`origin` then
+ * numbers the primitives left as the scene wrote them), and a box
  * flat along one axis only is kept one double thick there. Returns 0, or
  * -1 when the moved scene no longer passes scene_validate: a coordinate
  * overflowed, or a shape or the camera degenerated in float. */

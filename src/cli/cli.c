@@ -61,14 +61,30 @@ int cli_parse_ints(const char *s, const char *seps, int n, int *out)
     return *s ? -1 : 0;
 }
 
+/* Appends the n bytes s to buf (room len) at *at, ending it. Returns 0,
+ * or -1 when they do not fit. */
+static int put(char *buf, size_t len, size_t *at, const char *s, size_t n)
+{
+    if (*at + n >= len)
+        return -1;
+    memcpy(buf + *at, s, n);
+    *at += n;
+    buf[*at] = '\0';
+    return 0;
+}
+
 int cli_default_output(const char *path, const char *ext, char *buf, size_t len)
 {
     const char *base = strrchr(path, '/');
     base = base ? base + 1 : path;
     const char *dot = strrchr(base, '.');
     int n = dot && dot != base ? (int)(dot - base) : (int)strlen(base);
-    int w = snprintf(buf, len, "out/%.*s%s", n, base, ext);
-    if (w < 0 || (size_t)w >= len) {
+    int pattern = strchr(ext, '%') != NULL; /* then a '%' of the name is written "%%" */
+    size_t at = 0;
+    int bad = put(buf, len, &at, "out/", 4);
+    for (int i = 0; i < n && !bad; i++)
+        bad = base[i] == '%' && pattern ? put(buf, len, &at, "%%", 2) : put(buf, len, &at, base + i, 1);
+    if (bad || put(buf, len, &at, ext, strlen(ext)) != 0) {
         fprintf(stderr, "lancer: %s: path too long\n", path);
         return -1;
     }
@@ -95,12 +111,15 @@ int cli_frame_path(const char *option, const char *path, int frame, char *buf, s
         else if (p[1] == '0' && p[2] >= '1' && p[2] <= '9' && p[3] == 'd')
             w = snprintf(piece, sizeof piece, "%0*d", p[2] - '0', frame), p += 3, n++;
         else {
-            fprintf(stderr, "lancer: %s %s: a frame pattern is %%d or %%0Nd (N from 1 to 9), and %%%% a percent sign\n",
-                    option, path);
+            if (option)
+                fprintf(stderr,
+                        "lancer: %s %s: a frame pattern is %%d or %%0Nd (N from 1 to 9), and %%%% a percent sign\n",
+                        option, path);
             return -1;
         }
         if (w < 0 || at + (size_t)w >= len) {
-            fprintf(stderr, "lancer: %s %s: path too long\n", option, path);
+            if (option)
+                fprintf(stderr, "lancer: %s %s: path too long\n", option, path);
             return -1;
         }
         memcpy(buf + at, piece, (size_t)w);

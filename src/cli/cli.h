@@ -66,8 +66,8 @@ int cli_default_output(const char *path, const char *ext, char *buf, size_t len)
 /* Fills the frame pattern in path with frame into buf: "%d" and "%0Nd"
  * (N from 1 to 9) give the frame number, "%%" a percent sign. Sets *count
  * to how many numbers it put in (NULL: not wanted). Returns 0, or -1
- * after a message naming option when the pattern is another printf
- * conversion or the path is too long. */
+ * after a message naming option (none when option is NULL) when the
+ * pattern is another printf conversion or the path is too long. */
 int cli_frame_path(const char *option, const char *path, int frame, char *buf, size_t len, int *count);
 
 /* 0 when path (NULL: none) can be written, else -1 after a message. */

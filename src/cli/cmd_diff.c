@@ -15,7 +15,7 @@ static const char usage[] =
     "  max=<max abs diff> mean=<mean abs diff> rms=<rms> psnr=<dB>\n"
     "  over=<pixels with a channel differing by more than the threshold> pixels=<total>\n"
     "PSNR takes 1.0 as the peak. The exit status is 0 whatever the difference,\n"
-    "1 when an image cannot be read or the sizes differ.\n"
+    "1 when an image cannot be read, the sizes differ or stdout cannot be written.\n"
     "\n"
     "options:\n"
     "      --heatmap OUT.png  write a false-colour map of the differences: black\n"

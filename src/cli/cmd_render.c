@@ -77,8 +77,8 @@ typedef struct {
     const char *exr, *png, *stats;
     int width, height, spp, max_depth, threads, quiet, use_float, classic, explain, no_plan;
     int area_samples, area_adaptive, resume, frame;
-    double scale, adc, aa;
-    const char *translate, *pn_mode, *accel, *quality, *region, *frames;
+    double scale, aa;
+    const char *translate, *pn_mode, *accel, *quality, *region, *frames, *adc;
 } Args;
 
 /* The quality presets, points on or near every benchmark scene's frontier
@@ -99,7 +99,6 @@ static void defaults(void *args)
 {
     Args *a = args;
     a->threads = cli_default_threads();
-    a->adc = -1.0;
     a->aa = -1.0;
     a->area_adaptive = -1;
     a->frame = -1;
@@ -179,8 +178,10 @@ static void write_plan(FILE *f, const RenderPlan *p)
     fprintf(f, "           \"region\": [%d, %d, %d, %d],\n", p->x0, p->x1, p->y0, p->y1);
     fprintf(f, "           \"camera_offset\": [%.9g, %.9g, %.9g], \"camera_inside\": [", p->offset[0], p->offset[1],
             p->offset[2]);
-    for (int i = 0; i < p->camera_in.n; i++)
-        fprintf(f, "%s%d", i ? ", " : "", p->camera_in.prim[i]);
+    for (int i = 0; i < p->camera_in.n; i++) { /* numbered as the scene wrote them */
+        int k = p->camera_in.prim[i];
+        fprintf(f, "%s%d", i ? ", " : "", s->origin ? s->origin[k] : k);
+    }
     fprintf(f, "],\n           \"pn_patches\": {\"exact\": %d, \"fast\": %d},", p->patches[PN_EXACT],
             p->patches[PN_FAST]);
     fprintf(f, "\n           \"transparent\": %s, \"reflective\": %s,\n           \"lights\": [",
@@ -263,8 +264,8 @@ static int write_stats(const char *file, const char *path, const char *scene, co
     json_string(f, scene);
     fprintf(f, ",\n  \"plan\": ");
     write_plan(f, p);
-    fprintf(f, ",\n  \"primitives\": %d,\n  \"degenerate_triangles\": %d,\n", p->scene->nprims,
-            p->scene->degenerate);
+    fprintf(f, ",\n  \"primitives\": %d,\n  \"degenerate_triangles\": %d,\n  \"vanished_primitives\": %d,\n",
+            p->scene->nprims, p->scene->degenerate, p->scene->vanished);
     fprintf(f, "  \"acceleration\": {\"bytes\": %zu, \"pn_patches_split\": %d, \"pn_pieces\": %d},\n", ai->bytes,
             ai->pn_split, ai->pn_pieces);
     fprintf(f, "  \"phases_s\": {\"parse\": %.6f, \"build\": %.6f, \"render\": %.6f, \"write\": %.6f},\n",
@@ -326,10 +327,15 @@ static int plan_options_of(const Args *a, PlanOptions *o)
         if (o->accel < 0)
             return cli_usage_error("render", "--accel must be bvh or loop, not '%s'", a->accel);
     }
-    if (a->adc >= 0.0) /* -1 unless given, from 0 to 1 (opts) */
-        o->adc_bailout = a->adc;
-    if (!((float)a->adc < 1.0f))
-        return cli_usage_error("render", "--adc-bailout needs a number from 0 up to 1, 1 excluded, not '%g'", a->adc);
+    if (a->adc) { /* below 1 as a float: at 1 POV-Ray shades no surface */
+        char *end;
+        errno = 0;
+        double v = strtod(a->adc, &end);
+        if (errno || end == a->adc || *end || !(v >= 0.0 && (float)v < 1.0f))
+            return cli_usage_error("render", "--adc-bailout needs a number from 0 up to 1, 1 excluded, not '%s'",
+                                   a->adc);
+        o->adc_bailout = v;
+    }
     if (a->aa >= 0.0) /* likewise, from 0 to 3 */
         o->aa_threshold = a->aa;
     if (a->pn_mode) {
@@ -472,7 +478,9 @@ static int render_one(Args *a, const char *scene, const PlanOptions *po, int fra
     RenderPlan plan;
     int rc = plan_build(&plan, &s, po, err, sizeof err);
     if (rc != 0) {
-        if (rc == -2) /* a place in the scene file */
+        if (rc == -2 && frame >= 0) /* a place in the scene file, as seen from this frame's camera */
+            fprintf(stderr, "%s:%s (at frame %d)\n", scene, err, frame);
+        else if (rc == -2)
             fprintf(stderr, "%s:%s\n", scene, err);
         else
             fprintf(stderr, "lancer: %s: %s\n", scene, err);
@@ -552,11 +560,16 @@ static int render_one(Args *a, const char *scene, const PlanOptions *po, int fra
                     a->png ? " and " : "", a->png ? pp->png : "", w, h, plan.threads, plan.threads > 1 ? "s" : "",
                     phase[2]);
         /* Said even with -q: the picture is not the scene's there. */
-        if (st.too_deep || plan.camera_in_lost)
+        if (st.too_deep)
             fprintf(stderr,
-                    "lancer: warning: solids nested more than %d deep (%llu refracted rays went deeper, and the camera "
-                    "is inside %d more): lancer does not follow them, and refraction there is not the scene's\n",
-                    LIMIT_INTERIORS, st.too_deep, plan.camera_in_lost);
+                    "lancer: warning: %llu refracted rays entered solids nested more than %d deep, which lancer "
+                    "does not follow: their refraction is not the scene's\n",
+                    st.too_deep, LIMIT_INTERIORS);
+        if (plan.camera_in_lost)
+            fprintf(stderr,
+                    "lancer: warning: the camera is inside %d solids past the %d innermost that lancer follows: "
+                    "rays leaving those refract as if they were not there\n",
+                    plan.camera_in_lost, LIMIT_INTERIORS);
         if (a->explain)
             explain(stdout, scene, &plan, &ai, phase, &st);
     } else
@@ -612,7 +625,7 @@ static int frame_of(const char *pat, const char *name, int lo, int hi)
     long f = 0;
     for (size_t k = at; name[k] >= '0' && name[k] <= '9' && f <= LIMIT_FRAME; k++) { /* each length of number */
         f = f * 10 + (name[k] - '0');
-        if (f >= lo && f < hi && cli_frame_path("-o", pat, (int)f, buf, sizeof buf, NULL) == 0 && !strcmp(buf, name))
+        if (f >= lo && f < hi && cli_frame_path(NULL, pat, (int)f, buf, sizeof buf, NULL) == 0 && !strcmp(buf, name))
             return (int)f;
     }
     return -1;
@@ -682,7 +695,7 @@ static int run(void *args, const char **pos, int npos)
         return cli_usage_error("render", "--frames needs A:B, frames A to B-1 with 0 <= A < B <= %d, not '%s'",
                                LIMIT_FRAME + 1, a->frames);
 
-    static char exr_default[AFILE_PATH_MAX]; /* a->exr points here till the end of the run */
+    static char exr_default[AFILE_PATH_MAX]; /* static: a->exr, in the caller's memory, keeps it */
     if (!a->exr) {
         if (cli_default_output(scene, first >= 0 ? ".%04d.exr" : ".exr", exr_default, sizeof exr_default) != 0)
             return 1;
@@ -735,7 +748,7 @@ static const Opt opts[] = {
     {"--explain", NULL, OPT_FLAG, offsetof(Args, explain), 0, 0},
     {"--no-plan", NULL, OPT_FLAG, offsetof(Args, no_plan), 0, 0},
     {"--accel", NULL, OPT_STRING, offsetof(Args, accel), 0, 0},
-    {"--adc-bailout", NULL, OPT_DOUBLE, offsetof(Args, adc), 0, 1},
+    {"--adc-bailout", NULL, OPT_STRING, offsetof(Args, adc), 0, 0},
     {"--aa-threshold", NULL, OPT_DOUBLE, offsetof(Args, aa), 0, 3},
     {"--area-samples", NULL, OPT_INT, offsetof(Args, area_samples), 1, LIMIT_AREA_SAMPLES},
     {"--area-adaptive", NULL, OPT_INT, offsetof(Args, area_adaptive), 0, LIMIT_AREA_ADAPTIVE},
