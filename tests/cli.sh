@@ -386,6 +386,10 @@ has "$T/out" "skipped  objects too thin to see: 2 boxes or triangles too thin"
 expect 0 "$LANCER" render "$T/thin-g.scn" -o "$T/thin-g.exr" --stats "$T/thin.json" -q
 has "$T/thin.json" '"camera_inside": [3]'
 has "$T/thin.json" '"vanished_primitives": 2,'
+# a PN patch dropped so is not counted as traced
+{ cat "$T/thin.scn"; printf 'pn_triangle { a -1 0 0 b 1 0 0 c 0 1e-30 0 na 0 0 -1 nb 0 0 -1 nc 0 0 -1 material m }\npn_triangle { a -1 0 1 b 1 0 1 c 0 1 1 na 0 0 -1 nb 0 0 -1 nc 0 0 -1 material m }\n'; } >"$T/thin-pn.scn"
+expect 0 "$LANCER" render "$T/thin-pn.scn" -o "$T/thin-pn.exr" --explain -q
+has "$T/out" "PN patch tracing: 1 patches in exact mode, 0 in fast mode"
 
 expect 0 "$LANCER" render "$T/thin.scn" -o "$T/thin-c.exr" --classic -q
 expect 0 "$LANCER" diff "$T/thin.exr" "$T/thin-c.exr"
