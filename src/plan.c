@@ -52,29 +52,30 @@ static double solid_volume(const Prim *p)
 
 int plan_interiors_at(const Scene *s, Vec3 q, Interiors *in)
 {
+    int prim[LIMIT_INTERIORS + 1], n = 0, lost = 0;
     double vol[LIMIT_INTERIORS + 1];
-    int lost = 0;
-    in->n = 0;
     for (int i = 0; i < s->nprims; i++) {
         if (!prim_inside(&s->prims[i], q))
             continue;
         /* Outermost first, so that the last, the medium a ray starts in, is
          * the innermost: a solid inside another has the smaller volume. */
         double v = solid_volume(&s->prims[i]);
-        int prim[LIMIT_INTERIORS + 1], k = in->n;
-        memcpy(prim, in->prim, sizeof(int) * (size_t)in->n);
+        int k = n++;
         for (; k > 0 && vol[k - 1] < v; k--) {
             vol[k] = vol[k - 1];
             prim[k] = prim[k - 1];
         }
         vol[k] = v;
         prim[k] = i;
-        int drop = in->n == LIMIT_INTERIORS; /* full: the outermost goes */
-        lost += drop;
-        in->n += !drop;
-        memcpy(in->prim, prim + drop, sizeof(int) * (size_t)in->n);
-        memmove(vol, vol + drop, sizeof(double) * (size_t)in->n);
+        if (n > LIMIT_INTERIORS) { /* full: the outermost goes */
+            n--;
+            lost++;
+            memmove(prim, prim + 1, sizeof(int) * (size_t)n);
+            memmove(vol, vol + 1, sizeof(double) * (size_t)n);
+        }
     }
+    in->n = n;
+    memcpy(in->prim, prim, sizeof(int) * (size_t)n);
     return lost;
 }
 
