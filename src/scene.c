@@ -1779,7 +1779,7 @@ static int prim_valid(const Scene *s, int i)
         const Triangle *t = &p->g.tri;
         const Place *q = s->place ? &s->place[i] : NULL;
         ok = vec_is_finite(t->a) && vec_is_finite(t->b) && vec_is_finite(t->c) &&
-             (q ? tri_has_area_d(q->p[0], q->p[1], q->p[2]) : tri_has_area(t->a, t->b, t->c));
+             (q ? has_extent(p->kind, q) : tri_has_area(t->a, t->b, t->c));
         if (p->kind == PRIM_SMOOTH_TRIANGLE)
             ok = ok && has_length(t->na) && has_length(t->nb) && has_length(t->nc);
         break;
@@ -1788,8 +1788,7 @@ static int prim_valid(const Scene *s, int i)
         const Box *b = &p->g.box;
         const Place *q = s->place ? &s->place[i] : NULL;
         ok = vec_is_finite(b->lo) && vec_is_finite(b->hi) &&
-             (q ? q->p[0][0] < q->p[1][0] && q->p[0][1] < q->p[1][1] && q->p[0][2] < q->p[1][2]
-                : b->lo.x < b->hi.x && b->lo.y < b->hi.y && b->lo.z < b->hi.z);
+             (q ? has_extent(PRIM_BOX, q) : b->lo.x < b->hi.x && b->lo.y < b->hi.y && b->lo.z < b->hi.z);
         break;
     }
     case PRIM_OBOX: {

@@ -96,11 +96,7 @@ static int run(void *args, const char **pos, int npos)
             long y1 = a->size ? (long)(j + 1) * th : (long)(j + 1) * h / rows;
             printf("%ld:%ld,%ld:%ld\n", x0, x1 < w ? x1 : w, y0, y1 < h ? y1 : h);
         }
-    if (fflush(stdout) != 0 || ferror(stdout)) {
-        perror("lancer: tiles: cannot write");
-        return 1;
-    }
-    return 0;
+    return 0; /* main fails the run if stdout cannot take the lines */
 }
 
 static const Opt opts[] = {

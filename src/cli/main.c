@@ -145,23 +145,6 @@ static int run(const Command *c, int argc, char **argv)
     return rc;
 }
 
-static int dispatch(int argc, char **argv);
-
-int main(int argc, char **argv)
-{
-    int rc = dispatch(argc, argv);
-    /* What a command printed on stdout is its answer (diff's figures,
-     * --explain's plan): lost to a full disk or a closed pipe, the run
-     * failed, though the command found nothing wrong. */
-    errno = 0;
-    if ((fflush(stdout) != 0 || ferror(stdout)) && rc == 0) {
-        fprintf(stderr, "lancer: cannot write the standard output%s%s\n", errno ? ": " : "",
-                errno ? strerror(errno) : "");
-        rc = 1;
-    }
-    return rc;
-}
-
 /* The command line's command, run. Returns the exit status. */
 static int dispatch(int argc, char **argv)
 {
@@ -208,4 +191,19 @@ static int dispatch(int argc, char **argv)
     }
     fprintf(stderr, "lancer: unknown command '%s' (see 'lancer --help')\n", name);
     return 2;
+}
+
+int main(int argc, char **argv)
+{
+    int rc = dispatch(argc, argv);
+    /* What a command printed on stdout is its answer (diff's figures,
+     * --explain's plan): lost to a full disk or a closed pipe, the run
+     * failed, though the command found nothing wrong. */
+    errno = 0;
+    if ((fflush(stdout) != 0 || ferror(stdout)) && rc == 0) {
+        fprintf(stderr, "lancer: cannot write the standard output%s%s\n", errno ? ": " : "",
+                errno ? strerror(errno) : "");
+        rc = 1;
+    }
+    return rc;
 }
