@@ -1055,18 +1055,30 @@ static void ell_surface(const Ellipsoid *e, const Ray *r, const PrimHit *h, Surf
  * p's own error is far smaller where the triangle lies close to a
  * coordinate plane through the origin (a CAD model standing on z = 0), so
  * perr grows to this margin (a2: twice the area). */
-static void tri_spawn_margin(const Triangle *t, Surface *s, float a2)
+static void tri_spawn_margin(const Triangle *t, Surface *s, float a2, const float b[3])
 {
     /* (comparisons, not float_max: no operand here can be a NaN) */
     float e = vec_max_abs(vec_sub(t->a, s->p)), eb = vec_max_abs(vec_sub(t->b, s->p));
     float ec = vec_max_abs(vec_sub(t->c, s->p));
     e = eb > e ? eb : e;
     e = ec > e ? ec : e;
+    float bmin = b[0] < b[1] ? b[0] : b[1];
+    bmin = b[2] < bmin ? b[2] : bmin;
     float margin = gamma_f(TRI_SPAWN_GAMMA) * e * (1.0f + e * e / a2);
     if (!(margin <= e)) /* a sliver (or a2 = 0): at most the triangle's spread */
         margin = e;
     s->perr = vec3(s->perr.x > margin ? s->perr.x : margin, s->perr.y > margin ? s->perr.y : margin,
                    s->perr.z > margin ? s->perr.z : margin);
+    /* Surface.edge: the distance to edge i is b_i a2 / |edge i|; the
+     * offset is at most the sum of perr. First against the longest an
+     * edge can be, 2 sqrt(3) e, which rules out most hits. */
+    const float reach = (float)PRIM_EDGE_REACH * (s->perr.x + s->perr.y + s->perr.z);
+    s->edge = 0;
+    if (bmin * a2 <= 3.5f * e * reach) {
+        const Vec3 ed[3] = {vec_sub(t->c, t->b), vec_sub(t->a, t->c), vec_sub(t->b, t->a)};
+        for (int i = 0; i < 3; i++)
+            s->edge |= b[i] * a2 <= reach * vec_length(ed[i]);
+    }
 }
 
 void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, Surface *s)
@@ -1075,6 +1087,7 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
     int oriented = 0; /* ng already faces the ray (the robust ellipsoid's) */
     Vec3 ng = vec3(0.0f, 0.0f, 0.0f), ns, noff = ng;
     s->pin_side = 0;
+    s->edge = 0;
     int edge = 0; /* on a box's edge or corner: noff is the sum of its faces' normals */
     if (!robust)
         s->p = ray_at(r, h->t); /* perr: a heuristic, below */
@@ -1129,7 +1142,8 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
             Vec3 m = vec_add(vec_add(vec3(fabsf(pa.x), fabsf(pa.y), fabsf(pa.z)), vec3(fabsf(pb.x), fabsf(pb.y), fabsf(pb.z))),
                              vec3(fabsf(pc.x), fabsf(pc.y), fabsf(pc.z)));
             s->perr = vec_scale(m, gamma_f(7));
-            tri_spawn_margin(t, s, vec_length(ng));
+            const float b[3] = {b0, h->u, h->v};
+            tri_spawn_margin(t, s, vec_length(ng), b);
         }
         break;
     }
@@ -1278,6 +1292,7 @@ __attribute__((target("avx"))) static void sphere_surface4(const Prim *prims, co
         o->perr = vec3(e[0][j], e[1][j], e[2][j]);
         o->ng = o->noff = o->ns = vec3(ng[0][j], ng[1][j], ng[2][j]);
         o->pin_side = 0;
+        o->edge = 0;
     }
 }
 #endif

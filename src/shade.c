@@ -3,7 +3,8 @@
  *
  * Every secondary ray starts at prim_spawn_origin(), never at the raw hit
  * point, and accepts any t > 0: the offset, derived from the hit's own
- * error bound, not a t_min epsilon, keeps it off its own surface. POV-Ray
+ * error bound, not a t_min epsilon, keeps it off its own surface (and,
+ * next to a mesh's edge, edge_clear() off the faces beyond it). POV-Ray
  * itself ignores hits closer than 1e-4 (and shadow occluders within 1e-3 of
  * either end); the two differ only on surfaces that touch, a line of pixels
  * at most. At the light's end a shadow ray stops short (light_reach).
@@ -14,6 +15,10 @@
 
 /* POV-Ray skips a light when N.L is below this (its EPSILON). */
 #define LIGHT_EPSILON 1e-10f
+/* The faces past which edge_clear() moves a ray, at most, and how far
+ * from its origin it looks for them, in perr's (Surface). */
+#define EDGE_STEPS 8
+#define EDGE_PROBE (4.0f * (float)PRIM_EDGE_REACH)
 
 
 typedef struct {
@@ -55,6 +60,77 @@ static float toward(Vec3 p, Vec3 q, Vec3 *dir)
     float dist = vec_length(d);
     *dir = vec_scale(d, 1.0f / dist);
     return dist;
+}
+
+/* Would a ray from sf's point along d not cross flat primitive x (a
+ * triangle or a plane), whatever its hit from an offset origin says? So
+ * when the point lies on x's plane, within its error bound, or past it as
+ * seen along d: the line then crosses the plane at a t <= 0. Not for the
+ * other kinds (0). In double, from the float vertices: their differences
+ * are exact there, and the cross product's roundings far below perr's. */
+static int starts_past(const Prim *x, const Surface *sf, Vec3 d)
+{
+    double n[3], x0[3], nmag[3];
+    if (x->kind == PRIM_TRIANGLE || x->kind == PRIM_SMOOTH_TRIANGLE) {
+        const Triangle *t = &x->g.tri;
+        double e1[3], e2[3];
+        for (int i = 0; i < 3; i++) {
+            x0[i] = vec_comp(t->a, i);
+            e1[i] = (double)vec_comp(t->b, i) - x0[i];
+            e2[i] = (double)vec_comp(t->c, i) - x0[i];
+        }
+        for (int i = 0; i < 3; i++) {
+            int j = (i + 1) % 3, k = (i + 2) % 3;
+            n[i] = e1[j] * e2[k] - e1[k] * e2[j];
+            nmag[i] = fabs(e1[j] * e2[k]) + fabs(e1[k] * e2[j]);
+        }
+    } else if (x->kind == PRIM_PLANE) {
+        for (int i = 0; i < 3; i++) {
+            n[i] = vec_comp(x->g.plane.n, i);
+            x0[i] = n[i] * x->g.plane.d;
+            nmag[i] = fabs(n[i]);
+        }
+    } else
+        return 0;
+    double sp = 0.0, nd = 0.0, err = 0.0;
+    for (int i = 0; i < 3; i++) {
+        double q = (double)vec_comp(sf->p, i) - x0[i];
+        sp += n[i] * q;
+        nd += n[i] * vec_comp(d, i);
+        err += fabs(n[i]) * vec_comp(sf->perr, i) + 0x1p-40 * nmag[i] * (fabs(q) + fabs(x0[i]));
+    }
+    return nd > 0.0 ? sp >= -err : nd < 0.0 ? sp <= err : 1;
+}
+
+/* A ray *r spawned off a triangle near its edge (sf->edge). The faces
+ * beyond the edge pass through or close to sf's point, and the spawn
+ * offset, which clears the plane of the triangle hit alone, may take the
+ * origin across one of them (a sharp apex, a mesh box's edge): the ray
+ * would hit it at once, a surface the ray from the point itself does not
+ * cross (one too many through a glass mesh). So while the ray's first hit
+ * is such a face (starts_past), the ray starts again past it, from that
+ * face's own spawn origin, a few times at most. */
+static void edge_clear(const Ctx *c, const Surface *sf, Ray *r)
+{
+    /* Such a hit lies within a few offsets of the origin, unless the ray
+     * runs almost along that face: the search stops there, which keeps
+     * it to the BVH nodes around the point. */
+    const float near = EDGE_PROBE * (sf->perr.x + sf->perr.y + sf->perr.z);
+    for (int step = 0; step < EDGE_STEPS; step++) {
+        PrimHit h;
+        Ray probe = *r;
+        probe.tmax = near < r->tmax ? near : r->tmax;
+        const int i = accel_closest(c->a, &probe, &h, c->st);
+        if (i < 0 || !starts_past(&c->s->prims[i], sf, r->d))
+            return;
+        Surface x;
+        prim_surface(&c->s->prims[i], r, &h, c->p->variant, &x);
+        const Vec3 o = prim_spawn_origin(&x, r->d);
+        r->tmax -= vec_length(vec_sub(o, r->o)); /* a shadow ray's end stays where it was */
+        r->o = o;
+        if (!(r->tmax > 0.0f))
+            return;
+    }
 }
 
 /* The light that filtered shadows let through along the shadow rays r[k]
@@ -100,6 +176,8 @@ static void filtered(const Ctx *c, const Ray *r, int n, const Vec3 *q, Vec3 *f)
             on[m].o = o; /* m <= j: cur[m] is done with */
             on[m].d = d;
             on[m].tmax = light_reach(vec_length(vec_sub(q[k], o)));
+            if (sf[j].edge)
+                edge_clear(c, &sf[j], &on[m]);
             who[m++] = k;
             c->st->shadow++;
         }
@@ -131,6 +209,8 @@ static inline void area_packet(const Ctx *c, PlanShadow mode, const Surface *sf,
         Vec3 d;
         float qd = toward(sf->p, point[idx ? idx[k] : k], &d);
         sr[k] = ray_make(spawn_toward(sf, o, d), d, light_reach(qd));
+        if (sf->edge)
+            edge_clear(c, sf, &sr[k]);
     }
     c->st->shadow += (unsigned long long)n;
     if (mode == PLAN_SHADOW_OPAQUE) {
@@ -346,6 +426,8 @@ static int refraction(const Ctx *c, int prim, const Material *m, const Surface *
         if (!worth(c, wt))
             return REFRACT_NONE;
         *t = ray_make(prim_spawn_origin(sf, r->d), r->d, INFINITY);
+        if (sf->edge)
+            edge_clear(c, sf, t);
         c->st->refraction++;
         c->st->too_deep += (unsigned)lost;
         return REFRACT_ON;
@@ -359,6 +441,8 @@ static int refraction(const Ctx *c, int prim, const Material *m, const Surface *
     /* Heckbert's refraction formula, with N facing the incoming ray. */
     Vec3 d = vec_normalize(vec_madd(vec_scale(r->d, eta), sf->ns, eta * cosi - sqrtf(disc)));
     *t = ray_make(prim_spawn_origin(sf, d), d, INFINITY);
+    if (sf->edge)
+        edge_clear(c, sf, t);
     c->st->refraction++;
     c->st->too_deep += (unsigned)lost;
     return REFRACT_RAY;
@@ -405,6 +489,8 @@ static void mirror_ray(const Ctx *c, const Ray *r, const Surface *sf, Vec3 front
     out->o = spawn_front(sf, front, d);
     out->d = d;
     out->tmax = INFINITY;
+    if (sf->edge)
+        edge_clear(c, sf, out);
 }
 
 Vec3 shade_trace(const RenderPlan *p, const Accel *a, const Ray *r, RayStats *st)
@@ -464,6 +550,8 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
                 continue; /* the light reaches the point whole */
             if (together) { /* a point light: one shadow ray, in a packet below */
                 sr[ns] = ray_make(spawn_front(&sf[k], front[k], L), L, light_reach(dist));
+                if (sf[k].edge)
+                    edge_clear(c, &sf[k], &sr[ns]);
                 c->st->shadow++;
                 who[ns++] = k;
             } else

@@ -385,6 +385,99 @@ static void test_refraction_through_slab(void **state)
     scene_free(&s);
 }
 
+/* Loads the floor scene plus `extra`, then drops the floor. */
+static void load_floorless(Scene *s, const char *extra)
+{
+    load(s, extra);
+    memmove(&s->prims[0], &s->prims[1], sizeof s->prims[0] * (size_t)(s->nprims - 1));
+    s->nprims--;
+}
+
+/* A clear pyramid of height 3 over the square |x|, |z| <= 1, as six
+ * triangles, and a mesh cube |x|, |y|, |z| <= 1 of twelve, each surface
+ * letting through half the light (transmit 0.5, ior 1: no bend). */
+#define PYRAMID                                                                                                       \
+    "triangle { a 0 3 0 b 1 0 -1 c -1 0 -1 material g }\n"                                                           \
+    "triangle { a 0 3 0 b 1 0 1 c 1 0 -1 material g }\n"                                                             \
+    "triangle { a 0 3 0 b -1 0 1 c 1 0 1 material g }\n"                                                             \
+    "triangle { a 0 3 0 b -1 0 -1 c -1 0 1 material g }\n"                                                           \
+    "triangle { a -1 0 -1 b 1 0 -1 c 1 0 1 material g }\n"                                                           \
+    "triangle { a -1 0 -1 b 1 0 1 c -1 0 1 material g }\n"
+#define HALF_CLEAR "material g { color 1 1 1 ambient 0 diffuse 0 transmit 0.5 }\n"
+
+static void test_mesh_apex_crossed_once(void **state)
+{
+    (void)state;
+    /* A ray into a sharp apex of a mesh, or past it by less than a spawn
+     * offset's reach, crosses two surfaces: the background times 0.5^2.
+     * The spawn offset off the face hit, along that face's normal, leaves
+     * the origin outside the opposite face: without edge_clear the ray
+     * crossed it as a third surface (0.125). */
+    Scene s;
+    load_floorless(&s, HALF_CLEAR PYRAMID);
+    const Vec3 eye = vec3(0, 10, 0);
+    int rays = 0;
+    for (int i = -2; i <= 2; i++)
+        for (int k = -2; k <= 2; k++) {
+            /* through points 1e-4 below the apex, up to 2e-6 off its axis:
+             * inside the pyramid, whose half-width there is 3.3e-5 */
+            Vec3 q = vec3(1e-6f * (float)i, 3.0f - 1e-4f, 1e-6f * (float)k);
+            Vec3 c = trace(&s, eye, vec_sub(q, eye));
+            assert_vec(c, 0.25f * 0.2f, 0.25f * 0.4f, 0.25f * 0.6f, 1e-6);
+            rays++;
+        }
+    /* straight down, exactly through the apex vertex */
+    assert_vec(trace(&s, eye, vec3(0, -1, 0)), 0.25f * 0.2f, 0.25f * 0.4f, 0.25f * 0.6f, 1e-6);
+    assert_int_equal(rays, 25);
+    scene_free(&s);
+}
+
+static void test_mesh_box_edge_crossed_once(void **state)
+{
+    (void)state;
+    /* Rays into a mesh cube exactly through its edges and a corner cross
+     * two surfaces; the cube's faces meet at right angles, so the offset
+     * off one face leaves the origin on the plane of the next. */
+    Scene s;
+    load_floorless(&s, HALF_CLEAR "triangle { a -1 -1 -1 b 1 1 -1 c 1 -1 -1 material g }\n"
+                                  "triangle { a -1 -1 -1 b -1 1 -1 c 1 1 -1 material g }\n"
+                                  "triangle { a -1 -1 1 b 1 -1 1 c 1 1 1 material g }\n"
+                                  "triangle { a -1 -1 1 b 1 1 1 c -1 1 1 material g }\n"
+                                  "triangle { a -1 -1 -1 b 1 -1 -1 c 1 -1 1 material g }\n"
+                                  "triangle { a -1 -1 -1 b 1 -1 1 c -1 -1 1 material g }\n"
+                                  "triangle { a 1 1 -1 b -1 1 -1 c -1 1 1 material g }\n"
+                                  "triangle { a 1 1 -1 b -1 1 1 c 1 1 1 material g }\n"
+                                  "triangle { a 1 -1 -1 b 1 1 -1 c 1 1 1 material g }\n"
+                                  "triangle { a 1 -1 -1 b 1 1 1 c 1 -1 1 material g }\n"
+                                  "triangle { a -1 -1 -1 b -1 -1 1 c -1 1 1 material g }\n"
+                                  "triangle { a -1 -1 -1 b -1 1 1 c -1 1 -1 material g }\n");
+    const Vec3 eyes[4][2] = {{{5, 5, 0.3f}, {1, 1, 0}},
+                             {{5, 5, 0.3f}, {1, 1, 0.5f}},
+                             {{-5, 5, 0.1f}, {-1, 1, 0}},
+                             {{5, 5, 5}, {1, 1, 1}}};
+    for (int i = 0; i < 4; i++)
+        assert_vec(trace(&s, eyes[i][0], vec_sub(eyes[i][1], eyes[i][0])), 0.25f * 0.2f, 0.25f * 0.4f,
+                   0.25f * 0.6f, 1e-6);
+    scene_free(&s);
+}
+
+static void test_shadow_through_mesh_apex(void **state)
+{
+    (void)state;
+    /* A ceiling at y = 10 lit from under the pyramid: the shadow ray from
+     * the ceiling point over the apex goes in through the apex vertex and
+     * out through the base, two surfaces, so the diffuse term carries 0.5^2
+     * (ambient 0.1 and diffuse 0.6 of colour 0.5 0.4 0.3, N.L = 1). The
+     * shadow rays are filtered ones, in filtered(), surface after surface. */
+    Scene s;
+    load_floorless(&s, HALF_CLEAR "material m2 { color 0.5 0.4 0.3 ambient 0.1 diffuse 0.6 }\n"
+                                  "plane { normal 0 -1 0 offset -10 material m2 }\n"
+                                  "light { position 0 -5 0 }\n" PYRAMID);
+    const float k = 0.1f + 0.6f * 0.25f;
+    assert_vec(trace(&s, vec3(0.5f, 9.5f, 0), vec3(-0.5f, 0.5f, 0)), 0.5f * k, 0.4f * k, 0.3f * k, 1e-6);
+    scene_free(&s);
+}
+
 static void test_total_internal_reflection(void **state)
 {
     (void)state;
@@ -724,6 +817,8 @@ int main(void)
         cmocka_unit_test(test_traced_is_trace), cmocka_unit_test(test_filtered_shadows_in_packets),
         cmocka_unit_test(test_refraction_in_packets), cmocka_unit_test(test_invisible_sphere_in_glass),
         cmocka_unit_test(test_adaptive_area_light), cmocka_unit_test(test_light_on_a_surface),
+        cmocka_unit_test(test_mesh_apex_crossed_once), cmocka_unit_test(test_mesh_box_edge_crossed_once),
+        cmocka_unit_test(test_shadow_through_mesh_apex),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

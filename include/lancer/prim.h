@@ -149,7 +149,17 @@ typedef struct {
      * everywhere else (no pin). */
     Vec3 pin;
     int pin_side;
+    /* 1 for a robust triangle's hit near one of its edges, where moving
+     * off the triangle's plane may cross that of a face beyond the edge:
+     * a ray spawned there may then hit that face at once (shade.c,
+     * edge_clear); 0 everywhere else. */
+    int edge;
 } Surface;
+
+/* How near an edge a triangle's hit sets Surface.edge, in spawn offsets:
+ * enough for faces that meet the triangle at an angle down to a few
+ * degrees. */
+#define PRIM_EDGE_REACH 16.0
 
 typedef enum { PRIM_ROBUST, PRIM_CLASSIC } PrimVariant;
 
