@@ -133,6 +133,15 @@ static void edge_clear(const Ctx *c, const Surface *sf, Ray *r)
     }
 }
 
+/* Is the shadow ray r off sf (sf->edge), found blocked, still blocked once
+ * it starts past the faces beyond sf's edge? A ray found clear needs no
+ * look: a face edge_clear() would move it past would have blocked it. */
+static int blocked_past_edge(const Ctx *c, const Surface *sf, Ray r)
+{
+    edge_clear(c, sf, &r);
+    return r.tmax > 0.0f && accel_occluded(c->a, &r, c->st);
+}
+
 /* The light that filtered shadows let through along the shadow rays r[k]
  * towards points q[k], k < n <= ACCEL_PACKET, into f[k]: the product of
  * pass_factor over every transparent surface crossed, 0 behind an opaque
@@ -209,12 +218,15 @@ static inline void area_packet(const Ctx *c, PlanShadow mode, const Surface *sf,
         Vec3 d;
         float qd = toward(sf->p, point[idx ? idx[k] : k], &d);
         sr[k] = ray_make(spawn_toward(sf, o, d), d, light_reach(qd));
-        if (sf->edge)
+        if (sf->edge && mode != PLAN_SHADOW_OPAQUE)
             edge_clear(c, sf, &sr[k]);
     }
     c->st->shadow += (unsigned long long)n;
     if (mode == PLAN_SHADOW_OPAQUE) {
         unsigned dark = accel_occluded_packet(c->a, sr, n, c->st);
+        for (int k = 0; k < n && sf->edge; k++)
+            if (dark >> k & 1 && !blocked_past_edge(c, sf, sr[k]))
+                dark &= ~(1u << k);
         for (int k = 0; k < n; k++)
             t[k] = dark >> k & 1 ? vec3(0, 0, 0) : vec3(1, 1, 1);
     } else {
@@ -550,7 +562,7 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
                 continue; /* the light reaches the point whole */
             if (together) { /* a point light: one shadow ray, in a packet below */
                 sr[ns] = ray_make(spawn_front(&sf[k], front[k], L), L, light_reach(dist));
-                if (sf[k].edge)
+                if (sf[k].edge && mode == PLAN_SHADOW_FILTERED) /* opaque: once found blocked, below */
                     edge_clear(c, &sf[k], &sr[ns]);
                 c->st->shadow++;
                 who[ns++] = k;
@@ -568,8 +580,8 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
         }
         unsigned dark = ns ? accel_occluded_packet(c->a, sr, ns, c->st) : 0;
         for (int j = 0; j < ns; j++)
-            if (dark >> j & 1) /* times a visibility of 0, as light_visibility's */
-                lc[who[j]] = vec_mul(lc[who[j]], vec3(0, 0, 0));
+            if (dark >> j & 1 && (!sf[who[j]].edge || blocked_past_edge(c, &sf[who[j]], sr[j])))
+                lc[who[j]] = vec_mul(lc[who[j]], vec3(0, 0, 0)); /* times a visibility of 0, as light_visibility's */
         for (int k = 0; k < n; k++)
             if (lit[k])
                 out[k] = vec_add(out[k], vec_mul(lc[k], term[k]));

@@ -478,6 +478,30 @@ static void test_shadow_through_mesh_apex(void **state)
     scene_free(&s);
 }
 
+static void test_no_self_shadow_in_mesh_groove(void **state)
+{
+    (void)state;
+    /* An opaque groove: two triangles sharing the z axis, opening upwards
+     * at 22.6 degrees, seen and lit from straight above its bottom edge.
+     * The light reaches the edge (N.L = 0.2 / sqrt(1.04) on either face);
+     * the spawn offset off one face, into the groove, leaves the origin
+     * behind the other face, which blocked the shadow ray without
+     * blocked_past_edge: a point light's rays and an area light's. */
+    const char *light[2] = {"light { position 0 10 0 }\n",
+                            "light { position 0 10 0 area_u 0 0 0.4 area_v 0.02 0 0 area_samples 3 2 }\n"};
+    for (int l = 0; l < 2; l++) {
+        char extra[512];
+        snprintf(extra, sizeof extra, "%s%s", light[l],
+                 "triangle { a 0 0 -1 b 0 0 1 c 0.2 1 0 material m }\n"
+                 "triangle { a 0 0 -1 b 0 0 1 c -0.2 1 0 material m }\n");
+        Scene s;
+        load_floorless(&s, extra);
+        const float k = 0.1f + 0.6f * (0.2f / sqrtf(1.04f));
+        assert_vec(trace(&s, vec3(0, 5, 0), vec3(0, -1, 0)), 0.5f * k, 0.4f * k, 0.3f * k, 1e-5);
+        scene_free(&s);
+    }
+}
+
 static void test_total_internal_reflection(void **state)
 {
     (void)state;
@@ -818,7 +842,7 @@ int main(void)
         cmocka_unit_test(test_refraction_in_packets), cmocka_unit_test(test_invisible_sphere_in_glass),
         cmocka_unit_test(test_adaptive_area_light), cmocka_unit_test(test_light_on_a_surface),
         cmocka_unit_test(test_mesh_apex_crossed_once), cmocka_unit_test(test_mesh_box_edge_crossed_once),
-        cmocka_unit_test(test_shadow_through_mesh_apex),
+        cmocka_unit_test(test_shadow_through_mesh_apex), cmocka_unit_test(test_no_self_shadow_in_mesh_groove),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
