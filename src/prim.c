@@ -1055,30 +1055,45 @@ static void ell_surface(const Ellipsoid *e, const Ray *r, const PrimHit *h, Surf
  * p's own error is far smaller where the triangle lies close to a
  * coordinate plane through the origin (a CAD model standing on z = 0), so
  * perr grows to this margin (a2: twice the area). */
-static void tri_spawn_margin(const Triangle *t, Surface *s, float a2, const float b[3])
+static void tri_spawn_margin(const Triangle *t, Surface *s, float a2)
 {
     /* (comparisons, not float_max: no operand here can be a NaN) */
     float e = vec_max_abs(vec_sub(t->a, s->p)), eb = vec_max_abs(vec_sub(t->b, s->p));
     float ec = vec_max_abs(vec_sub(t->c, s->p));
     e = eb > e ? eb : e;
     e = ec > e ? ec : e;
-    float bmin = b[0] < b[1] ? b[0] : b[1];
-    bmin = b[2] < bmin ? b[2] : bmin;
     float margin = gamma_f(TRI_SPAWN_GAMMA) * e * (1.0f + e * e / a2);
     if (!(margin <= e)) /* a sliver (or a2 = 0): at most the triangle's spread */
         margin = e;
     s->perr = vec3(s->perr.x > margin ? s->perr.x : margin, s->perr.y > margin ? s->perr.y : margin,
                    s->perr.z > margin ? s->perr.z : margin);
-    /* Surface.edge: the distance to edge i is b_i a2 / |edge i|; the
-     * offset is at most the sum of perr. First against the longest an
-     * edge can be, 2 sqrt(3) e, which rules out most hits. */
-    const float reach = (float)PRIM_EDGE_REACH * (s->perr.x + s->perr.y + s->perr.z);
-    s->edge = 0;
-    if (bmin * a2 <= 3.5f * e * reach) {
-        const Vec3 ed[3] = {vec_sub(t->c, t->b), vec_sub(t->a, t->c), vec_sub(t->b, t->a)};
-        for (int i = 0; i < 3; i++)
-            s->edge |= b[i] * a2 <= reach * vec_length(ed[i]);
+}
+
+int prim_near_edge(const Prim *p, const PrimHit *h, const Surface *s)
+{
+    if (p->kind != PRIM_TRIANGLE && p->kind != PRIM_SMOOTH_TRIANGLE)
+        return 0;
+    /* The distance to edge i is b_i |n| / |edge i|, n the unnormalised
+     * normal; the offset is at most the sum of perr. Compared squared, in
+     * double, which neither overflows nor takes a root. */
+    const Triangle *t = &p->g.tri;
+    const Vec3 ed[3] = {vec_sub(t->c, t->b), vec_sub(t->a, t->c), vec_sub(t->b, t->a)};
+    const double b[3] = {1.0f - h->u - h->v, h->u, h->v};
+    const double reach = PRIM_EDGE_REACH * ((double)s->perr.x + s->perr.y + s->perr.z);
+    double n[3], n2 = 0.0;
+    for (int i = 0; i < 3; i++) {
+        int j = (i + 1) % 3, k = (i + 2) % 3;
+        n[i] = (double)vec_comp(ed[2], j) * vec_comp(ed[1], k) - (double)vec_comp(ed[2], k) * vec_comp(ed[1], j);
+        n2 += n[i] * n[i];
     }
+    for (int i = 0; i < 3; i++) {
+        double l2 = 0.0;
+        for (int j = 0; j < 3; j++)
+            l2 += (double)vec_comp(ed[i], j) * vec_comp(ed[i], j);
+        if (b[i] * b[i] * n2 <= reach * reach * l2)
+            return 1;
+    }
+    return 0;
 }
 
 void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, Surface *s)
@@ -1142,8 +1157,8 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
             Vec3 m = vec_add(vec_add(vec3(fabsf(pa.x), fabsf(pa.y), fabsf(pa.z)), vec3(fabsf(pb.x), fabsf(pb.y), fabsf(pb.z))),
                              vec3(fabsf(pc.x), fabsf(pc.y), fabsf(pc.z)));
             s->perr = vec_scale(m, gamma_f(7));
-            const float b[3] = {b0, h->u, h->v};
-            tri_spawn_margin(t, s, vec_length(ng), b);
+            tri_spawn_margin(t, s, vec_length(ng));
+            s->edge = -1; /* prim_near_edge tells, if asked */
         }
         break;
     }

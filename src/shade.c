@@ -133,6 +133,15 @@ static void edge_clear(const Ctx *c, const Surface *sf, Ray *r)
     }
 }
 
+/* sf->edge for hit h of primitive prim (Surface), worked out on first
+ * need: few hits spawn a ray that needs it. */
+static int near_edge(const Ctx *c, int prim, const PrimHit *h, Surface *sf)
+{
+    if (sf->edge < 0)
+        sf->edge = prim_near_edge(&c->s->prims[prim], h, sf);
+    return sf->edge;
+}
+
 /* Is the shadow ray r off sf (sf->edge), found blocked, still blocked once
  * it starts past the faces beyond sf's edge? A ray found clear needs no
  * look: a face edge_clear() would move it past would have blocked it. */
@@ -185,7 +194,7 @@ static void filtered(const Ctx *c, const Ray *r, int n, const Vec3 *q, Vec3 *f)
             on[m].o = o; /* m <= j: cur[m] is done with */
             on[m].d = d;
             on[m].tmax = light_reach(vec_length(vec_sub(q[k], o)));
-            if (sf[j].edge)
+            if (near_edge(c, i, &h[j], &sf[j]))
                 edge_clear(c, &sf[j], &on[m]);
             who[m++] = k;
             c->st->shadow++;
@@ -218,13 +227,13 @@ static inline void area_packet(const Ctx *c, PlanShadow mode, const Surface *sf,
         Vec3 d;
         float qd = toward(sf->p, point[idx ? idx[k] : k], &d);
         sr[k] = ray_make(spawn_toward(sf, o, d), d, light_reach(qd));
-        if (sf->edge && mode != PLAN_SHADOW_OPAQUE)
+        if (sf->edge > 0 && mode != PLAN_SHADOW_OPAQUE)
             edge_clear(c, sf, &sr[k]);
     }
     c->st->shadow += (unsigned long long)n;
     if (mode == PLAN_SHADOW_OPAQUE) {
         unsigned dark = accel_occluded_packet(c->a, sr, n, c->st);
-        for (int k = 0; k < n && sf->edge; k++)
+        for (int k = 0; k < n && sf->edge > 0; k++)
             if (dark >> k & 1 && !blocked_past_edge(c, sf, sr[k]))
                 dark &= ~(1u << k);
         for (int k = 0; k < n; k++)
@@ -438,7 +447,7 @@ static int refraction(const Ctx *c, int prim, const Material *m, const Surface *
         if (!worth(c, wt))
             return REFRACT_NONE;
         *t = ray_make(prim_spawn_origin(sf, r->d), r->d, INFINITY);
-        if (sf->edge)
+        if (sf->edge > 0)
             edge_clear(c, sf, t);
         c->st->refraction++;
         c->st->too_deep += (unsigned)lost;
@@ -453,7 +462,7 @@ static int refraction(const Ctx *c, int prim, const Material *m, const Surface *
     /* Heckbert's refraction formula, with N facing the incoming ray. */
     Vec3 d = vec_normalize(vec_madd(vec_scale(r->d, eta), sf->ns, eta * cosi - sqrtf(disc)));
     *t = ray_make(prim_spawn_origin(sf, d), d, INFINITY);
-    if (sf->edge)
+    if (sf->edge > 0)
         edge_clear(c, sf, t);
     c->st->refraction++;
     c->st->too_deep += (unsigned)lost;
@@ -501,7 +510,7 @@ static void mirror_ray(const Ctx *c, const Ray *r, const Surface *sf, Vec3 front
     out->o = spawn_front(sf, front, d);
     out->d = d;
     out->tmax = INFINITY;
-    if (sf->edge)
+    if (sf->edge > 0)
         edge_clear(c, sf, out);
 }
 
@@ -562,12 +571,14 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
                 continue; /* the light reaches the point whole */
             if (together) { /* a point light: one shadow ray, in a packet below */
                 sr[ns] = ray_make(spawn_front(&sf[k], front[k], L), L, light_reach(dist));
-                if (sf[k].edge && mode == PLAN_SHADOW_FILTERED) /* opaque: once found blocked, below */
+                if (mode == PLAN_SHADOW_FILTERED && near_edge(c, best[k], &h[k], &sf[k])) /* opaque: once found blocked, below */
                     edge_clear(c, &sf[k], &sr[ns]);
                 c->st->shadow++;
                 who[ns++] = k;
-            } else
+            } else {
+                near_edge(c, best[k], &h[k], &sf[k]); /* known, for every sample */
                 lc[k] = vec_mul(lc[k], light_visibility(c, i, &sf[k], lc[k]));
+            }
         }
         if (mode == PLAN_SHADOW_FILTERED && ns) {
             Vec3 vis[ACCEL_PACKET], at[ACCEL_PACKET];
@@ -580,7 +591,8 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
         }
         unsigned dark = ns ? accel_occluded_packet(c->a, sr, ns, c->st) : 0;
         for (int j = 0; j < ns; j++)
-            if (dark >> j & 1 && (!sf[who[j]].edge || blocked_past_edge(c, &sf[who[j]], sr[j])))
+            if (dark >> j & 1 &&
+                (!near_edge(c, best[who[j]], &h[who[j]], &sf[who[j]]) || blocked_past_edge(c, &sf[who[j]], sr[j])))
                 lc[who[j]] = vec_mul(lc[who[j]], vec3(0, 0, 0)); /* times a visibility of 0, as light_visibility's */
         for (int k = 0; k < n; k++)
             if (lit[k])
@@ -610,6 +622,7 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
                 wf = wt[k] * max3(f);
             else /* --no-plan: traced all the same, and weighed 0 */
                 f = vec3(0, 0, 0);
+            near_edge(c, best[k], &h[k], &sf[k]);
             int got = refraction(c, best[k], m[k], &sf[k], &r[k], in[k], wf, &tr[nt], &tin[nt]);
             if (got == REFRACT_ON)
                 out[k] = vec_add(out[k], vec_mul(f, trace(c, &tr[nt], level, 1, &tin[nt], wf)));
@@ -627,6 +640,7 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
         rmul[k] = tir ? 1.0f : m[k]->reflection;
         if (worth(c, w)) {
             rw[nr] = w;
+            near_edge(c, best[k], &h[k], &sf[k]);
             mirror_ray(c, &r[k], &sf[k], front[k], &rr[nr]);
             rin[nr] = in[k];
             rwho[nr++] = k;

@@ -546,28 +546,43 @@ static void test_spawn_origin_is_its_definition(void **state)
     assert_true(moved > 30000);
 }
 
-/* Surface.edge: set by the robust triangle for a hit on an edge, at a
- * vertex or within PRIM_EDGE_REACH spawn offsets of an edge, and for no
- * other hit; never by the classic one. */
-static void test_triangle_edge_flag(void **state)
+/* prim_near_edge: 1 for a triangle's hit on an edge, at a vertex or
+ * within PRIM_EDGE_REACH spawn offsets of an edge, 0 for its other hits and
+ * for other primitives; Surface.edge -1 (not yet known) for the robust
+ * triangle, 0 for the classic one and for other primitives. */
+static void test_triangle_near_edge(void **state)
 {
     (void)state;
     const Prim p = {PRIM_TRIANGLE, 0, {.tri = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, 1}, {0, 0, 1}}}};
     static const float at[][3] = {
         /* x, y, whether near an edge */
-        {0.5f, 0.5f, 1},       {0.5f, 0.0f, 1},  {0.0f, 0.25f, 1}, {0.0f, 0.0f, 1}, {1.0f, 0.0f, 1},
-        {0.5f, 1e-6f, 1},      {0.25f, 0.25f, 0}, {0.3f, 0.2f, 0},  {0.1f, 0.1f, 0},
+        {0.5f, 0.5f, 1},  {0.5f, 0.0f, 1},  {0.0f, 0.25f, 1}, {0.0f, 0.0f, 1}, {1.0f, 0.0f, 1},
+        {0.5f, 1e-6f, 1}, {0.25f, 0.25f, 0}, {0.3f, 0.2f, 0},  {0.1f, 0.1f, 0},
         {0.4f, 0.5f, 0}, /* 0.1 / sqrt(2) from the long edge */
     };
     for (size_t i = 0; i < sizeof at / sizeof at[0]; i++)
         for (int v = 0; v < 2; v++) {
+            const PrimVariant var = v ? PRIM_CLASSIC : PRIM_ROBUST;
             Ray r = ray(at[i][0], at[i][1], 5, 0, 0, -1);
+            PrimHit h;
             Surface sf;
-            assert_true(test_surface(&p, &r, v ? PRIM_CLASSIC : PRIM_ROBUST, &sf));
-            if (sf.edge != (v ? 0 : (int)at[i][2]))
-                print_error("hit at %g %g, %s: edge %d\n", at[i][0], at[i][1], v ? "classic" : "robust", sf.edge);
-            assert_int_equal(sf.edge, v ? 0 : (int)at[i][2]);
+            assert_true(prim_intersect(&p, &r, var, &h));
+            prim_surface(&p, &r, &h, var, &sf);
+            assert_int_equal(sf.edge, v ? 0 : -1);
+            if (v == 0 && prim_near_edge(&p, &h, &sf) != (int)at[i][2])
+                print_error("hit at %g %g: near_edge %d\n", at[i][0], at[i][1], prim_near_edge(&p, &h, &sf));
+            if (v == 0)
+                assert_int_equal(prim_near_edge(&p, &h, &sf), (int)at[i][2]);
         }
+    /* a sphere's hit, even where a triangle's would be on an edge */
+    const Prim sp = {PRIM_SPHERE, 0, {.sphere = {{0, 0, 0}, 1}}};
+    Ray r = ray(0, 0, 5, 0, 0, -1);
+    PrimHit h;
+    Surface sf;
+    assert_true(prim_intersect(&sp, &r, PRIM_ROBUST, &h));
+    prim_surface(&sp, &r, &h, PRIM_ROBUST, &sf);
+    assert_int_equal(sf.edge, 0);
+    assert_int_equal(prim_near_edge(&sp, &h, &sf), 0);
 }
 
 static double obox_coord(const OBox *b, Vec3 q, int i)
@@ -1646,7 +1661,7 @@ int main(void)
         cmocka_unit_test(test_double_min_max_are_libm),
         cmocka_unit_test(test_obox_grazing_slab),
         cmocka_unit_test(test_obox_spawn_inside_near_edge),
-        cmocka_unit_test(test_triangle_edge_flag),
+        cmocka_unit_test(test_triangle_near_edge),
         cmocka_unit_test(test_ellipsoid_spawn),
         cmocka_unit_test(test_ellipsoid_spawn_far_and_grazing),
     };

@@ -149,16 +149,15 @@ typedef struct {
      * everywhere else (no pin). */
     Vec3 pin;
     int pin_side;
-    /* 1 for a robust triangle's hit near one of its edges, where moving
-     * off the triangle's plane may cross that of a face beyond the edge:
-     * a ray spawned there may then hit that face at once (shade.c,
-     * edge_clear); 0 everywhere else. */
+    /* Whether the hit is near a triangle's edge (prim_near_edge): 0 or 1
+     * once known, and -1, for a robust triangle's hit, until the caller
+     * asks; 0 for every other hit. */
     int edge;
 } Surface;
 
-/* How near an edge a triangle's hit sets Surface.edge, in spawn offsets:
- * enough for faces that meet the triangle at an angle down to a few
- * degrees. */
+/* How near an edge prim_near_edge finds a triangle's hit, in spawn
+ * offsets: enough for faces that meet the triangle at an angle down to a
+ * few degrees. */
 #define PRIM_EDGE_REACH 16.0
 
 typedef enum { PRIM_ROBUST, PRIM_CLASSIC } PrimVariant;
@@ -328,6 +327,12 @@ int prim_inside(const Prim *p, Vec3 q);
  * heuristic (16 ulps of the larger of |p| and |ray origin|); the robust
  * one's is proven. */
 void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, Surface *s);
+/* Does robust hit h of primitive p, of surface s, lie within
+ * PRIM_EDGE_REACH spawn offsets of an edge of the triangle p? There
+ * moving off the triangle's plane may cross that of a face beyond the
+ * edge, and a ray spawned there hit that face at once (shade.c,
+ * edge_clear). 0 for every other kind. */
+int prim_near_edge(const Prim *p, const PrimHit *h, const Surface *s);
 /* prim_surface for the hits j < n of rays r[j] at prims[best[j]], into
  * s[j], skipping those with best[j] < 0: the same surfaces, bit for bit;
  * with AVX, robust spheres four at a time. */
