@@ -415,20 +415,22 @@ static void test_mesh_apex_crossed_once(void **state)
      * crossed it as a third surface (0.125). */
     Scene s;
     load_floorless(&s, HALF_CLEAR PYRAMID);
-    const Vec3 eye = vec3(0, 10, 0);
+    /* eyes above, within the apex's angle: each ray goes on into the pyramid */
+    const Vec3 eyes[4] = {{0, 10, 0}, {0.5f, 12, 0.3f}, {-0.7f, 9, 0.9f}, {0.01f, 5, 0.02f}};
     int rays = 0;
-    for (int i = -2; i <= 2; i++)
-        for (int k = -2; k <= 2; k++) {
-            /* through points 1e-4 below the apex, up to 2e-6 off its axis:
-             * inside the pyramid, whose half-width there is 3.3e-5 */
-            Vec3 q = vec3(1e-6f * (float)i, 3.0f - 1e-4f, 1e-6f * (float)k);
-            Vec3 c = trace(&s, eye, vec_sub(q, eye));
-            assert_vec(c, 0.25f * 0.2f, 0.25f * 0.4f, 0.25f * 0.6f, 1e-6);
-            rays++;
-        }
+    for (int e = 0; e < 4; e++)
+        for (int i = -2; i <= 2; i++)
+            for (int k = -2; k <= 2; k++) {
+                /* through points 1e-4 below the apex, up to 2e-6 off its
+                 * axis: inside the pyramid, whose half-width there is 3.3e-5 */
+                Vec3 q = vec3(1e-6f * (float)i, 3.0f - 1e-4f, 1e-6f * (float)k);
+                Vec3 c = trace(&s, eyes[e], vec_sub(q, eyes[e]));
+                assert_vec(c, 0.25f * 0.2f, 0.25f * 0.4f, 0.25f * 0.6f, 1e-6);
+                rays++;
+            }
     /* straight down, exactly through the apex vertex */
-    assert_vec(trace(&s, eye, vec3(0, -1, 0)), 0.25f * 0.2f, 0.25f * 0.4f, 0.25f * 0.6f, 1e-6);
-    assert_int_equal(rays, 25);
+    assert_vec(trace(&s, eyes[0], vec3(0, -1, 0)), 0.25f * 0.2f, 0.25f * 0.4f, 0.25f * 0.6f, 1e-6);
+    assert_int_equal(rays, 100);
     scene_free(&s);
 }
 
@@ -458,6 +460,14 @@ static void test_mesh_box_edge_crossed_once(void **state)
     for (int i = 0; i < 4; i++)
         assert_vec(trace(&s, eyes[i][0], vec_sub(eyes[i][1], eyes[i][0])), 0.25f * 0.2f, 0.25f * 0.4f,
                    0.25f * 0.6f, 1e-6);
+    /* rays within 4e-6 of the corner (1, 1, 1), from two eyes */
+    const Vec3 far[2] = {{5, 5, 5}, {6, 4, 3}};
+    for (int e = 0; e < 2; e++)
+        for (int i = -2; i <= 2; i++)
+            for (int k = -2; k <= 2; k++) {
+                Vec3 q = vec3(1.0f - 2e-6f + 1e-6f * (float)i, 1.0f - 2e-6f + 1e-6f * (float)k, 1.0f - 2e-6f);
+                assert_vec(trace(&s, far[e], vec_sub(q, far[e])), 0.25f * 0.2f, 0.25f * 0.4f, 0.25f * 0.6f, 1e-6);
+            }
     scene_free(&s);
 }
 
