@@ -510,8 +510,6 @@ static void mirror_ray(const Ctx *c, const Ray *r, const Surface *sf, Vec3 front
     out->o = spawn_front(sf, front, d);
     out->d = d;
     out->tmax = INFINITY;
-    if (sf->edge > 0)
-        edge_clear(c, sf, out);
 }
 
 Vec3 shade_trace(const RenderPlan *p, const Accel *a, const Ray *r, RayStats *st)
@@ -571,8 +569,6 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
                 continue; /* the light reaches the point whole */
             if (together) { /* a point light: one shadow ray, in a packet below */
                 sr[ns] = ray_make(spawn_front(&sf[k], front[k], L), L, light_reach(dist));
-                if (mode == PLAN_SHADOW_FILTERED && near_edge(c, best[k], &h[k], &sf[k])) /* opaque: once found blocked, below */
-                    edge_clear(c, &sf[k], &sr[ns]);
                 c->st->shadow++;
                 who[ns++] = k;
             } else {
@@ -582,6 +578,9 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
         }
         if (mode == PLAN_SHADOW_FILTERED && ns) {
             Vec3 vis[ACCEL_PACKET], at[ACCEL_PACKET];
+            for (int j = 0; j < ns; j++) /* (opaque: once found blocked, below) */
+                if (near_edge(c, best[who[j]], &h[who[j]], &sf[who[j]]))
+                    edge_clear(c, &sf[who[j]], &sr[j]);
             for (int j = 0; j < ns; j++)
                 at[j] = l->pos;
             filtered(c, sr, ns, at, vis);
@@ -640,8 +639,9 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
         rmul[k] = tir ? 1.0f : m[k]->reflection;
         if (worth(c, w)) {
             rw[nr] = w;
-            near_edge(c, best[k], &h[k], &sf[k]);
             mirror_ray(c, &r[k], &sf[k], front[k], &rr[nr]);
+            if (near_edge(c, best[k], &h[k], &sf[k]))
+                edge_clear(c, &sf[k], &rr[nr]);
             rin[nr] = in[k];
             rwho[nr++] = k;
         }
