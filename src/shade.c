@@ -578,7 +578,7 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
         }
         if (mode == PLAN_SHADOW_FILTERED && ns) {
             Vec3 vis[ACCEL_PACKET], at[ACCEL_PACKET];
-            for (int j = 0; j < ns; j++) /* (opaque: once found blocked, below) */
+            for (int j = 0; j < ns; j++) /* past a mesh's edge first (opaque: once found blocked, below) */
                 if (near_edge(c, best[who[j]], &h[who[j]], &sf[who[j]]))
                     edge_clear(c, &sf[who[j]], &sr[j]);
             for (int j = 0; j < ns; j++)
@@ -621,7 +621,7 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
                 wf = wt[k] * max3(f);
             else /* --no-plan: traced all the same, and weighed 0 */
                 f = vec3(0, 0, 0);
-            near_edge(c, best[k], &h[k], &sf[k]);
+            near_edge(c, best[k], &h[k], &sf[k]); /* refraction() reads it */
             int got = refraction(c, best[k], m[k], &sf[k], &r[k], in[k], wf, &tr[nt], &tin[nt]);
             if (got == REFRACT_ON)
                 out[k] = vec_add(out[k], vec_mul(f, trace(c, &tr[nt], level, 1, &tin[nt], wf)));
