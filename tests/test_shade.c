@@ -393,9 +393,9 @@ static void load_floorless(Scene *s, const char *extra)
     s->nprims--;
 }
 
-/* A clear pyramid of height 3 over the square |x|, |z| <= 1, as six
- * triangles, and a mesh cube |x|, |y|, |z| <= 1 of twelve, each surface
- * letting through half the light (transmit 0.5, ior 1: no bend). */
+/* A pyramid of height 3 over the square |x|, |z| <= 1, as six triangles;
+ * and a material whose every surface lets through half the light
+ * (transmit 0.5, ior 1: no bend). */
 #define PYRAMID                                                                                                       \
     "triangle { a 0 3 0 b 1 0 -1 c -1 0 -1 material g }\n"                                                           \
     "triangle { a 0 3 0 b 1 0 1 c 1 0 -1 material g }\n"                                                             \
