@@ -1069,6 +1069,25 @@ static void tri_spawn_margin(const Triangle *t, Surface *s, float a2)
                    s->perr.z > margin ? s->perr.z : margin);
 }
 
+/* Triangle t's unnormalised normal (b - a) x (c - a) in double, from the
+ * float vertices, whose differences are exact there; mag (NULL: not
+ * wanted) bounds each component's rounding: the sum of its two products'
+ * magnitudes, times a unit. */
+static void tri_normal_d(const Triangle *t, double n[3], double mag[3])
+{
+    double e1[3], e2[3];
+    for (int i = 0; i < 3; i++) {
+        e1[i] = (double)vec_comp(t->b, i) - vec_comp(t->a, i);
+        e2[i] = (double)vec_comp(t->c, i) - vec_comp(t->a, i);
+    }
+    for (int i = 0; i < 3; i++) {
+        int j = (i + 1) % 3, k = (i + 2) % 3;
+        n[i] = e1[j] * e2[k] - e1[k] * e2[j];
+        if (mag)
+            mag[i] = fabs(e1[j] * e2[k]) + fabs(e1[k] * e2[j]);
+    }
+}
+
 int prim_near_edge(const Prim *p, const PrimHit *h, const Surface *s)
 {
     if (p->kind != PRIM_TRIANGLE && p->kind != PRIM_SMOOTH_TRIANGLE)
@@ -1077,23 +1096,48 @@ int prim_near_edge(const Prim *p, const PrimHit *h, const Surface *s)
      * normal; the offset is at most the sum of perr. Compared squared, in
      * double, which neither overflows nor takes a root. */
     const Triangle *t = &p->g.tri;
-    const Vec3 ed[3] = {vec_sub(t->c, t->b), vec_sub(t->a, t->c), vec_sub(t->b, t->a)};
+    const Vec3 v[3] = {t->a, t->b, t->c};
     const double b[3] = {1.0f - h->u - h->v, h->u, h->v};
     const double reach = PRIM_EDGE_REACH * ((double)s->perr.x + s->perr.y + s->perr.z);
-    double n[3], n2 = 0.0;
-    for (int i = 0; i < 3; i++) {
-        int j = (i + 1) % 3, k = (i + 2) % 3;
-        n[i] = (double)vec_comp(ed[2], j) * vec_comp(ed[1], k) - (double)vec_comp(ed[2], k) * vec_comp(ed[1], j);
-        n2 += n[i] * n[i];
-    }
-    for (int i = 0; i < 3; i++) {
+    double n[3];
+    tri_normal_d(t, n, NULL);
+    const double n2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+    for (int i = 0; i < 3; i++) { /* edge i, opposite vertex i */
         double l2 = 0.0;
-        for (int j = 0; j < 3; j++)
-            l2 += (double)vec_comp(ed[i], j) * vec_comp(ed[i], j);
+        for (int j = 0; j < 3; j++) {
+            double e = (double)vec_comp(v[(i + 2) % 3], j) - vec_comp(v[(i + 1) % 3], j);
+            l2 += e * e;
+        }
         if (b[i] * b[i] * n2 <= reach * reach * l2)
             return 1;
     }
     return 0;
+}
+
+int prim_past_plane(const Prim *x, const Surface *s, Vec3 d)
+{
+    double n[3], x0[3], mag[3];
+    if (x->kind == PRIM_TRIANGLE || x->kind == PRIM_SMOOTH_TRIANGLE) {
+        tri_normal_d(&x->g.tri, n, mag);
+        for (int i = 0; i < 3; i++)
+            x0[i] = vec_comp(x->g.tri.a, i);
+    } else if (x->kind == PRIM_PLANE) {
+        for (int i = 0; i < 3; i++) {
+            n[i] = vec_comp(x->g.plane.n, i);
+            x0[i] = n[i] * x->g.plane.d;
+            mag[i] = fabs(n[i]);
+        }
+    } else
+        return 0;
+    double sp = 0.0, nd = 0.0, err = 0.0;
+    for (int i = 0; i < 3; i++) {
+        double q = (double)vec_comp(s->p, i) - x0[i];
+        sp += n[i] * q;
+        nd += n[i] * vec_comp(d, i);
+        /* p's error bound, and the double roundings, generously */
+        err += fabs(n[i]) * vec_comp(s->perr, i) + 0x1p-40 * mag[i] * (fabs(q) + fabs(x0[i]));
+    }
+    return nd > 0.0 ? sp >= -err : nd < 0.0 ? sp <= err : 1;
 }
 
 void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, Surface *s)

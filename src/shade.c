@@ -62,53 +62,13 @@ static float toward(Vec3 p, Vec3 q, Vec3 *dir)
     return dist;
 }
 
-/* Would a ray from sf's point along d not cross flat primitive x (a
- * triangle or a plane), whatever its hit from an offset origin says? So
- * when the point lies on x's plane, within its error bound, or past it as
- * seen along d: the line then crosses the plane at a t <= 0. Not for the
- * other kinds (0). In double, from the float vertices: their differences
- * are exact there, and the cross product's roundings far below perr's. */
-static int starts_past(const Prim *x, const Surface *sf, Vec3 d)
-{
-    double n[3], x0[3], nmag[3];
-    if (x->kind == PRIM_TRIANGLE || x->kind == PRIM_SMOOTH_TRIANGLE) {
-        const Triangle *t = &x->g.tri;
-        double e1[3], e2[3];
-        for (int i = 0; i < 3; i++) {
-            x0[i] = vec_comp(t->a, i);
-            e1[i] = (double)vec_comp(t->b, i) - x0[i];
-            e2[i] = (double)vec_comp(t->c, i) - x0[i];
-        }
-        for (int i = 0; i < 3; i++) {
-            int j = (i + 1) % 3, k = (i + 2) % 3;
-            n[i] = e1[j] * e2[k] - e1[k] * e2[j];
-            nmag[i] = fabs(e1[j] * e2[k]) + fabs(e1[k] * e2[j]);
-        }
-    } else if (x->kind == PRIM_PLANE) {
-        for (int i = 0; i < 3; i++) {
-            n[i] = vec_comp(x->g.plane.n, i);
-            x0[i] = n[i] * x->g.plane.d;
-            nmag[i] = fabs(n[i]);
-        }
-    } else
-        return 0;
-    double sp = 0.0, nd = 0.0, err = 0.0;
-    for (int i = 0; i < 3; i++) {
-        double q = (double)vec_comp(sf->p, i) - x0[i];
-        sp += n[i] * q;
-        nd += n[i] * vec_comp(d, i);
-        err += fabs(n[i]) * vec_comp(sf->perr, i) + 0x1p-40 * nmag[i] * (fabs(q) + fabs(x0[i]));
-    }
-    return nd > 0.0 ? sp >= -err : nd < 0.0 ? sp <= err : 1;
-}
-
 /* A ray *r spawned off a triangle near its edge (sf->edge). The faces
  * beyond the edge pass through or close to sf's point, and the spawn
  * offset, which clears the plane of the triangle hit alone, may take the
  * origin across one of them (a sharp apex, a mesh box's edge): the ray
  * would hit it at once, a surface the ray from the point itself does not
  * cross (one too many through a glass mesh). So while the ray's first hit
- * is such a face (starts_past), the ray starts again past it, from that
+ * is such a face (prim_past_plane), the ray starts again past it, from that
  * face's own spawn origin, a few times at most. */
 static void edge_clear(const Ctx *c, const Surface *sf, Ray *r)
 {
@@ -121,7 +81,7 @@ static void edge_clear(const Ctx *c, const Surface *sf, Ray *r)
         Ray probe = *r;
         probe.tmax = near < r->tmax ? near : r->tmax;
         const int i = accel_closest(c->a, &probe, &h, c->st);
-        if (i < 0 || !starts_past(&c->s->prims[i], sf, r->d))
+        if (i < 0 || !prim_past_plane(&c->s->prims[i], sf, r->d))
             return;
         Surface x;
         prim_surface(&c->s->prims[i], r, &h, c->p->variant, &x);

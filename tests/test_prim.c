@@ -585,6 +585,40 @@ static void test_triangle_near_edge(void **state)
     assert_int_equal(prim_near_edge(&sp, &h, &sf), 0);
 }
 
+/* prim_past_plane: 1 when the point lies on a flat primitive's plane
+ * (within its error bound) or past it along d, 0 when d heads for the
+ * plane from in front of it, and 0 for primitives that are not flat. */
+static void test_past_plane(void **state)
+{
+    (void)state;
+    const Prim flat = {PRIM_TRIANGLE, 0, {.tri = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, 1}, {0, 0, 1}}}};
+    const Prim plane = {PRIM_PLANE, 0, {.plane = {{0, 1, 0}, 2}}};
+    const Prim sphere = {PRIM_SPHERE, 0, {.sphere = {{0, 0, 0}, 1}}};
+    Surface s;
+    memset(&s, 0, sizeof s);
+    s.perr = vec3(1e-6f, 1e-6f, 1e-6f);
+    const Vec3 up = vec3(0, 0, 1), down = vec3(0, 0, -1);
+    s.p = vec3(0.2f, 0.2f, 1.0f); /* in front of the triangle's plane */
+    assert_int_equal(prim_past_plane(&flat, &s, down), 0);
+    assert_int_equal(prim_past_plane(&flat, &s, up), 1);
+    s.p = vec3(0.2f, 0.2f, -1.0f); /* behind it: down leads away */
+    assert_int_equal(prim_past_plane(&flat, &s, down), 1);
+    assert_int_equal(prim_past_plane(&flat, &s, up), 0);
+    s.p = vec3(0.2f, 0.2f, 1e-3f); /* 1e-3 in front: on it within an error of 1e-2, not of 1e-6 */
+    assert_int_equal(prim_past_plane(&flat, &s, down), 0);
+    s.perr = vec3(1e-2f, 1e-2f, 1e-2f);
+    assert_int_equal(prim_past_plane(&flat, &s, down), 1);
+    s.perr = vec3(1e-6f, 1e-6f, 1e-6f);
+    s.p = vec3(5, 0.2f, 0); /* on the plane, outside the triangle: the plane is what counts */
+    assert_int_equal(prim_past_plane(&flat, &s, down), 1);
+    assert_int_equal(prim_past_plane(&flat, &s, vec3(1, 0, 0)), 1); /* along the plane */
+    s.p = vec3(0, 3, 0); /* above the plane y = 2 */
+    assert_int_equal(prim_past_plane(&plane, &s, vec3(0, -1, 0)), 0);
+    assert_int_equal(prim_past_plane(&plane, &s, vec3(0, 1, 0)), 1);
+    s.p = vec3(0, 0, 1); /* on the sphere: not a flat primitive */
+    assert_int_equal(prim_past_plane(&sphere, &s, up), 0);
+}
+
 static double obox_coord(const OBox *b, Vec3 q, int i)
 {
     const Vec3 ax[3] = {b->u, b->v, b->w};
@@ -1662,6 +1696,7 @@ int main(void)
         cmocka_unit_test(test_obox_grazing_slab),
         cmocka_unit_test(test_obox_spawn_inside_near_edge),
         cmocka_unit_test(test_triangle_near_edge),
+        cmocka_unit_test(test_past_plane),
         cmocka_unit_test(test_ellipsoid_spawn),
         cmocka_unit_test(test_ellipsoid_spawn_far_and_grazing),
     };

@@ -333,6 +333,12 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
  * edge, and a ray spawned there hit that face at once (shade.c,
  * edge_clear). 0 for every other kind. */
 int prim_near_edge(const Prim *p, const PrimHit *h, const Surface *s);
+/* Would a ray from s's point along d not cross flat primitive x (a
+ * triangle or a plane), whatever its hit from an offset origin says? So
+ * when the point lies on x's plane, within its error bound, or past it as
+ * seen along d: the line then meets the plane at a t <= 0 (shade.c,
+ * edge_clear). 0 for the other kinds. */
+int prim_past_plane(const Prim *x, const Surface *s, Vec3 d);
 /* prim_surface for the hits j < n of rays r[j] at prims[best[j]], into
  * s[j], skipping those with best[j] < 0: the same surfaces, bit for bit;
  * with AVX, robust spheres four at a time. */
