@@ -28,6 +28,7 @@
 #include "lancer/pntri.h"
 #include "lancer/thread.h"
 #include "bigmem.h"
+#include "dvec.h"
 
 /* 8 bins: Wald reports SAH quality within a few percent of a full sweep
  * from 8-32 bins, and more bins cost build time without saving node visits
@@ -213,7 +214,7 @@ int bvh_prim_bounds(const Prim *p, float lo[3], float hi[3])
         double pad = 1.0 + 1e-13 * na * nm;
         for (int i = 0; i < 3; i++) {
             const double *row = e->m + 3 * i;
-            double ext = sqrt(row[0] * row[0] + row[1] * row[1] + row[2] * row[2]) * pad;
+            double ext = sqrt(d3_dot(row, row)) * pad;
             l[i] = e->m[9 + i] - ext - 1e-15 * fabs(e->m[9 + i]);
             h[i] = e->m[9 + i] + ext + 1e-15 * fabs(e->m[9 + i]);
         }

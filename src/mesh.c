@@ -17,6 +17,7 @@
 
 #include "lancer/afile.h"
 #include "lancer/thread.h"
+#include "dvec.h"
 
 /* ---- public ---- */
 
@@ -141,22 +142,6 @@ void mesh_free(Mesh *m)
     MESH_FREE(m->ntri);
     memset(m, 0, sizeof *m);
 }
-
-static void d3_sub(double r[3], Vec3 a, Vec3 b)
-{
-    r[0] = (double)a.x - b.x;
-    r[1] = (double)a.y - b.y;
-    r[2] = (double)a.z - b.z;
-}
-
-static void d3_cross(double r[3], const double u[3], const double w[3])
-{
-    r[0] = u[1] * w[2] - u[2] * w[1];
-    r[1] = u[2] * w[0] - u[0] * w[2];
-    r[2] = u[0] * w[1] - u[1] * w[0];
-}
-
-static double d3_dot(const double u[3], const double w[3]) { return u[0] * w[0] + u[1] * w[1] + u[2] * w[2]; }
 
 /* The angle between u and w, well conditioned near 0 and pi. */
 static double d3_angle(const double u[3], const double w[3])

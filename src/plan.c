@@ -11,6 +11,7 @@
 
 #include "lancer/bvh.h"
 #include "lancer/image.h"
+#include "dvec.h"
 
 PlanOptions plan_options(void)
 {
@@ -37,13 +38,15 @@ static double solid_volume(const Prim *p)
     case PRIM_OBOX: { /* in double: the product of three float axes may pass float's range */
         const OBox *b = &p->g.obox;
         const double u[3] = {b->u.x, b->u.y, b->u.z}, v[3] = {b->v.x, b->v.y, b->v.z}, w[3] = {b->w.x, b->w.y, b->w.z};
-        return 8.0 * fabs(u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) +
-                          u[2] * (v[0] * w[1] - v[1] * w[0]));
+        double vw[3];
+        d3_cross(vw, v, w);
+        return 8.0 * fabs(d3_dot(u, vw));
     }
     case PRIM_ELLIPSOID: {
-        const double *m = p->g.ell.e->m;
-        return ball * fabs(m[0] * (m[4] * m[8] - m[5] * m[7]) - m[1] * (m[3] * m[8] - m[5] * m[6]) +
-                           m[2] * (m[3] * m[7] - m[4] * m[6]));
+        const double *m = p->g.ell.e->m; /* its rows' triple product */
+        double c[3];
+        d3_cross(c, m + 3, m + 6);
+        return ball * fabs(d3_dot(m, c));
     }
     default:
         return INFINITY;

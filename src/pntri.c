@@ -24,6 +24,7 @@
 #include <stddef.h>
 #include <string.h>
 
+#include "dvec.h"
 #include "rounding.h"
 
 /* Inline where the hit loop uses it, though other callers share it. */
@@ -76,7 +77,7 @@ static void to_d(Vec3 a, double o[3])
 static void edge_point(const double pi[3], const double pj[3], const double ni[3], double out[3])
 {
     double d[3] = {pj[0] - pi[0], pj[1] - pi[1], pj[2] - pi[2]};
-    double w = d[0] * ni[0] + d[1] * ni[1] + d[2] * ni[2];
+    double w = d3_dot(d, ni);
     for (int a = 0; a < 3; a++)
         out[a] = (2.0 * pi[a] + pj[a] - w * ni[a]) / 3.0;
 }
@@ -95,8 +96,8 @@ static Vec3 edge_normal(const double pi[3], const double pj[3], Vec3 ni, Vec3 nj
 {
     double d[3] = {pj[0] - pi[0], pj[1] - pi[1], pj[2] - pi[2]};
     double s[3] = {(double)ni.x + nj.x, (double)ni.y + nj.y, (double)ni.z + nj.z};
-    double dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-    double v = dd > 0.0 ? 2.0 * (d[0] * s[0] + d[1] * s[1] + d[2] * s[2]) / dd : 0.0;
+    double dd = d3_dot(d, d);
+    double v = dd > 0.0 ? 2.0 * d3_dot(d, s) / dd : 0.0;
     Vec3 sum = normalized_or(s[0], s[1], s[2], ni);
     return normalized_or(s[0] - v * d[0], s[1] - v * d[1], s[2] - v * d[2], sum);
 }
@@ -240,10 +241,9 @@ Vec3 pn_geometric_normal(const PnPatch *pn, float u, float v)
 {
     double du[3], dv[3];
     pn_eval(pn, u, v, NULL, du, dv);
-    double x = du[1] * dv[2] - du[2] * dv[1];
-    double y = du[2] * dv[0] - du[0] * dv[2];
-    double z = du[0] * dv[1] - du[1] * dv[0];
-    return normalized_or(x, y, z, pn_shading_normal(pn, u, v));
+    double g[3];
+    d3_cross(g, du, dv);
+    return normalized_or(g[0], g[1], g[2], pn_shading_normal(pn, u, v));
 }
 
 void pn_bounds(const PnPatch *pn, Vec3 *lo, Vec3 *hi)
@@ -664,8 +664,8 @@ PN_INLINE void piece_frame(const PnNet *net, const double o[3], const double d[3
     f->n[0] = f->e1[1] * f->e2[2] - f->e1[2] * f->e2[1];
     f->n[1] = f->e1[2] * f->e2[0] - f->e1[0] * f->e2[2];
     f->n[2] = f->e1[0] * f->e2[1] - f->e1[1] * f->e2[0];
-    f->nn2 = f->n[0] * f->n[0] + f->n[1] * f->n[1] + f->n[2] * f->n[2];
-    f->nd = f->n[0] * d[0] + f->n[1] * d[1] + f->n[2] * d[2];
+    f->nn2 = d3_dot(f->n, f->n);
+    f->nd = d3_dot(f->n, d);
 }
 
 /* The bound dev of flat_piece (below): how far the piece's exact surface
@@ -703,8 +703,8 @@ PN_INLINE double piece_dev(const PnNet *net, const PnFrame *f, double m)
 PN_INLINE void piece_lengths(const PnFrame *f, double len[3])
 {
     const double *e1 = f->e1, *e2 = f->e2;
-    len[0] = sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
-    len[1] = sqrt(e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2]);
+    len[0] = sqrt(d3_dot(e1, e1));
+    len[1] = sqrt(d3_dot(e2, e2));
     len[2] = sqrt((e2[0] - e1[0]) * (e2[0] - e1[0]) + (e2[1] - e1[1]) * (e2[1] - e1[1]) +
                   (e2[2] - e1[2]) * (e2[2] - e1[2]));
 }
@@ -740,7 +740,7 @@ static int flat_piece(const PnNet *net, const PnFrame *f, const double d[3], dou
      * slack covers n's rounding against the edges and the sums below */
     double qm = maxabs3(q);
     double h = norm1(n) * (dev + PN_SLACK * (m + qm));
-    double nq = n[0] * q[0] + n[1] * q[1] + n[2] * q[2];
+    double nq = d3_dot(n, q);
     double t1 = (-h - nq) / nd, t2 = (h - nq) / nd;
     if (t1 > t2) {
         double x = t1;
@@ -761,10 +761,11 @@ static int flat_piece(const PnNet *net, const PnFrame *f, const double d[3], dou
     for (int a = 0; a < 3; a++)
         p[a] = q[a] + tm * d[a];
     /* the barycentrics of p's projection on T's plane */
-    double c2[3] = {p[1] * e2[2] - p[2] * e2[1], p[2] * e2[0] - p[0] * e2[2], p[0] * e2[1] - p[1] * e2[0]};
-    double c1[3] = {e1[1] * p[2] - e1[2] * p[1], e1[2] * p[0] - e1[0] * p[2], e1[0] * p[1] - e1[1] * p[0]};
-    double lb = (c2[0] * n[0] + c2[1] * n[1] + c2[2] * n[2]) / nn2;
-    double lc = (c1[0] * n[0] + c1[1] * n[1] + c1[2] * n[2]) / nn2, la = 1.0 - lb - lc;
+    double c2[3], c1[3];
+    d3_cross(c2, p, e2);
+    d3_cross(c1, e1, p);
+    double lb = d3_dot(c2, n) / nn2;
+    double lc = d3_dot(c1, n) / nn2, la = 1.0 - lb - lc;
     /* A hit point of the piece is within dev of T on each axis, and within
      * (t2 - t1) / 2 of p along the ray: p's projection is within rad of T,
      * so no barycentric falls below -rad over its vertex's altitude. */
@@ -827,13 +828,11 @@ static int newton_uv(const PnPatch *pn, const PnRay *r, const PnNet *net, double
     } else {
         ax[0] = 0.0, ax[1] = d[2], ax[2] = -d[1];
     }
-    double la = sqrt(ax[0] * ax[0] + ax[1] * ax[1] + ax[2] * ax[2]);
+    double la = sqrt(d3_dot(ax, ax));
     for (int c = 0; c < 3; c++)
         ax[c] /= la;
-    bx[0] = ax[1] * d[2] - ax[2] * d[1];
-    bx[1] = ax[2] * d[0] - ax[0] * d[2];
-    bx[2] = ax[0] * d[1] - ax[1] * d[0];
-    double lb = sqrt(bx[0] * bx[0] + bx[1] * bx[1] + bx[2] * bx[2]);
+    d3_cross(bx, ax, d);
+    double lb = sqrt(d3_dot(bx, bx));
     for (int c = 0; c < 3; c++)
         bx[c] /= lb;
     double sg = net->flip ? -net->s : net->s;
@@ -842,12 +841,12 @@ static int newton_uv(const PnPatch *pn, const PnRay *r, const PnNet *net, double
         double p[3], du[3], dv[3];
         pn_eval(pn, u, v, p, du, dv);
         double q[3] = {p[0] - r->o[0], p[1] - r->o[1], p[2] - r->o[2]};
-        double f1 = ax[0] * q[0] + ax[1] * q[1] + ax[2] * q[2];
-        double f2 = bx[0] * q[0] + bx[1] * q[1] + bx[2] * q[2];
-        double j11 = ax[0] * du[0] + ax[1] * du[1] + ax[2] * du[2];
-        double j12 = ax[0] * dv[0] + ax[1] * dv[1] + ax[2] * dv[2];
-        double j21 = bx[0] * du[0] + bx[1] * du[1] + bx[2] * du[2];
-        double j22 = bx[0] * dv[0] + bx[1] * dv[1] + bx[2] * dv[2];
+        double f1 = d3_dot(ax, q);
+        double f2 = d3_dot(bx, q);
+        double j11 = d3_dot(ax, du);
+        double j12 = d3_dot(ax, dv);
+        double j21 = d3_dot(bx, du);
+        double j22 = d3_dot(bx, dv);
         double det = j11 * j22 - j12 * j21;
         if (!(fabs(det) > 0.0))
             return 0;
@@ -878,12 +877,13 @@ static int newton(const PnPatch *pn, const PnRay *r, const PnNet *net, double *t
         return 0;
     pn_eval(pn, u, v, p, du, dv);
     const double *d = r->d;
-    double dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    double dd = d3_dot(d, d);
     /* A ray that meets the surface at a grazing angle may meet it twice in
      * one node, and Newton may have found the far one: subdivide there
      * instead. */
-    double g[3] = {du[1] * dv[2] - du[2] * dv[1], du[2] * dv[0] - du[0] * dv[2], du[0] * dv[1] - du[1] * dv[0]};
-    double gd = g[0] * d[0] + g[1] * d[1] + g[2] * d[2], gg = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
+    double g[3];
+    d3_cross(g, du, dv);
+    double gd = d3_dot(g, d), gg = d3_dot(g, g);
     if (gd * gd < PN_NEWTON_GRAZING * PN_NEWTON_GRAZING * gg * dd)
         return 0;
     *t = ((p[0] - r->o[0]) * d[0] + (p[1] - r->o[1]) * d[1] + (p[2] - r->o[2]) * d[2]) / dd;
@@ -918,7 +918,7 @@ PN_INLINE PnSlope piece_slope(const PnNet *net, const PnFrame *f, double mroot)
     /* sigma^2, the Gram matrix's least eigenvalue, 2 det / (tr + sqrt(tr^2 -
      * 4 det)); the square root grown over the roundings of tr^2 - 4 det */
     double det = f->nn2, nn = sqrt(det);
-    double l1 = e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2], l2 = e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2];
+    double l1 = d3_dot(e1, e1), l2 = d3_dot(e2, e2);
     double tr = l1 + l2, root = sqrt(max2(0.0, tr * tr - 4.0 * det) + 0x1p-48 * tr * tr);
     /* n's rounding tilts it from T's true normal by at most |e1| |e2| 2^-48
      * / |n|, which moves a step E w by tilt |w| out of T's plane */
@@ -939,9 +939,9 @@ PN_INLINE PnSlope piece_slope(const PnNet *net, const PnFrame *f, double mroot)
             }
             /* the part in T's plane from |y|^2 - (n.y)^2 / |n|^2, grown over
              * its cancellation below */
-            double ns = n[0] * ys[0] + n[1] * ys[1] + n[2] * ys[2], nt = n[0] * yt[0] + n[1] * yt[1] + n[2] * yt[2];
-            double ss = ys[0] * ys[0] + ys[1] * ys[1] + ys[2] * ys[2];
-            double tt = yt[0] * yt[0] + yt[1] * yt[1] + yt[2] * yt[2];
+            double ns = d3_dot(n, ys), nt = d3_dot(n, yt);
+            double ss = d3_dot(ys, ys);
+            double tt = d3_dot(yt, yt);
             ns_ = max2(ns_, fabs(ns));
             nt_ = max2(nt_, fabs(nt));
             ps_ = max2(ps_, ss * (1.0 + 0x1p-46) - ns * ns / det);
@@ -1010,21 +1010,23 @@ static int pn_certify(const PnPatch *pn, const PnRay *r, const PnNet *net, const
     const double *o = r->o, *d = r->d, *e1 = f->e1, *e2 = f->e2, *n = f->n;
     double det = f->nn2, nn = sqrt(det);
     /* where the ray meets T's plane, Newton's start below */
-    double nd = f->nd, tp = -(n[0] * f->q[0] + n[1] * f->q[1] + n[2] * f->q[2]) / nd, q[3];
+    double nd = f->nd, tp = -d3_dot(n, f->q) / nd, q[3];
     for (int a = 0; a < 3; a++)
         q[a] = f->q[a] + tp * d[a];
-    double c2[3] = {q[1] * e2[2] - q[2] * e2[1], q[2] * e2[0] - q[0] * e2[2], q[0] * e2[1] - q[1] * e2[0]};
-    double c1[3] = {e1[1] * q[2] - e1[2] * q[1], e1[2] * q[0] - e1[0] * q[2], e1[0] * q[1] - e1[1] * q[0]};
-    double lu0 = (c2[0] * n[0] + c2[1] * n[1] + c2[2] * n[2]) / det;
-    double lv0 = (c1[0] * n[0] + c1[1] * n[1] + c1[2] * n[2]) / det;
+    double c2[3], c1[3];
+    d3_cross(c2, q, e2);
+    d3_cross(c1, e1, q);
+    double lu0 = d3_dot(c2, n) / det;
+    double lv0 = d3_dot(c1, n) / det;
     if (!(lu0 > -0.5 && lv0 > -0.5 && lu0 + lv0 < 1.5)) /* far from the piece: Newton would leave it */
         return PN_UNSURE;
     PnSlope sl = shaped ? (PnSlope){shaped->kappa, shaped->slope} : piece_slope(net, f, mroot);
     if (!(sl.kappa > 0.0))
         return PN_UNSURE;
     double L = sl.L, kappa = sl.kappa;
-    double nxd[3] = {n[1] * d[2] - n[2] * d[1], n[2] * d[0] - n[0] * d[2], n[0] * d[1] - n[1] * d[0]};
-    double dxi = sqrt(nxd[0] * nxd[0] + nxd[1] * nxd[1] + nxd[2] * nxd[2]) / nn * (1.0 + PN_SLACK) + PN_SLACK * dd;
+    double nxd[3];
+    d3_cross(nxd, n, d);
+    double dxi = sqrt(d3_dot(nxd, nxd)) / nn * (1.0 + PN_SLACK) + PN_SLACK * dd;
     double rate = fabs(nd) / nn - L * dxi - PN_SLACK * dd * (1.0 + L);
     if (!(rate > 0.0))
         return PN_UNSURE;
@@ -1154,7 +1156,7 @@ static int trace(const PnPatch *pn, const PnPiece *start, const Ray *ray, PnMode
     for (int a = 0; a < 3; a++)
         r.inv[a] = 1.0 / r.d[a];
     r.tmax = ray->tmax;
-    double dd = sqrt(r.d[0] * r.d[0] + r.d[1] * r.d[1] + r.d[2] * r.d[2]);
+    double dd = sqrt(d3_dot(r.d, r.d));
     int avx = split_avx();
     /* a depth-first stack: each split pushes at most four children */
     PnNode stack[3 * PN_MAX_DEPTH + 4];

@@ -7,6 +7,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "dvec.h"
+
 #define POV_PI 3.14159265358979323846
 
 /* Writes the shortest decimal that reads back as exactly v: 0.55, not
@@ -195,9 +197,7 @@ static int normals_one_side(const Place *q, const Triangle *t)
         u[k] = q->p[1][k] - q->p[0][k];
         w[k] = q->p[2][k] - q->p[0][k];
     }
-    n[0] = u[1] * w[2] - u[2] * w[1];
-    n[1] = u[2] * w[0] - u[0] * w[2];
-    n[2] = u[0] * w[1] - u[1] * w[0];
+    d3_cross(n, u, w);
     const Vec3 v[3] = {t->na, t->nb, t->nc};
     for (int k = 0; k < 3; k++)
         s[k] = n[0] * v[k].x + n[1] * v[k].y + n[2] * v[k].z;
@@ -257,7 +257,7 @@ static void prim(FILE *f, const Scene *s, const Prim *p, const PnGrid *grid)
         double *n = q.p[0], d = q.p[1][0], e[3];
         for (int k = 0; k < 3; k++)
             e[k] = s->placed ? s->camera.eye_at[k] : vec_comp(s->camera.eye, k);
-        if (n[0] * e[0] + n[1] * e[1] + n[2] * e[2] < d) {
+        if (d3_dot(n, e) < d) {
             for (int k = 0; k < 3; k++)
                 n[k] = -n[k];
             d = -d;

@@ -17,6 +17,7 @@
 #include <string.h>
 
 #include "lancer/pntri.h"
+#include "dvec.h"
 #include "rounding.h"
 
 /* Four rays' plane tests at once with AVX, when the processor has it
@@ -1076,15 +1077,12 @@ static void tri_spawn_margin(const Triangle *t, Surface *s, float a2)
 static void tri_normal_d(const Triangle *t, double n[3], double mag[3])
 {
     double e1[3], e2[3];
-    for (int i = 0; i < 3; i++) {
-        e1[i] = (double)vec_comp(t->b, i) - vec_comp(t->a, i);
-        e2[i] = (double)vec_comp(t->c, i) - vec_comp(t->a, i);
-    }
-    for (int i = 0; i < 3; i++) {
+    d3_sub(e1, t->b, t->a);
+    d3_sub(e2, t->c, t->a);
+    d3_cross(n, e1, e2);
+    for (int i = 0; mag && i < 3; i++) {
         int j = (i + 1) % 3, k = (i + 2) % 3;
-        n[i] = e1[j] * e2[k] - e1[k] * e2[j];
-        if (mag)
-            mag[i] = fabs(e1[j] * e2[k]) + fabs(e1[k] * e2[j]);
+        mag[i] = fabs(e1[j] * e2[k]) + fabs(e1[k] * e2[j]);
     }
 }
 
@@ -1101,14 +1099,11 @@ int prim_near_edge(const Prim *p, const PrimHit *h, const Surface *s)
     const double reach = PRIM_EDGE_REACH * ((double)s->perr.x + s->perr.y + s->perr.z);
     double n[3];
     tri_normal_d(t, n, NULL);
-    const double n2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+    const double n2 = d3_dot(n, n);
     for (int i = 0; i < 3; i++) { /* edge i, opposite vertex i */
-        double l2 = 0.0;
-        for (int j = 0; j < 3; j++) {
-            double e = (double)vec_comp(v[(i + 2) % 3], j) - vec_comp(v[(i + 1) % 3], j);
-            l2 += e * e;
-        }
-        if (b[i] * b[i] * n2 <= reach * reach * l2)
+        double e[3];
+        d3_sub(e, v[(i + 2) % 3], v[(i + 1) % 3]);
+        if (b[i] * b[i] * n2 <= reach * reach * d3_dot(e, e))
             return 1;
     }
     return 0;

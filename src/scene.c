@@ -26,6 +26,7 @@
 #include "lancer/afile.h"
 #include "lancer/image.h"
 #include "bigmem.h"
+#include "dvec.h"
 #include "lex.h"
 
 typedef struct {
@@ -856,7 +857,7 @@ static double xf_cofactors(const double *xf, double c[9])
         c[3 * r + 1] = a[2] * b[0] - a[0] * b[2];
         c[3 * r + 2] = a[0] * b[1] - a[1] * b[0];
     }
-    return xf[0] * c[0] + xf[1] * c[1] + xf[2] * c[2];
+    return d3_dot(xf, c);
 }
 
 static int xf_regular(const double *xf)
@@ -898,7 +899,7 @@ static void xf_normal(const double *xf, const double n[3], double out[3])
         for (int r = 0; r < 3; r++)
             q[r] = (c[3 * r] * n[0] + c[3 * r + 1] * n[1] + c[3 * r + 2] * n[2]) * (det < 0.0 ? -1.0 : 1.0);
     }
-    double len = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
+    double len = sqrt(d3_dot(q, q));
     for (int r = 0; r < 3; r++)
         out[r] = q[r] / len;
 }
@@ -972,11 +973,11 @@ static int tri_has_area(Vec3 a, Vec3 b, Vec3 c) { return vec_length(vec_cross(ve
 /* The same in double. */
 static int tri_has_area_d(const double a[3], const double b[3], const double c[3])
 {
-    double u[3], w[3];
+    double u[3], w[3], n[3];
     for (int k = 0; k < 3; k++)
         u[k] = b[k] - a[k], w[k] = c[k] - a[k];
-    double x = u[1] * w[2] - u[2] * w[1], y = u[2] * w[0] - u[0] * w[2], z = u[0] * w[1] - u[1] * w[0];
-    return x * x + y * y + z * z > 0.0;
+    d3_cross(n, u, w);
+    return d3_dot(n, n) > 0.0;
 }
 
 /* Sets primitive i's float coordinates from its Place (Scene.place): each
