@@ -1124,11 +1124,40 @@ int prim_past_plane(const Prim *x, const Surface *s, Vec3 d)
         }
     } else
         return 0;
-    double sp = 0.0, nd = 0.0, err = 0.0;
+    const double dd[3] = {d.x, d.y, d.z};
+    const double nd = d3_dot(n, dd);
+    if (s->tri) {
+        /* The exact point is b0 a + b1 b + b2 c, so its signed distance
+         * from x's plane is b0 f(a) + b1 f(b) + b2 f(c): where no two
+         * vertices lie on opposite sides, its side is theirs, however
+         * near the point lies to the plane (a face that shares the edge
+         * or the vertex near the point). A vertex within the roundings
+         * of the plane (a shared one) is on it. */
+        const Triangle *t = &s->tri->g.tri;
+        const Vec3 v[3] = {t->a, t->b, t->c};
+        const float b[3] = {1.0f - s->tu - s->tv, s->tu, s->tv};
+        int pos = 0, neg = 0;
+        for (int k = 0; k < 3; k++) {
+            double f = 0.0, err = 0.0;
+            for (int i = 0; i < 3; i++) {
+                double q = (double)vec_comp(v[k], i) - x0[i];
+                f += n[i] * q;
+                err += 0x1p-40 * mag[i] * (fabs(q) + fabs(x0[i]));
+            }
+            if (b[k] > 0.0f && fabs(f) > err) {
+                pos |= f > 0.0;
+                neg |= f < 0.0;
+            }
+        }
+        if (!(pos && neg)) {
+            const int side = pos - neg;
+            return nd > 0.0 ? side >= 0 : nd < 0.0 ? side <= 0 : 1;
+        }
+    }
+    double sp = 0.0, err = 0.0;
     for (int i = 0; i < 3; i++) {
         double q = (double)vec_comp(s->p, i) - x0[i];
         sp += n[i] * q;
-        nd += n[i] * vec_comp(d, i);
         /* p's error bound, and the double roundings, generously */
         err += fabs(n[i]) * vec_comp(s->perr, i) + 0x1p-40 * mag[i] * (fabs(q) + fabs(x0[i]));
     }
@@ -1142,6 +1171,7 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
     Vec3 ng = vec3(0.0f, 0.0f, 0.0f), ns, noff = ng;
     s->pin_side = 0;
     s->edge = 0;
+    s->tri = NULL;
     int edge = 0; /* on a box's edge or corner: noff is the sum of its faces' normals */
     if (!robust)
         s->p = ray_at(r, h->t); /* perr: a heuristic, below */
@@ -1198,6 +1228,9 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
             s->perr = vec_scale(m, gamma_f(7));
             tri_spawn_margin(t, s, vec_length(ng));
             s->edge = -1; /* prim_near_edge tells, if asked */
+            s->tri = p;
+            s->tu = h->u;
+            s->tv = h->v;
         }
         break;
     }
@@ -1347,6 +1380,7 @@ __attribute__((target("avx"))) static void sphere_surface4(const Prim *prims, co
         o->ng = o->noff = o->ns = vec3(ng[0][j], ng[1][j], ng[2][j]);
         o->pin_side = 0;
         o->edge = 0;
+        o->tri = NULL;
     }
 }
 #endif

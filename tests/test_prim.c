@@ -619,6 +619,48 @@ static void test_past_plane(void **state)
     assert_int_equal(prim_past_plane(&sphere, &s, up), 0);
 }
 
+/* prim_past_plane for a triangle's hit (Surface.tri): the side of the
+ * exact point, from the triangle's vertices, however near the plane and
+ * however large the point's error bound. */
+static void test_past_plane_of_triangle_hit(void **state)
+{
+    (void)state;
+    /* A in z = 0; B shares A's edge from (0,0,0) to (1,0,0) and stands in
+     * y = 0, A's third vertex on its negative side (B's normal is -y). */
+    const Prim a = {PRIM_TRIANGLE, 0, {.tri = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, 1}, {0, 0, 1}}}};
+    const Prim b = {PRIM_TRIANGLE, 0, {.tri = {{0, 0, 0}, {1, 0, 0}, {0, 0, 1}, {0, 1, 0}, {0, 1, 0}, {0, 1, 0}}}};
+    const Prim coplanar = {PRIM_TRIANGLE, 0, {.tri = {{0, 0, 0}, {0, 1, 0}, {-1, 0, 0}, {0, 0, 1}, {0, 0, 1}, {0, 0, 1}}}};
+    const Prim across = {PRIM_TRIANGLE, 0, {.tri = {{0.3f, 0, 0}, {0.3f, 1, 0}, {0.3f, 0, 1}, {1, 0, 0}, {1, 0, 0}, {1, 0, 0}}}};
+    Surface s;
+    memset(&s, 0, sizeof s);
+    s.tri = &a;
+    s.tu = 0.5f; /* 1e-7 from the shared edge, inside A */
+    s.tv = 1e-7f;
+    s.p = vec3(0.5f, 1e-7f, 0);
+    s.perr = vec3(1e-4f, 1e-4f, 1e-4f); /* a spawn margin, far wider than 1e-7 */
+    /* towards B from its inner side: B lies ahead, 1e-7 away */
+    assert_int_equal(prim_past_plane(&b, &s, vec3(0, -1, 0)), 0);
+    assert_int_equal(prim_past_plane(&b, &s, vec3(0.6f, -0.8f, 0)), 0);
+    /* away from it: behind */
+    assert_int_equal(prim_past_plane(&b, &s, vec3(0, 1, 0)), 1);
+    /* without the triangle, the point within its error bound of B's plane
+     * counts as on it */
+    s.tri = NULL;
+    assert_int_equal(prim_past_plane(&b, &s, vec3(0, -1, 0)), 1);
+    s.tri = &a;
+    /* exactly on the shared edge: on B's plane, t = 0 */
+    s.tv = 0.0f;
+    assert_int_equal(prim_past_plane(&b, &s, vec3(0, -1, 0)), 1);
+    s.tv = 1e-7f;
+    /* a face in A's own plane: the point is on it, either way */
+    assert_int_equal(prim_past_plane(&coplanar, &s, vec3(0, 0, 1)), 1);
+    assert_int_equal(prim_past_plane(&coplanar, &s, vec3(0, 0, -1)), 1);
+    /* a plane across A (x = 0.3): A's vertices on both sides, so the
+     * point's own side, 0.2 past it */
+    assert_int_equal(prim_past_plane(&across, &s, vec3(-1, 0, 0)), 0);
+    assert_int_equal(prim_past_plane(&across, &s, vec3(1, 0, 0)), 1);
+}
+
 static double obox_coord(const OBox *b, Vec3 q, int i)
 {
     const Vec3 ax[3] = {b->u, b->v, b->w};
@@ -1697,6 +1739,7 @@ int main(void)
         cmocka_unit_test(test_obox_spawn_inside_near_edge),
         cmocka_unit_test(test_triangle_near_edge),
         cmocka_unit_test(test_past_plane),
+        cmocka_unit_test(test_past_plane_of_triangle_hit),
         cmocka_unit_test(test_ellipsoid_spawn),
         cmocka_unit_test(test_ellipsoid_spawn_far_and_grazing),
     };

@@ -431,6 +431,24 @@ static void test_mesh_apex_crossed_once(void **state)
     /* straight down, exactly through the apex vertex */
     assert_vec(trace(&s, eyes[0], vec3(0, -1, 0)), 0.25f * 0.2f, 0.25f * 0.4f, 0.25f * 0.6f, 1e-6);
     assert_int_equal(rays, 100);
+    /* Eyes to the side: rays through points within 2.4e-5 of the axis,
+     * 1e-4 below the apex, cross two faces or miss. The exit lies closer
+     * to the entry than the spawn offset's error bound reaches: a test of
+     * the point's side of the exit face by that bound skipped the exit,
+     * one surface (0.1). */
+    const Vec3 side[2] = {{-2, 4, 1}, {3, 5, 0.3f}};
+    int crossed = 0;
+    for (int e = 0; e < 2; e++)
+        for (int i = -4; i <= 4; i++)
+            for (int k = -4; k <= 4; k++) {
+                Vec3 q = vec3(6e-6f * (float)i, 3.0f - 1e-4f, 6e-6f * (float)k);
+                Vec3 c = trace(&s, side[e], vec_sub(q, side[e]));
+                if (fabsf(c.x - 0.2f) < 1e-6f) /* missed: the background */
+                    continue;
+                assert_vec(c, 0.25f * 0.2f, 0.25f * 0.4f, 0.25f * 0.6f, 1e-6);
+                crossed++;
+            }
+    assert_true(crossed >= 100);
     scene_free(&s);
 }
 

@@ -153,6 +153,10 @@ typedef struct {
      * once known, and -1, for a robust triangle's hit, until the caller
      * asks; 0 for every other hit. */
     int edge;
+    /* A robust triangle's hit: the triangle, and the barycentrics of its
+     * b and c (prim_past_plane). Set for those hits alone. */
+    const Prim *tri;
+    float tu, tv;
 } Surface;
 
 /* How near an edge prim_near_edge finds a triangle's hit, in spawn
@@ -335,9 +339,12 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
 int prim_near_edge(const Prim *p, const PrimHit *h, const Surface *s);
 /* Would a ray from s's point along d not cross flat primitive x (a
  * triangle or a plane), whatever its hit from an offset origin says? So
- * when the point lies on x's plane, within its error bound, or past it as
- * seen along d: the line then meets the plane at a t <= 0 (shade.c,
- * edge_clear). 0 for the other kinds. */
+ * when the point lies on x's plane or past it as seen along d: the line
+ * then meets the plane at a t <= 0 (shade.c, edge_clear). For a robust
+ * triangle's hit (s->tri) the side is the exact point's, from the
+ * triangle's vertices, when none of them lies on the far side of x's
+ * plane from another; otherwise, and for other hits, s's point within its
+ * error bound counts as on the plane. 0 for the other kinds of x. */
 int prim_past_plane(const Prim *x, const Surface *s, Vec3 d);
 /* prim_surface for the hits j < n of rays r[j] at prims[best[j]], into
  * s[j], skipping those with best[j] < 0: the same surfaces, bit for bit;
