@@ -154,7 +154,7 @@ typedef struct {
      * asks; 0 for every other hit. */
     int edge;
     /* A robust triangle's hit: the triangle, and the barycentrics of its
-     * b and c (prim_past_plane). Set for those hits alone. */
+     * b and c (prim_past_plane); tri is NULL for every other hit. */
     const Prim *tri;
     float tu, tv;
 } Surface;
