@@ -661,9 +661,7 @@ PN_INLINE void piece_frame(const PnNet *net, const double o[3], const double d[3
         f->e2[a] = C[a] - A[a];
         f->q[a] = o[a] - A[a];
     }
-    f->n[0] = f->e1[1] * f->e2[2] - f->e1[2] * f->e2[1];
-    f->n[1] = f->e1[2] * f->e2[0] - f->e1[0] * f->e2[2];
-    f->n[2] = f->e1[0] * f->e2[1] - f->e1[1] * f->e2[0];
+    d3_cross(f->n, f->e1, f->e2);
     f->nn2 = d3_dot(f->n, f->n);
     f->nd = d3_dot(f->n, d);
 }

@@ -851,12 +851,8 @@ static void xf_rotation(int axis, double deg, double r[12])
  * is det(M) times M^-T, and det(M). */
 static double xf_cofactors(const double *xf, double c[9])
 {
-    for (int r = 0; r < 3; r++) {
-        const double *a = xf + 3 * ((r + 1) % 3), *b = xf + 3 * ((r + 2) % 3);
-        c[3 * r] = a[1] * b[2] - a[2] * b[1];
-        c[3 * r + 1] = a[2] * b[0] - a[0] * b[2];
-        c[3 * r + 2] = a[0] * b[1] - a[1] * b[0];
-    }
+    for (int r = 0; r < 3; r++)
+        d3_cross(c + 3 * r, xf + 3 * ((r + 1) % 3), xf + 3 * ((r + 2) % 3));
     return d3_dot(xf, c);
 }
 
