@@ -1086,7 +1086,7 @@ static void tri_normal_d(const Triangle *t, double n[3], double mag[3])
     }
 }
 
-int prim_near_edge(const Prim *p, const PrimHit *h, const Surface *s)
+int prim_near_edge(const Prim *p, const PrimHit *h, Surface *s)
 {
     if (p->kind != PRIM_TRIANGLE && p->kind != PRIM_SMOOTH_TRIANGLE)
         return 0;
@@ -1103,10 +1103,29 @@ int prim_near_edge(const Prim *p, const PrimHit *h, const Surface *s)
     for (int i = 0; i < 3; i++) { /* edge i, opposite vertex i */
         double e[3];
         d3_sub(e, v[(i + 2) % 3], v[(i + 1) % 3]);
-        if (b[i] * b[i] * n2 <= reach * reach * d3_dot(e, e))
+        if (b[i] * b[i] * n2 <= reach * reach * d3_dot(e, e)) {
+            s->tri = p; /* for prim_past_plane */
+            s->tu = h->u;
+            s->tv = h->v;
             return 1;
+        }
     }
     return 0;
+}
+
+/* The signed distance of q from the plane through x0 of normal n (times
+ * |n|), in double, and into *err a bound on its roundings, generously; mag
+ * bounds the roundings of n's components (tri_normal_d). */
+static double plane_side(const double n[3], const double x0[3], const double mag[3], Vec3 q, double *err)
+{
+    double f = 0.0;
+    *err = 0.0;
+    for (int i = 0; i < 3; i++) {
+        double dq = (double)vec_comp(q, i) - x0[i];
+        f += n[i] * dq;
+        *err += 0x1p-40 * mag[i] * (fabs(dq) + fabs(x0[i]));
+    }
+    return f;
 }
 
 int prim_past_plane(const Prim *x, const Surface *s, Vec3 d)
@@ -1126,7 +1145,7 @@ int prim_past_plane(const Prim *x, const Surface *s, Vec3 d)
         return 0;
     const double dd[3] = {d.x, d.y, d.z};
     const double nd = d3_dot(n, dd);
-    if (s->tri) {
+    if (s->edge > 0) {
         /* The exact point is b0 a + b1 b + b2 c, so its signed distance
          * from x's plane is b0 f(a) + b1 f(b) + b2 f(c): where no two
          * vertices lie on opposite sides, its side is theirs, however
@@ -1138,12 +1157,8 @@ int prim_past_plane(const Prim *x, const Surface *s, Vec3 d)
         const float b[3] = {1.0f - s->tu - s->tv, s->tu, s->tv};
         int pos = 0, neg = 0;
         for (int k = 0; k < 3; k++) {
-            double f = 0.0, err = 0.0;
-            for (int i = 0; i < 3; i++) {
-                double q = (double)vec_comp(v[k], i) - x0[i];
-                f += n[i] * q;
-                err += 0x1p-40 * mag[i] * (fabs(q) + fabs(x0[i]));
-            }
+            double err;
+            const double f = plane_side(n, x0, mag, v[k], &err);
             if (b[k] > 0.0f && fabs(f) > err) {
                 pos |= f > 0.0;
                 neg |= f < 0.0;
@@ -1154,13 +1169,10 @@ int prim_past_plane(const Prim *x, const Surface *s, Vec3 d)
             return nd > 0.0 ? side >= 0 : nd < 0.0 ? side <= 0 : 1;
         }
     }
-    double sp = 0.0, err = 0.0;
-    for (int i = 0; i < 3; i++) {
-        double q = (double)vec_comp(s->p, i) - x0[i];
-        sp += n[i] * q;
-        /* p's error bound, and the double roundings, generously */
-        err += fabs(n[i]) * vec_comp(s->perr, i) + 0x1p-40 * mag[i] * (fabs(q) + fabs(x0[i]));
-    }
+    double err;
+    const double sp = plane_side(n, x0, mag, s->p, &err);
+    for (int i = 0; i < 3; i++) /* and p's error bound */
+        err += fabs(n[i]) * vec_comp(s->perr, i);
     return nd > 0.0 ? sp >= -err : nd < 0.0 ? sp <= err : 1;
 }
 
@@ -1171,7 +1183,6 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
     Vec3 ng = vec3(0.0f, 0.0f, 0.0f), ns, noff = ng;
     s->pin_side = 0;
     s->edge = 0;
-    s->tri = NULL;
     int edge = 0; /* on a box's edge or corner: noff is the sum of its faces' normals */
     if (!robust)
         s->p = ray_at(r, h->t); /* perr: a heuristic, below */
@@ -1228,9 +1239,6 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
             s->perr = vec_scale(m, gamma_f(7));
             tri_spawn_margin(t, s, vec_length(ng));
             s->edge = -1; /* prim_near_edge tells, if asked */
-            s->tri = p;
-            s->tu = h->u;
-            s->tv = h->v;
         }
         break;
     }
@@ -1380,7 +1388,6 @@ __attribute__((target("avx"))) static void sphere_surface4(const Prim *prims, co
         o->ng = o->noff = o->ns = vec3(ng[0][j], ng[1][j], ng[2][j]);
         o->pin_side = 0;
         o->edge = 0;
-        o->tri = NULL;
     }
 }
 #endif

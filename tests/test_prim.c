@@ -547,8 +547,8 @@ static void test_spawn_origin_is_its_definition(void **state)
 }
 
 /* prim_near_edge: 1 for a triangle's hit on an edge, at a vertex or
- * within PRIM_EDGE_REACH spawn offsets of an edge, 0 for its other hits and
- * for other primitives; Surface.edge -1 (not yet known) for the robust
+ * within PRIM_EDGE_REACH spawn offsets of an edge (keeping the triangle and
+ * the barycentrics), 0 for its other hits and for other primitives; Surface.edge -1 (not yet known) for the robust
  * triangle, 0 for the classic one and for other primitives. */
 static void test_triangle_near_edge(void **state)
 {
@@ -573,6 +573,8 @@ static void test_triangle_near_edge(void **state)
                 print_error("hit at %g %g: near_edge %d\n", at[i][0], at[i][1], prim_near_edge(&p, &h, &sf));
             if (v == 0)
                 assert_int_equal(prim_near_edge(&p, &h, &sf), (int)at[i][2]);
+            if (v == 0 && at[i][2]) /* kept for prim_past_plane */
+                assert_true(sf.tri == &p && sf.tu == h.u && sf.tv == h.v);
         }
     /* a sphere's hit, even where a triangle's would be on an edge */
     const Prim sp = {PRIM_SPHERE, 0, {.sphere = {{0, 0, 0}, 1}}};
@@ -619,9 +621,10 @@ static void test_past_plane(void **state)
     assert_int_equal(prim_past_plane(&sphere, &s, up), 0);
 }
 
-/* prim_past_plane for a triangle's hit (Surface.tri): the side of the
- * exact point, from the triangle's vertices, however near the plane and
- * however large the point's error bound. */
+/* prim_past_plane for a hit near a triangle's edge (Surface.edge 1, with
+ * tri, tu and tv): the side of the exact point, from the triangle's
+ * vertices, however near the plane and however large the point's error
+ * bound. */
 static void test_past_plane_of_triangle_hit(void **state)
 {
     (void)state;
@@ -633,6 +636,7 @@ static void test_past_plane_of_triangle_hit(void **state)
     const Prim across = {PRIM_TRIANGLE, 0, {.tri = {{0.3f, 0, 0}, {0.3f, 1, 0}, {0.3f, 0, 1}, {1, 0, 0}, {1, 0, 0}, {1, 0, 0}}}};
     Surface s;
     memset(&s, 0, sizeof s);
+    s.edge = 1;
     s.tri = &a;
     s.tu = 0.5f; /* 1e-7 from the shared edge, inside A */
     s.tv = 1e-7f;
@@ -643,11 +647,11 @@ static void test_past_plane_of_triangle_hit(void **state)
     assert_int_equal(prim_past_plane(&b, &s, vec3(0.6f, -0.8f, 0)), 0);
     /* away from it: behind */
     assert_int_equal(prim_past_plane(&b, &s, vec3(0, 1, 0)), 1);
-    /* without the triangle, the point within its error bound of B's plane
-     * counts as on it */
-    s.tri = NULL;
+    /* for a hit away from an edge, the point within its error bound of
+     * B's plane counts as on it */
+    s.edge = 0;
     assert_int_equal(prim_past_plane(&b, &s, vec3(0, -1, 0)), 1);
-    s.tri = &a;
+    s.edge = 1;
     /* exactly on the shared edge: on B's plane, t = 0 */
     s.tv = 0.0f;
     assert_int_equal(prim_past_plane(&b, &s, vec3(0, -1, 0)), 1);

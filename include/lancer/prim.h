@@ -153,8 +153,8 @@ typedef struct {
      * once known, and -1, for a robust triangle's hit, until the caller
      * asks; 0 for every other hit. */
     int edge;
-    /* A robust triangle's hit: the triangle, and the barycentrics of its
-     * b and c (prim_past_plane); tri is NULL for every other hit. */
+    /* Where edge is 1: the triangle, and the hit's barycentrics of its b
+     * and c (prim_near_edge keeps them for prim_past_plane). */
     const Prim *tri;
     float tu, tv;
 } Surface;
@@ -335,16 +335,18 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
  * PRIM_EDGE_REACH spawn offsets of an edge of the triangle p? There
  * moving off the triangle's plane may cross that of a face beyond the
  * edge, and a ray spawned there hit that face at once (shade.c,
- * edge_clear). 0 for every other kind. */
-int prim_near_edge(const Prim *p, const PrimHit *h, const Surface *s);
+ * edge_clear). 0 for every other kind. When 1, s keeps p and h's
+ * barycentrics (tri, tu, tv); the caller sets s->edge. */
+int prim_near_edge(const Prim *p, const PrimHit *h, Surface *s);
 /* Would a ray from s's point along d not cross flat primitive x (a
  * triangle or a plane), whatever its hit from an offset origin says? So
  * when the point lies on x's plane or past it as seen along d: the line
- * then meets the plane at a t <= 0 (shade.c, edge_clear). For a robust
- * triangle's hit (s->tri) the side is the exact point's, from the
- * triangle's vertices, when none of them lies on the far side of x's
- * plane from another; otherwise, and for other hits, s's point within its
- * error bound counts as on the plane. 0 for the other kinds of x. */
+ * then meets the plane at a t <= 0 (shade.c, edge_clear). For a hit near
+ * a triangle's edge (s->edge 1, prim_near_edge) the side is the exact
+ * point's, from the triangle's vertices, when none of them lies on the far
+ * side of x's plane from another; otherwise, and for other hits, s's
+ * point within its error bound counts as on the plane. 0 for the other
+ * kinds of x. */
 int prim_past_plane(const Prim *x, const Surface *s, Vec3 d);
 /* prim_surface for the hits j < n of rays r[j] at prims[best[j]], into
  * s[j], skipping those with best[j] < 0: the same surfaces, bit for bit;
