@@ -277,6 +277,44 @@ void accel_closest_packet(const Accel *a, const Ray *r, int n, PrimHit *h, int *
         best[k] = best[k] < 0 ? best[k] : scene_index(a, best[k]);
 }
 
+/* The scene's primitives accel_closest_except passes over. */
+typedef struct {
+    const Accel *a;
+    const int *skip;
+    int n;
+} Skip;
+
+static int skipped(void *ctx, int i)
+{
+    const Skip *k = ctx;
+    const int id = scene_index(k->a, i);
+    for (int j = 0; j < k->n; j++)
+        if (k->skip[j] == id)
+            return 1;
+    return 0;
+}
+
+int accel_closest_except(const Accel *a, const Ray *r, const int *skip, int nskip, PrimHit *h, RayStats *st)
+{
+    Skip k = {a, skip, nskip};
+    int i = bvh_closest_except(&a->bvh, r, skipped, &k, h, &st->isect_tests);
+    for (int u = 0; u < a->nunbounded; u++) { /* the planes, as closest_unbounded */
+        const int j = a->unbounded[u];
+        PrimHit cur;
+        Ray q = *r;
+        if (skipped(&k, j))
+            continue;
+        st->isect_tests++;
+        if (i >= 0)
+            q.tmax = prim_tmax_past(h->t, r->tmax);
+        if (prim_intersect(&a->prims[j], &q, a->variant, &cur) && prim_hit_wins(cur.t, j, h->t, i)) {
+            i = j;
+            *h = cur;
+        }
+    }
+    return i < 0 ? i : scene_index(a, i);
+}
+
 /* 1 when a plane blocks r (any hit will do): one ray's own loop, which
  * stops at the first; unbounded_rays costs the rays that go one by one
  * (an adaptive area light's) more. */

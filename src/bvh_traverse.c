@@ -950,6 +950,42 @@ int bvh_occluded(const Bvh *b, const Ray *r, unsigned long long *tests)
 #endif
 }
 
+int bvh_closest_except(const Bvh *b, const Ray *r, int (*skip)(void *ctx, int i), void *ctx, PrimHit *h,
+                       unsigned long long *tests)
+{
+    if (b->nnodes == 0 || misses_root(b, r))
+        return -1;
+    RayPre p;
+    ray_pre(r, &p);
+    Ray q = *r; /* tmax: past the nearest hit so far, as CLOSEST's */
+    int best = -1;
+    int32_t stack[BVH_ENTRIES]; /* every entered child, in no order: few rays come here */
+    int sp = 0;
+    stack[sp++] = 0;
+    while (sp > 0) {
+        const int32_t code = stack[--sp];
+        if (code < 0) {
+            const BvhLeaf *L = &b->leaves[-1 - code];
+            for (int k = 0; k < L->count; k++) {
+                const int id = b->order[L->first + k];
+                PrimHit cur;
+                if (skip(ctx, id))
+                    continue;
+                *tests += 1;
+                if (prim_intersect(&b->prims[id], &q, b->variant, &cur))
+                    keep_nearer(id, &cur, r, &q, &best, h);
+            }
+            continue;
+        }
+        float tn[BVH_WIDTH];
+        const int mask = slots_enter(&b->nodes[code], &p, q.tmax * BVH_REACH, tn);
+        for (int i = 0; i < BVH_WIDTH; i++)
+            if (mask >> i & 1)
+                stack[sp++] = b->nodes[code].child[i];
+    }
+    return best;
+}
+
 /* Packets of at most BVH_PACKET with AVX2; else ray by ray. */
 void bvh_closest_packet(const Bvh *b, const Ray *r, int n, PrimHit *h, int *best, unsigned long long *tests)
 {

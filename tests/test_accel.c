@@ -121,6 +121,64 @@ static void test_closest_and_occluded_match_brute_force(void **state)
     }
 }
 
+/* brute_closest, passing over skip[0 .. ns-1]. */
+static int brute_except(const Scene *s, const Ray *r, const int *skip, int ns, PrimHit *best_h)
+{
+    int best = -1;
+    PrimHit h;
+    for (int i = 0; i < s->nprims; i++) {
+        int skipped = 0;
+        for (int j = 0; j < ns; j++)
+            skipped |= skip[j] == i;
+        if (!skipped && prim_intersect(&s->prims[i], r, PRIM_ROBUST, &h) && prim_hit_wins(h.t, i, best_h->t, best)) {
+            best = i;
+            *best_h = h;
+        }
+    }
+    return best;
+}
+
+static void test_closest_except_matches_brute_force(void **state)
+{
+    (void)state;
+    /* Each ray again without its nearest primitives, one by one, and
+     * without a random one: through the BVH and the planes, and by the
+     * plain loop, as by brute force. */
+    unsigned long long g = 5;
+    Scene s;
+    random_scene(&s, 300, &g);
+    Accel *a[2] = {accel_build_as(&s, PRIM_ROBUST, 2, 0), accel_build_as(&s, PRIM_ROBUST, 1, 1)};
+    assert_non_null(a[0]);
+    assert_non_null(a[1]);
+    int passed = 0, planes = 0;
+    for (int k = 0; k < 5000; k++) {
+        const Ray r = random_ray(&g);
+        RayStats st = {0};
+        int skip[4] = {(int)(test_uniform(&g, 0, 1) * (float)s.nprims) % s.nprims, -1, -1, -1};
+        for (int ns = 1; ns <= 4; ns++) {
+            PrimHit w, h;
+            const int want = brute_except(&s, &r, skip, ns, &w);
+            for (int v = 0; v < 2; v++) {
+                assert_int_equal(accel_closest_except(a[v], &r, skip, ns, &h, &st), want);
+                if (want >= 0)
+                    assert_same_hit(&s.prims[want], &h, &w);
+            }
+            if (want < 0)
+                break;
+            passed += ns > 1;
+            planes += s.prims[want].kind == PRIM_PLANE;
+            if (ns < 4)
+                skip[ns] = want; /* the next round passes over it too */
+        }
+        PrimHit h, w;
+        assert_int_equal(accel_closest_except(a[0], &r, skip, 0, &h, &st), accel_closest(a[0], &r, &w, &st));
+    }
+    assert_true(passed > 2000 && planes > 200);
+    accel_free(a[0]);
+    accel_free(a[1]);
+    scene_free(&s);
+}
+
 /* A triangle lying in a plane: both are hit at exactly the same t, and the
  * lower scene index wins, whichever of the two it is. */
 static void test_ties_between_planes_and_the_bvh(void **state)
@@ -433,6 +491,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_closest_and_occluded_match_brute_force),
+        cmocka_unit_test(test_closest_except_matches_brute_force),
         cmocka_unit_test(test_ties_between_planes_and_the_bvh),
         cmocka_unit_test(test_closest_packet_is_closest),
         cmocka_unit_test(test_occluded_packet_is_occluded),

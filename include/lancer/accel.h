@@ -54,6 +54,11 @@ int accel_pn_split(const Accel *a, int *pieces);
 /* The primitive with the nearest hit in (0, r->tmax) and its PrimHit, or -1. */
 int accel_closest(const Accel *a, const Ray *r, PrimHit *h, RayStats *st);
 
+/* accel_closest, passing over the primitives skip[0 .. nskip-1] (the
+ * scene's indices): for the few rays that must go past surfaces they start
+ * on (shade.c). Slower, with the same hits otherwise. */
+int accel_closest_except(const Accel *a, const Ray *r, const int *skip, int nskip, PrimHit *h, RayStats *st);
+
 /* accel_closest for each of r[0 .. n-1]: best[k] and h[k]. Neighbouring
  * rays, such as camera rays and their mirror rays, are traced through the
  * BVH together . */

@@ -118,6 +118,13 @@ int bvh_validate(const Bvh *b, char *err, size_t errlen);
  * the lowest index wins, so the answer does not depend on the tree. */
 int bvh_closest(const Bvh *b, const Ray *r, PrimHit *h, unsigned long long *tests);
 
+/* bvh_closest, passing over every primitive i for which skip(ctx, i) is
+ * nonzero: for the few rays that must go past surfaces they start on
+ * (shade.c). Leaf after leaf in no order, and each primitive by its own
+ * routine: slower than bvh_closest, with the same hits. */
+int bvh_closest_except(const Bvh *b, const Ray *r, int (*skip)(void *ctx, int i), void *ctx, PrimHit *h,
+                       unsigned long long *tests);
+
 /* Rays traced together by bvh_closest_packet, at most. */
 #define BVH_PACKET 8
 
