@@ -1176,6 +1176,60 @@ int prim_past_plane(const Prim *x, const Surface *s, Vec3 d)
     return nd > 0.0 ? sp >= -err : nd < 0.0 ? sp <= err : 1;
 }
 
+int prim_line_crosses(const Prim *x, const Surface *s, Vec3 d)
+{
+    if ((x->kind != PRIM_TRIANGLE && x->kind != PRIM_SMOOTH_TRIANGLE) || x == s->tri)
+        return 0; /* (a line that leaves a plane does not meet it again) */
+    /* The point b0 a + b1 b + b2 c of s's triangle, with b0 = 1 - b1 - b2
+     * in double: each product of floats is exact, so the point lies on
+     * that triangle to within the sums' roundings. The hit's b1 + b2 may
+     * pass 1 by a rounding, which would put the point past the edge b c:
+     * it is brought back onto it. */
+    const Triangle *t = &s->tri->g.tri, *u = &x->g.tri;
+    double b1 = s->tu > 0.0f ? s->tu : 0.0, b2 = s->tv > 0.0f ? s->tv : 0.0;
+    if (b1 + b2 > 1.0) {
+        const double sum = b1 + b2;
+        b1 /= sum;
+        b2 /= sum;
+    }
+    const double b0 = 1.0 - b1 - b2, dd[3] = {d.x, d.y, d.z};
+    double p[3], n[3], w[3];
+    for (int i = 0; i < 3; i++)
+        p[i] = b0 * vec_comp(t->a, i) + b1 * vec_comp(t->b, i) + b2 * vec_comp(t->c, i);
+    tri_normal_d(u, n, NULL);
+    const double nd = d3_dot(n, dd);
+    double f = 0.0, err = 0.0; /* the point's distance from x's plane, times |n|, and its rounding */
+    for (int i = 0; i < 3; i++) {
+        w[i] = vec_comp(u->a, i) - p[i];
+        f += n[i] * w[i];
+        err += 0x1p-40 * fabs(n[i]) * (fabs(w[i]) + fabs(p[i]));
+    }
+    const double tt = f / nd; /* where the line meets x's plane */
+    if (!(fabs(f) > err) || !(tt > 0.0) || !isfinite(tt))
+        return 0; /* on the plane (a face through the point), or behind */
+    double y[3];
+    for (int i = 0; i < 3; i++)
+        y[i] = p[i] + tt * dd[i];
+    /* inside x: y on the inner side of each edge, to within a part in 2^40
+     * of the terms (the roundings above are a few parts in 2^53) */
+    const Vec3 v[3] = {u->a, u->b, u->c};
+    for (int i = 0; i < 3; i++) {
+        double e[3], q[3], m[3];
+        d3_sub(e, v[(i + 1) % 3], v[i]);
+        for (int k = 0; k < 3; k++)
+            q[k] = y[k] - vec_comp(v[i], k);
+        d3_cross(m, e, q);
+        double tol = 0.0;
+        for (int k = 0; k < 3; k++) {
+            const int j = (k + 1) % 3, l = (k + 2) % 3;
+            tol += fabs(n[k]) * (fabs(e[j] * q[l]) + fabs(e[l] * q[j]));
+        }
+        if (d3_dot(m, n) < -0x1p-40 * tol)
+            return 0;
+    }
+    return 1;
+}
+
 void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, Surface *s)
 {
     int robust = v == PRIM_ROBUST;

@@ -665,6 +665,45 @@ static void test_past_plane_of_triangle_hit(void **state)
     assert_int_equal(prim_past_plane(&across, &s, vec3(1, 0, 0)), 1);
 }
 
+static void test_line_crosses_triangle(void **state)
+{
+    (void)state;
+    /* A in z = 0; B in y = 0 shares A's edge from (0,0,0) to (1,0,0); the
+     * hit on A is 1e-7 from that edge, (0.5, 1e-7, 0). */
+    const Prim a = {PRIM_TRIANGLE, 0, {.tri = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, 1}, {0, 0, 1}}}};
+    const Prim b = {PRIM_TRIANGLE, 0, {.tri = {{0, 0, 0}, {1, 0, 0}, {0, 0, 1}, {0, 1, 0}, {0, 1, 0}, {0, 1, 0}}}};
+    Surface s;
+    memset(&s, 0, sizeof s);
+    s.edge = 1;
+    s.tri = &a;
+    s.tu = 0.5f;
+    s.tv = 1e-7f;
+    /* B's plane 1e-7 ahead, met at (0.5, 0, 1e-7): inside B */
+    assert_int_equal(prim_line_crosses(&b, &s, vec3(0, -1, 1)), 1);
+    /* met at (0.5, 0, -1e-7): beside B, past its edge */
+    assert_int_equal(prim_line_crosses(&b, &s, vec3(0, -1, -1)), 0);
+    /* away from B's plane, and along it */
+    assert_int_equal(prim_line_crosses(&b, &s, vec3(0, 1, 1)), 0);
+    assert_int_equal(prim_line_crosses(&b, &s, vec3(1, 0, 0)), 0);
+    /* the hit's own triangle, and a plane, are never crossed */
+    assert_int_equal(prim_line_crosses(&a, &s, vec3(0, 0, -1)), 0);
+    const Prim plane = {PRIM_PLANE, 0, {.plane = {{0, 1, 0}, 0}}};
+    assert_int_equal(prim_line_crosses(&plane, &s, vec3(0, -1, 1)), 0);
+    /* C stands on A's edge from (1,0,0) to (0,1,0), in x + y + z = 1,
+     * below A. The hit's b1 + b2 pass 1 by a rounding: taken as they are,
+     * the point lies 1e-7 past that edge, off C's plane, and a ray down
+     * meets C at once; brought back onto the edge, it lies on C's plane. */
+    const Prim c = {PRIM_TRIANGLE, 0, {.tri = {{1, 0, 0}, {0, 1, 0}, {1, 1, -1}, {0, 0, 1}, {0, 0, 1}, {0, 0, 1}}}};
+    s.tu = 0.6f;
+    s.tv = 0.4000001f;
+    assert_int_equal(prim_line_crosses(&c, &s, vec3(0, 0, -1)), 0);
+    /* from well inside A, the same ray does not reach C, and one across it does */
+    s.tu = 0.3f;
+    s.tv = 0.3f;
+    assert_int_equal(prim_line_crosses(&c, &s, vec3(0, 0, -1)), 0);
+    assert_int_equal(prim_line_crosses(&c, &s, vec3(1, 1, -0.5f)), 1);
+}
+
 static double obox_coord(const OBox *b, Vec3 q, int i)
 {
     const Vec3 ax[3] = {b->u, b->v, b->w};
@@ -1744,6 +1783,7 @@ int main(void)
         cmocka_unit_test(test_triangle_near_edge),
         cmocka_unit_test(test_past_plane),
         cmocka_unit_test(test_past_plane_of_triangle_hit),
+        cmocka_unit_test(test_line_crosses_triangle),
         cmocka_unit_test(test_ellipsoid_spawn),
         cmocka_unit_test(test_ellipsoid_spawn_far_and_grazing),
     };

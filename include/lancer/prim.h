@@ -348,6 +348,14 @@ int prim_near_edge(const Prim *p, const PrimHit *h, Surface *s);
  * point within its error bound counts as on the plane. 0 for the other
  * kinds of x. */
 int prim_past_plane(const Prim *x, const Surface *s, Vec3 d);
+/* Does the line from the point of a hit near a triangle's edge (s->edge 1,
+ * prim_near_edge: b0 a + b1 b + b2 c of s's triangle, in double) along d
+ * cross triangle x at a t > 0? Where x's plane is met inside x, to within
+ * the roundings of double. The point lies on s's triangle, so a face
+ * beyond a convex edge, which the line leaves behind, is not crossed,
+ * where the offset triangle test, within its error band of the edge, may
+ * report it (shade.c, edge_behind). 0 for the other kinds of x. */
+int prim_line_crosses(const Prim *x, const Surface *s, Vec3 d);
 /* prim_surface for the hits j < n of rays r[j] at prims[best[j]], into
  * s[j], skipping those with best[j] < 0: the same surfaces, bit for bit;
  * with AVX, robust spheres four at a time. */
