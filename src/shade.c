@@ -19,13 +19,38 @@
  * from its origin it looks for them, in perr's (Surface). */
 #define EDGE_STEPS 8
 #define EDGE_PROBE (4.0f * (float)PRIM_EDGE_REACH)
+/* The first hits edge_clear() finds that wait for their rays' traces, at
+ * most: a packet's refracted and mirror rays at each level of a path. */
+#define EDGE_GIVEN 16
+/* Out of line and away from the shading's loops: the work for rays next
+ * to a mesh's edge, which few rays do. */
+#ifdef __GNUC__
+#define EDGE_COLD __attribute__((noinline, cold))
+#else
+#define EDGE_COLD
+#endif
 
+/* A ray's first hit, found before the ray is traced (edge_clear). */
+typedef struct {
+    int prim;
+    PrimHit h;
+    Ray r; /* the ray's line from behind its point, which h is a hit of */
+} Given;
+
+/* The first hits found for rays not yet traced, each with its ray's
+ * address: the trace that follows takes them (given()). */
+typedef struct {
+    int n;
+    const Ray *ray[EDGE_GIVEN];
+    Given g[EDGE_GIVEN];
+} Givens;
 
 typedef struct {
     const RenderPlan *p;
     const Scene *s; /* the plan's */
     const Accel *a;
     RayStats *st;
+    Givens *given;
 } Ctx;
 
 /* Light attenuation: 2 / (1 + (d/fade_distance)^fade_power), or 1. */
@@ -62,6 +87,39 @@ static float toward(Vec3 p, Vec3 q, Vec3 *dir)
     return dist;
 }
 
+/* The surface that the ray from sf's point itself crosses first along r's
+ * direction, when r, spawned off sf, does not meet it: the spawn offset,
+ * which clears the triangle test's error band, has taken r's origin past
+ * it or beside it, as where the solid is thinner than the offset (a long
+ * triangle's offset, near a sharp apex). A ray along r's line from `near`
+ * behind the point meets every surface around it; those that the line
+ * from the point does not cross ahead are passed over (prim_line_crosses,
+ * prim_past_plane; a curved one, or a box, by its t), and the next is the
+ * answer, into g, unless r hits it: then 1. */
+EDGE_COLD static int edge_behind(const Ctx *c, const Surface *sf, const Ray *r, float near, Given *g)
+{
+    const float end = vec_dot(vec_sub(r->o, sf->p), r->d) + r->tmax; /* r's end, from the point */
+    g->r = ray_make(vec_madd(sf->p, r->d, -near), r->d, near + (end < near ? end : near));
+    int skip[EDGE_STEPS];
+    for (int ns = 0; ns < EDGE_STEPS; ns++) {
+        const int i = accel_closest_except(c->a, &g->r, skip, ns, &g->h, c->st);
+        if (i < 0)
+            return 0;
+        const Prim *x = &c->s->prims[i];
+        const int tri = x->kind == PRIM_TRIANGLE || x->kind == PRIM_SMOOTH_TRIANGLE;
+        const int behind = tri ? !prim_line_crosses(x, sf, r->d)
+                                 : x->kind == PRIM_PLANE ? prim_past_plane(x, sf, r->d) : g->h.t <= near;
+        if (behind) {
+            skip[ns] = i;
+            continue;
+        }
+        PrimHit h;
+        g->prim = i;
+        return !prim_intersect(x, r, c->p->variant, &h);
+    }
+    return 0;
+}
+
 /* A ray *r spawned off a triangle near its edge (sf->edge). The faces
  * beyond the edge pass through or close to sf's point, and the spawn
  * offset, which clears the plane of the triangle hit alone, may take the
@@ -69,8 +127,9 @@ static float toward(Vec3 p, Vec3 q, Vec3 *dir)
  * would hit it at once, a surface the ray from the point itself does not
  * cross (one too many through a glass mesh). So while the ray's first hit
  * is such a face (prim_past_plane), the ray starts again past it, from that
- * face's own spawn origin, a few times at most. */
-static void edge_clear(const Ctx *c, const Surface *sf, Ray *r)
+ * face's own spawn origin, a few times at most. Returns how far it looks
+ * for them, which is where edge_behind() starts. */
+EDGE_COLD static float edge_skip(const Ctx *c, const Surface *sf, Ray *r)
 {
     /* Such a hit lies within a few offsets of the origin, unless the ray
      * runs almost along that face: the search stops there, which keeps
@@ -82,15 +141,63 @@ static void edge_clear(const Ctx *c, const Surface *sf, Ray *r)
         probe.tmax = near < r->tmax ? near : r->tmax;
         const int i = accel_closest(c->a, &probe, &h, c->st);
         if (i < 0 || !prim_past_plane(&c->s->prims[i], sf, r->d))
-            return;
+            break;
         Surface x;
         prim_surface(&c->s->prims[i], r, &h, c->p->variant, &x);
         const Vec3 o = prim_spawn_origin(&x, r->d);
         r->tmax -= vec_length(vec_sub(o, r->o)); /* a shadow ray's end stays where it was */
         r->o = o;
         if (!(r->tmax > 0.0f))
-            return;
+            break;
     }
+    return near;
+}
+
+/* A ray *r spawned off a triangle near its edge (sf->edge), for a trace
+ * later: edge_skip(), and where the offset has taken r's origin past a
+ * surface that the ray from the point does cross (one too few through a
+ * glass mesh, edge_behind()), that surface is r's first hit. It waits for
+ * the trace under r's address (given()). The rays that wait at once are
+ * few, so EDGE_GIVEN always holds them; past it, a ray is traced as it
+ * starts. */
+EDGE_COLD static void edge_clear(const Ctx *c, const Surface *sf, Ray *r)
+{
+    Givens *w = c->given;
+    Given g;
+    const float near = edge_skip(c, sf, r);
+    if (r->tmax > 0.0f && edge_behind(c, sf, r, near, &g) && w->n < EDGE_GIVEN) {
+        w->ray[w->n] = r;
+        w->g[w->n++] = g;
+    }
+}
+
+/* The first hit edge_clear() found for the ray at r, into g, and no longer
+ * waiting; 0 when there is none. */
+EDGE_COLD static int take(const Ctx *c, const Ray *r, Given *g)
+{
+    Givens *w = c->given;
+    for (int j = 0; j < w->n; j++)
+        if (w->ray[j] == r) {
+            *g = w->g[j];
+            w->n--; /* the last takes its place */
+            w->ray[j] = w->ray[w->n];
+            w->g[j] = w->g[w->n];
+            return 1;
+        }
+    return 0;
+}
+
+/* The closest hits best[k] (h[k]) of the rays r[0 .. n-1], just traced:
+ * where edge_clear() found a ray's first hit, that one, with its ray. */
+EDGE_COLD static void given(const Ctx *c, Ray *r, int n, PrimHit *h, int *best)
+{
+    Given g;
+    for (int k = 0; k < n && c->given->n; k++)
+        if (take(c, &r[k], &g)) {
+            r[k] = g.r;
+            best[k] = g.prim;
+            h[k] = g.h;
+        }
 }
 
 /* sf->edge for hit h of primitive prim (Surface), worked out on first
@@ -107,8 +214,9 @@ static int near_edge(const Ctx *c, int prim, const PrimHit *h, Surface *sf)
  * look: a face edge_clear() would move it past would have blocked it. */
 static int blocked_past_edge(const Ctx *c, const Surface *sf, Ray r)
 {
-    edge_clear(c, sf, &r);
-    return r.tmax > 0.0f && accel_occluded(c->a, &r, c->st);
+    Given g;
+    const float near = edge_skip(c, sf, &r);
+    return r.tmax > 0.0f && (accel_occluded(c->a, &r, c->st) || edge_behind(c, sf, &r, near, &g));
 }
 
 /* The light that filtered shadows let through along the shadow rays r[k]
@@ -116,10 +224,10 @@ static int blocked_past_edge(const Ctx *c, const Surface *sf, Ray r)
  * pass_factor over every transparent surface crossed, 0 behind an opaque
  * one (refraction is ignored, as in POV-Ray). The rays still on their way
  * go through the BVH together, surface after surface. */
-static void filtered(const Ctx *c, const Ray *r, int n, const Vec3 *q, Vec3 *f)
+static void filtered(const Ctx *c, Ray *r, int n, const Vec3 *q, Vec3 *f)
 {
     Ray on[ACCEL_PACKET]; /* the rays on their way past a surface */
-    const Ray *cur = r;   /* the rays on their way, cur[j] for r[who[j]] */
+    Ray *cur = r;         /* the rays on their way, cur[j] for r[who[j]] */
     int who[ACCEL_PACKET], non = n;
     for (int k = 0; k < n; k++) {
         f[k] = vec3(1, 1, 1);
@@ -131,6 +239,8 @@ static void filtered(const Ctx *c, const Ray *r, int n, const Vec3 *q, Vec3 *f)
         int through[ACCEL_PACKET]; /* the transparent surfaces crossed, or -1 */
         Surface sf[ACCEL_PACKET];
         accel_closest_packet(c->a, cur, non, h, best, c->st);
+        if (c->given->n)
+            given(c, cur, non, h, best);
         for (int j = 0; j < non; j++) {
             const int i = best[j];
             through[j] = -1;
@@ -162,8 +272,11 @@ static void filtered(const Ctx *c, const Ray *r, int n, const Vec3 *q, Vec3 *f)
         cur = on;
         non = m;
     }
-    for (int j = 0; j < non; j++) /* more crossings than the limit: dark */
+    Given g;
+    for (int j = 0; j < non; j++) { /* more crossings than the limit: dark */
         f[who[j]] = vec3(0, 0, 0);
+        take(c, &cur[j], &g); /* and no hit waits for them */
+    }
 }
 
 /* prim_spawn_origin(sf, d) from sf's two spawn origins o. */
@@ -433,12 +546,20 @@ static int refraction(const Ctx *c, int prim, const Material *m, const Surface *
  * at it, any other ray is one deeper. */
 static Vec3 trace(const Ctx *c, const Ray *r, int level, int continued, const Interiors *in, float wt)
 {
+    Given g;
+    const int got = c->given->n && take(c, r, &g); /* edge_clear() found its first hit */
     if (level >= c->p->max_depth)
         return vec3(0, 0, 0);
     if (!continued)
         level++;
     PrimHit h;
-    int i = accel_closest(c->a, r, &h, c->st);
+    int i;
+    if (got) {
+        i = g.prim;
+        h = g.h;
+        r = &g.r;
+    } else
+        i = accel_closest(c->a, r, &h, c->st);
     Vec3 col;
     shade_packet(c, r, 1, &i, &h, level, &in, &wt, &col);
     return col;
@@ -474,7 +595,9 @@ static void mirror_ray(const Ctx *c, const Ray *r, const Surface *sf, Vec3 front
 
 Vec3 shade_trace(const RenderPlan *p, const Accel *a, const Ray *r, RayStats *st)
 {
-    Ctx c = {p, p->scene, a, st};
+    Givens given;
+    given.n = 0;
+    Ctx c = {p, p->scene, a, st, &given};
     return trace(&c, r, 0, 0, &p->camera_in, 1.0f);
 }
 
@@ -611,12 +734,16 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
     Vec3 got[ACCEL_PACKET];
     if (nt) {
         accel_closest_packet(c->a, tr, nt, h2, best2, c->st);
+        if (c->given->n)
+            given(c, tr, nt, h2, best2);
         shade_packet(c, tr, nt, best2, h2, level + 1, tinp, tw, got);
         for (int j = 0; j < nt; j++)
             out[twho[j]] = vec_add(out[twho[j]], vec_mul(tf[j], got[j]));
     }
     if (nr) {
         accel_closest_packet(c->a, rr, nr, h2, best2, c->st);
+        if (c->given->n)
+            given(c, rr, nr, h2, best2);
         shade_packet(c, rr, nr, best2, h2, level + 1, rin, rw, got);
         for (int j = 0; j < nr; j++)
             out[rwho[j]] = vec_madd(out[rwho[j]], got[j], rmul[rwho[j]]);
@@ -630,7 +757,9 @@ void shade_traced_packet(const RenderPlan *p, const Accel *a, const Ray *r, int 
     const Interiors *in[ACCEL_PACKET]; /* camera rays start in the same solids */
     for (int k = 0; k < ACCEL_PACKET; k++)
         in[k] = &p->camera_in;
-    Ctx c = {p, p->scene, a, st};
+    Givens given;
+    given.n = 0;
+    Ctx c = {p, p->scene, a, st, &given};
     for (int k = 0; k < n; k += ACCEL_PACKET) {
         int m = n - k < ACCEL_PACKET ? n - k : ACCEL_PACKET;
         if (p->max_depth < 1) /* as trace() at level 0 */

@@ -25,7 +25,7 @@ static const char *floor_scene =
 /* Parses the floor scene plus `extra` lines. */
 static void load(Scene *s, const char *extra)
 {
-    char text[2048], err[512];
+    char text[4096], err[512];
     snprintf(text, sizeof text, "%s%s", floor_scene, extra);
     int rc = scene_parse("t.scn", text, strlen(text), s, err, sizeof err);
     if (rc != 0)
@@ -452,6 +452,69 @@ static void test_mesh_apex_crossed_once(void **state)
     scene_free(&s);
 }
 
+/* The 16 sides of a cone of height 3 over the unit circle of y = 0, as
+ * triangles of material g (no base), into buf. */
+static void cone_sides(char *buf, size_t len)
+{
+    size_t at = 0;
+    for (int i = 0; i < 16; i++) {
+        const double turn = 6.283185307179586, a0 = turn * i / 16, a1 = turn * (i + 1) / 16;
+        at += (size_t)snprintf(buf + at, len - at, "triangle { a 0 3 0 b %.9f 0 %.9f c %.9f 0 %.9f material g }\n",
+                               cos(a1), sin(a1), cos(a0), sin(a0));
+        assert_true(at < len);
+    }
+}
+
+static void test_mesh_apex_exit_within_offset(void **state)
+{
+    (void)state;
+    /* Rays from the side into a cone 1e-4 below its apex, where it is
+     * 6.6e-5 wide: the spawn offset off a face as long as these reaches
+     * further, past the exit face, and the ray crossed one surface (0.5).
+     * edge_clear finds the exit as the ray's first hit: two (0.25). */
+    char sides[1536], extra[2048];
+    cone_sides(sides, sizeof sides);
+    snprintf(extra, sizeof extra, "%s%s", HALF_CLEAR, sides);
+    Scene s;
+    load_floorless(&s, extra);
+    const Vec3 eyes[4] = {{3, 5, 0.3f}, {1, 4, -2}, {-2, 4, 1}, {0.2f, 8, 3}};
+    for (int e = 0; e < 4; e++)
+        for (int i = -2; i <= 2; i++)
+            for (int k = -2; k <= 2; k++) {
+                Vec3 q = vec3(1e-6f * (float)i, 3.0f - 1e-4f, 1e-6f * (float)k);
+                assert_vec(trace(&s, eyes[e], vec_sub(q, eyes[e])), 0.25f * 0.2f, 0.25f * 0.4f, 0.25f * 0.6f, 1e-6);
+            }
+    scene_free(&s);
+}
+
+static void test_shadow_through_thin_apex(void **state)
+{
+    (void)state;
+    /* A ceiling at y = 10, lit from below and to the side by a light whose
+     * shadow rays to the ceiling points around P pass within 1e-6 of the
+     * cone's axis, 1e-4 below its apex: in and out, two surfaces, and the
+     * diffuse term carries 0.5^2, where the exit was skipped (0.5). */
+    char sides[1536], extra[2048];
+    cone_sides(sides, sizeof sides);
+    snprintf(extra, sizeof extra, "%s%s%s", HALF_CLEAR,
+             "material m2 { color 0.5 0.4 0.3 ambient 0.1 diffuse 0.6 }\n"
+             "plane { normal 0 -1 0 offset -10 material m2 }\n"
+             "light { position -3 -1 0 }\n",
+             sides);
+    Scene s;
+    load_floorless(&s, extra);
+    /* P = Q + s (Q - L), Q = (0, 3 - 1e-4, 0), on y = 10 */
+    const double qy = 3.0 - 1e-4, t = (10.0 - qy) / (qy + 1.0);
+    const Vec3 p = vec3((float)(3.0 * t), 10.0f, 0.0f), eye = vec3(p.x, 9.0f, 0.5f);
+    /* N.L = 0.8: the light lies along (-0.6, -0.8, 0) from P */
+    const float k = 0.1f + 0.6f * 0.8f * 0.25f;
+    for (int i = -2; i <= 2; i++) {
+        const Vec3 at = vec3(p.x, p.y, 1e-7f * (float)i);
+        assert_vec(trace(&s, eye, vec_sub(at, eye)), 0.5f * k, 0.4f * k, 0.3f * k, 1e-5);
+    }
+    scene_free(&s);
+}
+
 static void test_mesh_box_edge_crossed_once(void **state)
 {
     (void)state;
@@ -869,7 +932,9 @@ int main(void)
         cmocka_unit_test(test_traced_is_trace), cmocka_unit_test(test_filtered_shadows_in_packets),
         cmocka_unit_test(test_refraction_in_packets), cmocka_unit_test(test_invisible_sphere_in_glass),
         cmocka_unit_test(test_adaptive_area_light), cmocka_unit_test(test_light_on_a_surface),
-        cmocka_unit_test(test_mesh_apex_crossed_once), cmocka_unit_test(test_mesh_box_edge_crossed_once),
+        cmocka_unit_test(test_mesh_apex_crossed_once), cmocka_unit_test(test_mesh_apex_exit_within_offset),
+        cmocka_unit_test(test_shadow_through_thin_apex),
+        cmocka_unit_test(test_mesh_box_edge_crossed_once),
         cmocka_unit_test(test_shadow_through_mesh_apex), cmocka_unit_test(test_no_self_shadow_in_mesh_groove),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
