@@ -503,7 +503,7 @@ static void test_shadow_through_thin_apex(void **state)
              sides);
     Scene s;
     load_floorless(&s, extra);
-    /* P = Q + s (Q - L), Q = (0, 3 - 1e-4, 0), on y = 10 */
+    /* P = Q + t (Q - L), Q = (0, 3 - 1e-4, 0), L the light: on y = 10 */
     const double qy = 3.0 - 1e-4, t = (10.0 - qy) / (qy + 1.0);
     const Vec3 p = vec3((float)(3.0 * t), 10.0f, 0.0f), eye = vec3(p.x, 9.0f, 0.5f);
     /* N.L = 0.8: the light lies along (-0.6, -0.8, 0) from P */
