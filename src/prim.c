@@ -1116,12 +1116,12 @@ int prim_near_edge(const Prim *p, const PrimHit *h, Surface *s)
 /* The signed distance of q from the plane through x0 of normal n (times
  * |n|), in double, and into *err a bound on its roundings, generously; mag
  * bounds the roundings of n's components (tri_normal_d). */
-static double plane_side(const double n[3], const double x0[3], const double mag[3], Vec3 q, double *err)
+static double plane_side(const double n[3], const double x0[3], const double mag[3], const double q[3], double *err)
 {
     double f = 0.0;
     *err = 0.0;
     for (int i = 0; i < 3; i++) {
-        double dq = (double)vec_comp(q, i) - x0[i];
+        double dq = q[i] - x0[i];
         f += n[i] * dq;
         *err += 0x1p-40 * mag[i] * (fabs(dq) + fabs(x0[i]));
     }
@@ -1158,7 +1158,8 @@ int prim_past_plane(const Prim *x, const Surface *s, Vec3 d)
         int pos = 0, neg = 0;
         for (int k = 0; k < 3; k++) {
             double err;
-            const double f = plane_side(n, x0, mag, v[k], &err);
+            const double q[3] = {v[k].x, v[k].y, v[k].z};
+            const double f = plane_side(n, x0, mag, q, &err);
             if (b[k] > 0.0f && fabs(f) > err) {
                 pos |= f > 0.0;
                 neg |= f < 0.0;
@@ -1170,7 +1171,8 @@ int prim_past_plane(const Prim *x, const Surface *s, Vec3 d)
         }
     }
     double err;
-    const double sp = plane_side(n, x0, mag, s->p, &err);
+    const double p[3] = {s->p.x, s->p.y, s->p.z};
+    const double sp = plane_side(n, x0, mag, p, &err);
     for (int i = 0; i < 3; i++) /* and p's error bound */
         err += fabs(n[i]) * vec_comp(s->perr, i);
     return nd > 0.0 ? sp >= -err : nd < 0.0 ? sp <= err : 1;
@@ -1193,18 +1195,14 @@ int prim_line_crosses(const Prim *x, const Surface *s, Vec3 d)
         b2 /= sum;
     }
     const double b0 = 1.0 - b1 - b2, dd[3] = {d.x, d.y, d.z};
-    double p[3], n[3], w[3];
-    for (int i = 0; i < 3; i++)
-        p[i] = b0 * vec_comp(t->a, i) + b1 * vec_comp(t->b, i) + b2 * vec_comp(t->c, i);
-    tri_normal_d(u, n, NULL);
-    const double nd = d3_dot(n, dd);
-    double f = 0.0, err = 0.0; /* the point's distance from x's plane, times |n|, and its rounding */
+    double p[3], n[3], mag[3], x0[3], err;
     for (int i = 0; i < 3; i++) {
-        w[i] = vec_comp(u->a, i) - p[i];
-        f += n[i] * w[i];
-        err += 0x1p-40 * fabs(n[i]) * (fabs(w[i]) + fabs(p[i]));
+        p[i] = b0 * vec_comp(t->a, i) + b1 * vec_comp(t->b, i) + b2 * vec_comp(t->c, i);
+        x0[i] = vec_comp(u->a, i);
     }
-    const double tt = f / nd; /* where the line meets x's plane */
+    tri_normal_d(u, n, mag);
+    const double f = plane_side(n, x0, mag, p, &err);
+    const double tt = -f / d3_dot(n, dd); /* where the line meets x's plane */
     if (!(fabs(f) > err) || !(tt > 0.0) || !isfinite(tt))
         return 0; /* on the plane (a face through the point), or behind */
     double y[3];
