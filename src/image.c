@@ -163,10 +163,16 @@ typedef struct {
     exr_result_t rv;     /* the first failure */
 } ExrJob;
 
+/* One thread's encoder: its job, and the library's own compression. */
+typedef struct {
+    ExrJob *job;
+    exr_result_t (*compress)(exr_encode_pipeline_t *enc);
+} ExrCoder;
+
 /* Waits until the chunks before this one are written. */
 static exr_result_t exr_wait_turn(exr_encode_pipeline_t *enc)
 {
-    ExrJob *j = enc->encoding_user_data;
+    ExrJob *j = ((const ExrCoder *)enc->encoding_user_data)->job;
     int c = (enc->chunk.start_y - j->img->y) / j->lpc;
     pthread_mutex_lock(&j->lock);
     while (j->written < c && j->rv == EXR_ERR_SUCCESS)
@@ -176,12 +182,29 @@ static exr_result_t exr_wait_turn(exr_encode_pipeline_t *enc)
     return rv;
 }
 
+/* The library's compression, then a chunk that deflated to exactly its
+ * packed length stored raw. OpenEXRCore 3.1 (internal_zip.c) keeps the
+ * deflated bytes unless they are longer, but a reader takes a chunk as
+ * long as its packed data for raw: such a chunk read back as garbage
+ * (OpenEXR issue #2306, fixed in 3.4). Where the library stored it raw
+ * already, the copy is the same bytes. */
+static exr_result_t exr_compress_chunk(exr_encode_pipeline_t *enc)
+{
+    const ExrCoder *me = enc->encoding_user_data;
+    exr_result_t rv = me->compress(enc);
+    if (rv == EXR_ERR_SUCCESS && enc->compressed_bytes == enc->packed_bytes &&
+        enc->compressed_buffer != enc->packed_buffer)
+        memcpy(enc->compressed_buffer, enc->packed_buffer, enc->packed_bytes);
+    return rv;
+}
+
 /* Takes chunks until none is left or one fails. */
 static void *exr_encode_chunks(void *arg)
 {
     ExrJob *j = arg;
     const Image *img = j->img;
     exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
+    ExrCoder me = {j, NULL};
     int started = 0;
     for (;;) {
         exr_chunk_info_t ci;
@@ -214,10 +237,14 @@ static void *exr_encode_chunks(void *arg)
             ch->user_pixel_stride = (int32_t)(3 * sizeof(float));
             ch->user_line_stride = (int32_t)(3 * sizeof(float)) * img->width;
         }
-        if (rv == EXR_ERR_SUCCESS && first)
+        if (rv == EXR_ERR_SUCCESS && first) {
             rv = exr_encoding_choose_default_routines(j->ctx, j->part, &enc);
+            me.compress = enc.compress_fn;
+            if (me.compress)
+                enc.compress_fn = exr_compress_chunk;
+        }
         enc.yield_until_ready_fn = exr_wait_turn;
-        enc.encoding_user_data = j;
+        enc.encoding_user_data = &me;
         if (rv == EXR_ERR_SUCCESS)
             rv = exr_encoding_run(j->ctx, j->part, &enc);
         pthread_mutex_lock(&j->lock);
