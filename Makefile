@@ -160,6 +160,8 @@ STRESS_RAYS    ?= 100000000
 # rays per closed mesh and placement of test_pntri's crack test in `make
 # stress`: 4 meshes x 5 placements x 50000 = 10^6
 STRESS_PN_RAYS ?= 50000
+# random parity scenes in `make stress` (scripts/parity-random.sh)
+STRESS_SCENES  ?= 1000
 
 $(EXACT_DIR)/%.o: tests/exact/%.cpp
 	@mkdir -p $(@D)
@@ -200,7 +202,8 @@ fuzz-build:
 	$(MAKE) BUILD=build/fuzz SAN=1 WERROR=1 CC=clang CFLAGS=-fsanitize=fuzzer-no-link fuzzers
 
 # The exact judge alone: `make exact`, or `make stress` (STRESS_RAYS per case,
-# then the PN crack test at 10^6 rays; hours). Both build build/liblancer.a with the release flags first.
+# then the PN crack test at 10^6 rays, then STRESS_SCENES random parity
+# scenes; hours). Both build build/liblancer.a with the release flags first.
 exact: deps-test exact-judge
 	$(EXACT_DIR)/judge $(EXACT_RAYS)
 
@@ -208,6 +211,8 @@ stress: deps-test exact-judge
 	$(EXACT_DIR)/judge $(STRESS_RAYS)
 	$(MAKE) BUILD=build/san SAN=1 WERROR=1 build/san/test_pntri
 	LANCER_PN_CRACK_RAYS=$(STRESS_PN_RAYS) build/san/test_pntri
+	$(MAKE) all
+	sh scripts/parity-random.sh $(BUILD)/lancer $(STRESS_SCENES)
 
 # Benchmarks (not tests): the routines' speed, lancer against Embree on ray
 # files of six CGAL meshes, the bunny frame and the parity scenes against

@@ -1,6 +1,7 @@
 #!/bin/sh
 # Runs every test program in a build tree, the command-line and signal
-# tests, the fuzzers' regressions, the POV-Ray parity suite, the stability
+# tests, the fuzzers' regressions, the POV-Ray parity suite and 40 random
+# parity scenes, the stability
 # set and, when given, the exact judge
 # (EXACT_RAYS rays per case, default 1000000), then prints one closing line:
 # "N passed, N failed".
@@ -34,6 +35,7 @@ done
 run tests/install.sh sh tests/install.sh
 run scripts/check-links.sh sh scripts/check-links.sh
 run scripts/parity.sh sh scripts/parity.sh "$dir/lancer"
+run "scripts/parity-random.sh (40 scenes)" sh scripts/parity-random.sh "$dir/lancer" 40
 run scripts/stability.sh sh scripts/stability.sh "$dir/lancer"
 if [ -n "$judge" ]; then
     run "$judge ${EXACT_RAYS:-1000000}" "$judge" "${EXACT_RAYS:-1000000}"
