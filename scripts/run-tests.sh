@@ -1,8 +1,7 @@
 #!/bin/sh
 # Runs every test program in a build tree, the command-line and signal
 # tests, the fuzzers' regressions, the POV-Ray parity suite and 40 random
-# parity scenes, the stability
-# set and, when given, the exact judge
+# parity scenes, the stability set and, when given, the exact judge
 # (EXACT_RAYS rays per case, default 1000000), then prints one closing line:
 # "N passed, N failed".
 #   scripts/run-tests.sh build/san [build/exact/judge]
