@@ -186,7 +186,7 @@ static exr_result_t exr_wait_turn(exr_encode_pipeline_t *enc)
  * packed length stored raw. OpenEXRCore 3.1 (internal_zip.c) keeps the
  * deflated bytes unless they are longer, but a reader takes a chunk as
  * long as its packed data for raw: such a chunk read back as garbage
- * (OpenEXR issue #2306, fixed in 3.4). Where the library stored it raw
+ * (OpenEXR issue #2306, fixed after 3.4.7). Where the library stored it raw
  * already, the copy is the same bytes. */
 static exr_result_t exr_compress_chunk(exr_encode_pipeline_t *enc)
 {
