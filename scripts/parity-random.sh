@@ -45,7 +45,7 @@ while [ "$seed" -lt $((FIRST + N)) ]; do
     BEGIN {
         srand(seed)
         for (i = 1; i <= 3; i++) O[i] = rand() < 0.25 ? (rand() < 0.5 ? -1 : 1) * u(1e3, 3e4) : 0
-        w = ri(48, 96); h = ri(48, 96)
+        w = ri(96, 160); h = ri(96, 160)
         spp = rand() < 0.25 ? " spp " ri(2, 3) : ""
         printf "image { width %d height %d background %s max_depth %d%s }\n", w, h, v(0, 0.8), ri(1, 6), spp
         up = rand() < 0.3 ? "  up " v(-1, 1) : ""
