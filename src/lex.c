@@ -23,20 +23,51 @@ int lex_verror(char *err, size_t errlen, const char *name, long line, long col, 
     return -1;
 }
 
-int lex_fail(const LexReader *R, long line, const char *fmt, ...)
+/* The column of byte at: bytes since the start of its line, plus one. A
+ * line starts after a '\n' or after a '\r' (which ends a line unless a
+ * '\n' follows it: lex_next_line); the first, after a UTF-8 byte-order
+ * mark, as the scene's does. */
+static long column(const LexReader *R, const char *at)
+{
+    const char *s = at;
+    while (s > R->data && s[-1] != '\n' && s[-1] != '\r')
+        s--;
+    if (s == R->data && at - s >= 3 && memcmp(s, "\xef\xbb\xbf", 3) == 0)
+        s += 3;
+    return (long)(at - s) + 1;
+}
+
+/* The first token of R's current line (its start if it has none). */
+static const char *line_first(const LexReader *R)
+{
+    if (!R->ls)
+        return R->data;
+    const char *s = R->ls;
+    while (s < R->end && lex_is_blank(*s) && *s != '\r')
+        s++;
+    return s;
+}
+
+LEX_PRINTF(4, 0) static int vfail(const LexReader *R, long line, const char *at, const char *fmt, va_list ap)
+{
+    long col = at ? column(R, at) : line == R->line ? column(R, line_first(R)) : 1;
+    return lex_verror(R->err, R->errlen, R->name, line, col, fmt, ap);
+}
+
+int lex_fail(const LexReader *R, long line, const char *at, const char *fmt, ...)
 {
     va_list ap;
     va_start(ap, fmt);
-    lex_verror(R->err, R->errlen, R->name, line, 0, fmt, ap);
+    vfail(R, line, at, fmt, ap);
     va_end(ap);
     return -1;
 }
 
-int lex_fail_at(const LexReader *R, long line, size_t off, const char *fmt, ...)
+int lex_fail_at(const LexReader *R, long line, const char *at, size_t off, const char *fmt, ...)
 {
     va_list ap;
     va_start(ap, fmt);
-    lex_verror(R->err, R->errlen, R->name, line, 0, fmt, ap);
+    vfail(R, line, at, fmt, ap);
     va_end(ap);
     if (R->errlen > 0) {
         size_t n = strlen(R->err);
@@ -46,7 +77,21 @@ int lex_fail_at(const LexReader *R, long line, size_t off, const char *fmt, ...)
     return -1;
 }
 
-long lex_eof_line(const LexReader *R) { return R->line > 0 ? R->line : 1; }
+int lex_fail_eof(const LexReader *R, const char *fmt, ...)
+{
+    /* the last line is the one last read: the file's end, less the line's
+     * own end ("\n", "\r\n" or "\r") */
+    const char *at = R->end;
+    if (at > R->data && at[-1] == '\n')
+        at--;
+    if (at > R->data && at[-1] == '\r')
+        at--;
+    va_list ap;
+    va_start(ap, fmt);
+    vfail(R, R->line > 0 ? R->line : 1, at, fmt, ap);
+    va_end(ap);
+    return -1;
+}
 
 /* The first byte c at or after s, or R->end; *from and *at cache the last
  * search, so that each c is searched for once however long the lines
@@ -71,6 +116,7 @@ int lex_next_line(LexReader *R, const char **ls, const char **le)
     if (cr < e && cr + 1 < e) /* a lone CR, as old Mac OS files end their lines */
         e = cr, next = cr + 1;
     R->p = next;
+    R->ls = s;
     R->line++;
     if (e > s && e[-1] == '\r')
         e--;

@@ -7,9 +7,9 @@
  * NUL bytes: no routine looks past `end`, and numbers are copied into a
  * bounded buffer before strtof sees them. Lines end in "\n" or "\r\n".
  *
- * Every message is one line: "name:line:col: message" (the scene), or
- * "name:line: message" (meshes), or for binary data with no lines
- * "name:line: message at byte offset N".
+ * Every message is one line, "name:line:col: message"; for binary data,
+ * which has no lines, "name:line:col: message at byte offset N", placed at
+ * the header line that announced the data.
  */
 #ifndef LANCER_LEX_H
 #define LANCER_LEX_H
@@ -37,6 +37,7 @@ typedef struct {
     const char *name;       /* the file, in messages */
     const char *data, *end; /* the whole input */
     const char *p;          /* start of the next line */
+    const char *ls;         /* start of the line last returned (NULL before the first) */
     long line;              /* number of the line last returned, 0 before the first */
     const char *lf_from, *lf; /* no '\n' in [lf_from, lf): the next one, cached (NULL: none yet) */
     const char *cr_from, *cr; /* the same for '\r' */
@@ -54,12 +55,16 @@ typedef struct {
 LEX_PRINTF(6, 0)
 int lex_verror(char *err, size_t errlen, const char *name, long line, long col, const char *fmt, va_list ap);
 
-/* "name:line: message" into R's error buffer; returns -1. */
-LEX_PRINTF(3, 4) int lex_fail(const LexReader *R, long line, const char *fmt, ...);
+/* "name:line:col: message" into R's error buffer; returns -1. The column
+ * is that of byte `at` of R's data, which lies on line `line`: the
+ * offending token. A NULL `at` stands for the first token of the line, for
+ * a message about the line as a whole (column 1 when `line` is not R's
+ * current line). */
+LEX_PRINTF(4, 5) int lex_fail(const LexReader *R, long line, const char *at, const char *fmt, ...);
 /* lex_fail for binary data: the message ends with " at byte offset N". */
-LEX_PRINTF(4, 5) int lex_fail_at(const LexReader *R, long line, size_t off, const char *fmt, ...);
-/* The line an "unexpected end of file" is reported on: the last one. */
-long lex_eof_line(const LexReader *R);
+LEX_PRINTF(5, 6) int lex_fail_at(const LexReader *R, long line, const char *at, size_t off, const char *fmt, ...);
+/* lex_fail at the end of the file: just past the last line's last byte. */
+LEX_PRINTF(2, 3) int lex_fail_eof(const LexReader *R, const char *fmt, ...);
 
 /* Next line as [*ls, *le), without "\n", "\r\n" or the lone "\r" that ends
  * an old Mac OS line. Returns 0 at the end. */

@@ -36,7 +36,7 @@ int mesh_parse(const char *name, const char *data, size_t len, MeshFormat fmt, M
     R.end = data + len;
     R.p = data;
     R.line = 0;
-    R.lf_from = R.lf = R.cr_from = R.cr = NULL;
+    R.ls = R.lf_from = R.lf = R.cr_from = R.cr = NULL;
     R.err = err;
     R.errlen = errlen;
     if (len >= 3 && memcmp(data, "\xef\xbb\xbf", 3) == 0) /* a UTF-8 byte-order mark */
@@ -56,7 +56,7 @@ int mesh_parse(const char *name, const char *data, size_t len, MeshFormat fmt, M
         rc = mesh_read_stl(&R, &B);
         break;
     default:
-        rc = lex_fail(&R, 1, "unknown mesh format %d", (int)fmt);
+        rc = lex_fail(&R, 1, NULL, "unknown mesh format %d", (int)fmt);
         break;
     }
     if (rc != 0) {

@@ -60,11 +60,11 @@ int mesh_read_coord(const LexReader *R, LexTok t, const char *what, float *out)
     case LEX_NUM_OK:
         return 0;
     case LEX_NUM_NONFINITE:
-        return lex_fail(R, R->line, "non-finite %s '%s'", what, lex_quote(t, q));
+        return lex_fail(R, R->line, t.s, "non-finite %s '%s'", what, lex_quote(t, q));
     case LEX_NUM_LONG:
-        return lex_fail(R, R->line, "number longer than %d characters '%s'", LIMIT_NUMBER_CHARS, lex_quote(t, q));
+        return lex_fail(R, R->line, t.s, "number longer than %d characters '%s'", LIMIT_NUMBER_CHARS, lex_quote(t, q));
     default:
-        return lex_fail(R, R->line, "malformed number '%s'", lex_quote(t, q));
+        return lex_fail(R, R->line, t.s, "malformed number '%s'", lex_quote(t, q));
     }
 }
 
@@ -73,7 +73,7 @@ int mesh_check_number(const LexReader *R, LexTok t)
     char q[LEX_QUOTE_LEN];
     if (lex_is_decimal(t) || lex_is_nonfinite_word(t))
         return 0;
-    return lex_fail(R, R->line, "malformed number '%s'", lex_quote(t, q));
+    return lex_fail(R, R->line, t.s, "malformed number '%s'", lex_quote(t, q));
 }
 
 /* ---- building the mesh ---- */
@@ -84,12 +84,12 @@ int mesh_reserve_tris(const LexReader *R, long line, MeshBuild *B, size_t n)
         return 0;
     void *t = mesh_array(B->m.tri, (size_t)B->m.nt, n, sizeof *B->m.tri);
     if (!t)
-        return lex_fail(R, line, "out of memory for %zu triangles", n);
+        return lex_fail(R, line, NULL, "out of memory for %zu triangles", n);
     B->m.tri = t;
     if (B->track_n) {
         t = mesh_array(B->m.ntri, (size_t)B->m.nt, n, sizeof *B->m.ntri);
         if (!t)
-            return lex_fail(R, line, "out of memory for %zu triangles", n);
+            return lex_fail(R, line, NULL, "out of memory for %zu triangles", n);
         B->m.ntri = t;
     }
     B->cap_t = n;
@@ -100,7 +100,7 @@ int mesh_push_tri(const LexReader *R, MeshBuild *B, const int c[3], const int nc
 {
     if ((size_t)B->m.nt == B->cap_t) {
         if (B->m.nt == INT_MAX)
-            return lex_fail(R, R->line, "more than %d triangles", INT_MAX);
+            return lex_fail(R, R->line, NULL, "more than %d triangles", INT_MAX);
         size_t cap = B->cap_t < TRI_CAP_MIN ? TRI_CAP_MIN : B->cap_t * 2;
         if (cap > INT_MAX)
             cap = INT_MAX;
@@ -228,7 +228,7 @@ int mesh_finish(const LexReader *R, MeshBuild *B, int vertex_normals)
     if (vertex_normals && m->n) {
         m->ntri = mesh_array(NULL, 0, (size_t)k, sizeof *m->ntri);
         if (!m->ntri)
-            return lex_fail(R, lex_eof_line(R), "out of memory for %d triangles", k);
+            return lex_fail_eof(R, "out of memory for %d triangles", k);
         memcpy(m->ntri, m->tri, (size_t)k * sizeof *m->tri);
     }
     return 0;
@@ -241,11 +241,11 @@ int mesh_alloc_vertices(const LexReader *R, long line, MeshBuild *B, long long n
         return 0;
     B->m.v = mesh_array(NULL, 0, (size_t)nv, sizeof *B->m.v);
     if (!B->m.v)
-        return lex_fail(R, line, "out of memory for %lld vertices", nv);
+        return lex_fail(R, line, NULL, "out of memory for %lld vertices", nv);
     if (normals) {
         B->m.n = mesh_array(NULL, 0, (size_t)nv, sizeof *B->m.n);
         if (!B->m.n)
-            return lex_fail(R, line, "out of memory for %lld normals", nv);
+            return lex_fail(R, line, NULL, "out of memory for %lld normals", nv);
         B->m.nn = (int)nv;
     }
     return 0;

@@ -18,16 +18,16 @@ static int obj_index(const LexReader *R, LexTok t, const ObjIndexKind *k, int *o
     char q[LEX_QUOTE_LEN];
     long long i;
     if (lex_parse_int(t, &i) != 0)
-        return lex_fail(R, R->line, "malformed %s index '%s'", k->what, lex_quote(t, q));
+        return lex_fail(R, R->line, t.s, "malformed %s index '%s'", k->what, lex_quote(t, q));
     if (i == 0)
-        return lex_fail(R, R->line, "%s index 0 is invalid (OBJ indices start at 1)", k->what);
+        return lex_fail(R, R->line, t.s, "%s index 0 is invalid (OBJ indices start at 1)", k->what);
     if (i > 0) {
         if (i > k->total)
-            return lex_fail(R, R->line, "%s index %s out of range (%lld %s)", k->what, lex_quote(t, q), k->total, k->plural);
+            return lex_fail(R, R->line, t.s, "%s index %s out of range (%lld %s)", k->what, lex_quote(t, q), k->total, k->plural);
         *out = (int)(i - 1);
     } else {
         if (-i > k->so_far)
-            return lex_fail(R, R->line, "relative %s index %s out of range (%lld %s defined so far)", k->what,
+            return lex_fail(R, R->line, t.s, "relative %s index %s out of range (%lld %s defined so far)", k->what,
                         lex_quote(t, q), k->so_far, k->plural);
         *out = (int)(k->so_far + i);
     }
@@ -45,7 +45,7 @@ static int obj_corner(const LexReader *R, LexTok t, const ObjIndexKind kinds[3],
     for (size_t i = 0; i <= t.len; i++) {
         if (i == t.len || t.s[i] == '/') {
             if (np == 3)
-                return lex_fail(R, R->line, "malformed face corner '%s'", lex_quote(t, q));
+                return lex_fail(R, R->line, t.s, "malformed face corner '%s'", lex_quote(t, q));
             part[np].s = t.s + start;
             part[np].len = i - start;
             np++;
@@ -54,7 +54,7 @@ static int obj_corner(const LexReader *R, LexTok t, const ObjIndexKind kinds[3],
     }
     /* the vertex is always there; v/ and v/vt/ and v// are not corners */
     if (part[0].len == 0 || (np >= 2 && part[np - 1].len == 0))
-        return lex_fail(R, R->line, "malformed face corner '%s'", lex_quote(t, q));
+        return lex_fail(R, R->line, t.s, "malformed face corner '%s'", lex_quote(t, q));
     int unused;
     if (obj_index(R, part[0], &kinds[0], vi) != 0)
         return -1;
@@ -79,16 +79,16 @@ int mesh_read_obj(LexReader *R, MeshBuild *B)
         lex_next_tok(&q, e, &t);
         if (lex_tok_is(t, "v")) {
             if (++nv > INT_MAX)
-                return lex_fail(R, R->line, "more than %d vertices", INT_MAX);
+                return lex_fail(R, R->line, NULL, "more than %d vertices", INT_MAX);
         } else if (lex_tok_is(t, "vn")) {
             if (++nn > INT_MAX)
-                return lex_fail(R, R->line, "more than %d normals", INT_MAX);
+                return lex_fail(R, R->line, NULL, "more than %d normals", INT_MAX);
         } else if (lex_tok_is(t, "vt")) {
             nvt++;
         } else if (lex_tok_is(t, "f")) {
             int k = lex_split(q, e, tk, 0);
             if (k > 2 && (ntris += k - 2) > INT_MAX)
-                return lex_fail(R, R->line, "more than %d triangles", INT_MAX);
+                return lex_fail(R, R->line, NULL, "more than %d triangles", INT_MAX);
         }
     }
     if (mesh_alloc_vertices(R, 1, B, nv, 0) != 0)
@@ -96,7 +96,7 @@ int mesh_read_obj(LexReader *R, MeshBuild *B)
     if (nn > 0) {
         m->n = mesh_array(NULL, 0, (size_t)nn, sizeof *m->n);
         if (!m->n)
-            return lex_fail(R, 1, "out of memory for %lld normals", nn);
+            return lex_fail(R, 1, R->data, "out of memory for %lld normals", nn);
         m->nn = (int)nn;
         B->track_n = 1;
     }
@@ -116,7 +116,7 @@ int mesh_read_obj(LexReader *R, MeshBuild *B)
         if (lex_tok_is(t, "v")) {
             int n = lex_split(q, e, tk, 7);
             if (n != 3 && n != 4 && n != 6)
-                return lex_fail(R, R->line, "'v' takes 3 or 4 numbers (or 6 with a colour), got %d", n);
+                return lex_fail(R, R->line, NULL, "'v' takes 3 or 4 numbers (or 6 with a colour), got %d", n);
             Vec3 *p = &m->v[kinds[0].so_far++];
             if (mesh_read_coord(R, tk[0], "coordinate", &p->x) != 0 || mesh_read_coord(R, tk[1], "coordinate", &p->y) != 0 ||
                 mesh_read_coord(R, tk[2], "coordinate", &p->z) != 0)
@@ -127,7 +127,7 @@ int mesh_read_obj(LexReader *R, MeshBuild *B)
         } else if (lex_tok_is(t, "vn")) {
             int n = lex_split(q, e, tk, 3);
             if (n != 3)
-                return lex_fail(R, R->line, "'vn' takes 3 numbers, got %d", n);
+                return lex_fail(R, R->line, NULL, "'vn' takes 3 numbers, got %d", n);
             Vec3 *p = &m->n[kinds[2].so_far++];
             if (mesh_read_coord(R, tk[0], "normal component", &p->x) != 0 ||
                 mesh_read_coord(R, tk[1], "normal component", &p->y) != 0 ||
@@ -144,16 +144,16 @@ int mesh_read_obj(LexReader *R, MeshBuild *B)
                 if (k == 0)
                     with_n = ni >= 0;
                 else if (with_n != (ni >= 0))
-                    return lex_fail(R, R->line, "face mixes corners with and without normals");
+                    return lex_fail(R, R->line, t.s, "face mixes corners with and without normals");
                 if (mesh_fan_corner(R, B, k, vi, ni < 0 ? 0 : ni, c, nc) != 0)
                     return -1;
                 k++;
             }
             if (k < 3)
-                return lex_fail(R, R->line, "face with %d corners (at least 3 needed)", k);
+                return lex_fail(R, R->line, NULL, "face with %d corners (at least 3 needed)", k);
             faces_without_normals += !with_n;
         } else if (!((t.s[0] >= 'a' && t.s[0] <= 'z') || (t.s[0] >= 'A' && t.s[0] <= 'Z'))) {
-            return lex_fail(R, R->line, "unknown statement '%s'", lex_quote(t, qb));
+            return lex_fail(R, R->line, t.s, "unknown statement '%s'", lex_quote(t, qb));
         } /* any other statement: ignored */
     }
     if (faces_without_normals > 0) /* (no triangles at all: finish drops them) */

@@ -23,9 +23,9 @@ static int off_header(const LexReader *R, LexTok t, int *normals, int *colour)
         }
         if (i + 3 == t.len)
             return 0;
-        return lex_fail(R, R->line, "unsupported OFF variant '%s' (OFF, COFF, NOFF and CNOFF are read)", lex_quote(t, q));
+        return lex_fail(R, R->line, t.s, "unsupported OFF variant '%s' (OFF, COFF, NOFF and CNOFF are read)", lex_quote(t, q));
     }
-    return lex_fail(R, R->line, "expected an OFF header or the counts line, got '%s'", lex_quote(t, q));
+    return lex_fail(R, R->line, t.s, "expected an OFF header or the counts line, got '%s'", lex_quote(t, q));
 }
 
 int mesh_read_off(LexReader *R, MeshBuild *B)
@@ -37,7 +37,7 @@ int mesh_read_off(LexReader *R, MeshBuild *B)
     int normals = 0, colour = 0;
 
     if (!lex_next_text_line(R, &s, &e, 1))
-        return lex_fail(R, lex_eof_line(R), "empty file: no OFF header or counts line");
+        return lex_fail_eof(R, "empty file: no OFF header or counts line");
     long long unused;
     q = s;
     lex_next_tok(&q, e, &t);
@@ -47,10 +47,10 @@ int mesh_read_off(LexReader *R, MeshBuild *B)
         const char *q2 = q;
         if (lex_next_tok(&q2, e, &t)) {
             if (lex_tok_is(t, "BINARY"))
-                return lex_fail(R, R->line, "binary OFF is not supported");
+                return lex_fail(R, R->line, t.s, "binary OFF is not supported");
             s = q; /* the counts follow the keyword on its line */
         } else if (!lex_next_text_line(R, &s, &e, 1)) {
-            return lex_fail(R, lex_eof_line(R), "file ends before the counts line");
+            return lex_fail_eof(R, "file ends before the counts line");
         }
     }
 
@@ -58,12 +58,12 @@ int mesh_read_off(LexReader *R, MeshBuild *B)
     long long cnt[3];
     int nc = lex_split(s, e, tk, 3);
     if (nc != 3)
-        return lex_fail(R, R->line, "counts line has %d values, expected 3 (vertices faces edges)", nc);
+        return lex_fail(R, R->line, nc > 0 ? tk[0].s : NULL, "counts line has %d values, expected 3 (vertices faces edges)", nc);
     for (int i = 0; i < 3; i++) {
         if (lex_parse_int(tk[i], &cnt[i]) != 0)
-            return lex_fail(R, R->line, "malformed count '%s'", lex_quote(tk[i], qb));
+            return lex_fail(R, R->line, tk[i].s, "malformed count '%s'", lex_quote(tk[i], qb));
         if (cnt[i] < 0)
-            return lex_fail(R, R->line, "negative count '%s'", lex_quote(tk[i], qb));
+            return lex_fail(R, R->line, tk[i].s, "negative count '%s'", lex_quote(tk[i], qb));
     }
     long long nv = cnt[0], nf = cnt[1];
     long cline = R->line;
@@ -75,15 +75,15 @@ int mesh_read_off(LexReader *R, MeshBuild *B)
     unsigned long long vmin = 2 * (unsigned long long)nvals, fmin = 2;
     char qb2[LEX_QUOTE_LEN]; /* counts are quoted as written: they may have saturated */
     if ((unsigned long long)nv > room / vmin)
-        return lex_fail(R, cline, "%s vertices announced, more than the %zu bytes after the counts line can hold",
+        return lex_fail(R, cline, tk[0].s, "%s vertices announced, more than the %zu bytes after the counts line can hold",
                     lex_quote(tk[0], qb), rem);
     room -= (unsigned long long)nv * vmin;
     if ((unsigned long long)nf > room / fmin)
-        return lex_fail(R, cline,
+        return lex_fail(R, cline, tk[0].s,
                     "%s vertices and %s faces announced, more than the %zu bytes after the counts line can hold",
                     lex_quote(tk[0], qb), lex_quote(tk[1], qb2), rem);
     if (nv > INT_MAX)
-        return lex_fail(R, cline, "%lld vertices announced, more than %d", nv, INT_MAX);
+        return lex_fail(R, cline, tk[0].s, "%lld vertices announced, more than %d", nv, INT_MAX);
     if (mesh_alloc_vertices(R, cline, B, nv, normals) != 0)
         return -1;
     /* room for the triangles of faces of 3 corners ("3 0 1 2\n"), at most:
@@ -96,13 +96,13 @@ int mesh_read_off(LexReader *R, MeshBuild *B)
                                              {"6 or 7 (position, colour)", "9 or 10 (position, normal, colour)"}};
     for (int i = 0; i < nv; i++) {
         if (!lex_next_text_line(R, &s, &e, 1))
-            return lex_fail(R, lex_eof_line(R), "file ends after %d of %lld vertices", i, nv);
+            return lex_fail_eof(R, "file ends after %d of %lld vertices", i, nv);
         int n = lex_split(s, e, tk, 11);
         if (colour ? n != nvals + 3 && n != nvals + 4 : n != nvals) {
             int ints = n > nvals; /* more values, all integers: looks like a face */
             for (int j = 0; j < n && j < 11; j++)
                 ints &= lex_parse_int(tk[j], &unused) == 0;
-            return lex_fail(R, R->line, "vertex line has %d values, expected %s%s", n, expect[colour][normals],
+            return lex_fail(R, R->line, NULL, "vertex line has %d values, expected %s%s", n, expect[colour][normals],
                         ints ? " (a face line: fewer vertices than announced?)" : "");
         }
         if (mesh_read_coord(R, tk[0], "coordinate", &m->v[i].x) != 0 ||
@@ -120,23 +120,23 @@ int mesh_read_off(LexReader *R, MeshBuild *B)
 
     for (long long f = 0; f < nf; f++) {
         if (!lex_next_text_line(R, &s, &e, 1))
-            return lex_fail(R, lex_eof_line(R), "file ends after %lld of %lld faces", f, nf);
+            return lex_fail_eof(R, "file ends after %lld of %lld faces", f, nf);
         long long k, idx;
         q = s;
         lex_next_tok(&q, e, &t);
         if (lex_parse_int(t, &k) != 0)
-            return lex_fail(R, R->line, "malformed corner count '%s'%s", lex_quote(t, qb),
+            return lex_fail(R, R->line, t.s, "malformed corner count '%s'%s", lex_quote(t, qb),
                         lex_is_decimal(t) ? " (a vertex line: more vertices than announced?)" : "");
         if (k < 3)
-            return lex_fail(R, R->line, "face with %lld corners (at least 3 needed)", k);
+            return lex_fail(R, R->line, NULL, "face with %lld corners (at least 3 needed)", k);
         int c[3] = {0, 0, 0};
         for (long long j = 0; j < k; j++) {
             if (!lex_next_tok(&q, e, &t))
-                return lex_fail(R, R->line, "face lists %lld of its %lld corners", j, k);
+                return lex_fail(R, R->line, NULL, "face lists %lld of its %lld corners", j, k);
             if (lex_parse_int(t, &idx) != 0)
-                return lex_fail(R, R->line, "malformed vertex index '%s'", lex_quote(t, qb));
+                return lex_fail(R, R->line, t.s, "malformed vertex index '%s'", lex_quote(t, qb));
             if (idx < 0 || idx >= nv)
-                return lex_fail(R, R->line, "vertex index %s out of range (%lld vertices)", lex_quote(t, qb), nv);
+                return lex_fail(R, R->line, t.s, "vertex index %s out of range (%lld vertices)", lex_quote(t, qb), nv);
             if (mesh_fan_corner(R, B, j, (int)idx, 0, c, NULL) != 0)
                 return -1;
         }
@@ -147,11 +147,11 @@ int mesh_read_off(LexReader *R, MeshBuild *B)
             extra++;
         }
         if (extra > 4)
-            return lex_fail(R, R->line, "face has %d values after its %lld corners, at most 4 (a colour) allowed", extra,
+            return lex_fail(R, R->line, NULL, "face has %d values after its %lld corners, at most 4 (a colour) allowed", extra,
                         k);
     }
     if (lex_next_text_line(R, &s, &e, 1))
-        return lex_fail(R, R->line, "extra data after the %lld face%s announced", nf, nf == 1 ? "" : "s");
+        return lex_fail(R, R->line, NULL, "extra data after the %lld face%s announced", nf, nf == 1 ? "" : "s");
     return mesh_finish(R, B, normals);
 }
 

@@ -81,15 +81,15 @@ static int ply_declare(Ply *P, const LexTok *tk, int n)
     if (lex_tok_is(tk[0], "element")) {
         long long count;
         if (n != 3)
-            return lex_fail(R, R->line, "'element' takes a name and a count, got %d values", n - 1);
+            return lex_fail(R, R->line, NULL, "'element' takes a name and a count, got %d values", n - 1);
         if (lex_parse_int(tk[2], &count) != 0 || count < 0)
-            return lex_fail(R, R->line, "malformed element count '%s'", lex_quote(tk[2], q));
+            return lex_fail(R, R->line, tk[2].s, "malformed element count '%s'", lex_quote(tk[2], q));
         for (int i = 0; i < P->nel; i++)
             if (lex_tok_same(P->el[i].name, tk[1]))
-                return lex_fail(R, R->line, "second '%s' element", lex_quote(tk[1], q));
+                return lex_fail(R, R->line, tk[1].s, "second '%s' element", lex_quote(tk[1], q));
         void *p = mesh_grow(P->el, &P->cap, P->nel, 4, sizeof *P->el);
         if (!p)
-            return lex_fail(R, R->line, "out of memory");
+            return lex_fail(R, R->line, NULL, "out of memory");
         P->el = p;
         PlyElem *E = &P->el[P->nel++];
         memset(E, 0, sizeof *E);
@@ -101,36 +101,36 @@ static int ply_declare(Ply *P, const LexTok *tk, int n)
     }
     /* property */
     if (P->nel == 0)
-        return lex_fail(R, R->line, "'property' before any 'element'");
+        return lex_fail(R, R->line, NULL, "'property' before any 'element'");
     PlyElem *E = &P->el[P->nel - 1];
     PlyProp pr;
     if (n >= 2 && lex_tok_is(tk[1], "list")) {
         if (n != 5)
-            return lex_fail(R, R->line, "'property list' takes a count type, an item type and a name");
+            return lex_fail(R, R->line, NULL, "'property list' takes a count type, an item type and a name");
         pr.count = ply_type(tk[2]);
         pr.type = ply_type(tk[3]);
         pr.name = tk[4];
         if (pr.count == PT_NONE)
-            return lex_fail(R, R->line, "unknown property type '%s'", lex_quote(tk[2], q));
+            return lex_fail(R, R->line, tk[2].s, "unknown property type '%s'", lex_quote(tk[2], q));
         if (pr.type == PT_NONE)
-            return lex_fail(R, R->line, "unknown property type '%s'", lex_quote(tk[3], q));
+            return lex_fail(R, R->line, tk[3].s, "unknown property type '%s'", lex_quote(tk[3], q));
         if (!ply_is_int(pr.count))
-            return lex_fail(R, R->line, "list count type must be an integer type, not '%s'", lex_quote(tk[2], q));
+            return lex_fail(R, R->line, tk[2].s, "list count type must be an integer type, not '%s'", lex_quote(tk[2], q));
     } else {
         if (n != 3)
-            return lex_fail(R, R->line, "'property' takes a type and a name");
+            return lex_fail(R, R->line, NULL, "'property' takes a type and a name");
         pr.count = PT_NONE;
         pr.type = ply_type(tk[1]);
         pr.name = tk[2];
         if (pr.type == PT_NONE)
-            return lex_fail(R, R->line, "unknown property type '%s'", lex_quote(tk[1], q));
+            return lex_fail(R, R->line, tk[1].s, "unknown property type '%s'", lex_quote(tk[1], q));
     }
     for (int i = 0; i < E->nprops; i++)
         if (lex_tok_same(E->props[i].name, pr.name))
-            return lex_fail(R, R->line, "second property '%s' in element '%s'", lex_quote(pr.name, q), lex_quote(E->name, q2));
+            return lex_fail(R, R->line, pr.name.s, "second property '%s' in element '%s'", lex_quote(pr.name, q), lex_quote(E->name, q2));
     void *p = mesh_grow(E->props, &E->cap, E->nprops, 8, sizeof *E->props);
     if (!p)
-        return lex_fail(R, R->line, "out of memory");
+        return lex_fail(R, R->line, NULL, "out of memory");
     E->props = p;
     E->props[E->nprops++] = pr;
     return 0;
@@ -145,10 +145,10 @@ static int ply_header(Ply *P)
     LexTok tk[6];
     int have_format = 0;
     if (!lex_next_line(R, &s, &e) || e - s != 3 || memcmp(s, "ply", 3) != 0)
-        return lex_fail(R, 1, "not a PLY file (the first line must be 'ply')");
+        return lex_fail(R, 1, R->data, "not a PLY file (the first line must be 'ply')");
     for (;;) {
         if (!lex_next_line(R, &s, &e))
-            return lex_fail(R, lex_eof_line(R), "header has no 'end_header' line");
+            return lex_fail_eof(R, "header has no 'end_header' line");
         int n = lex_split(s, e, tk, 6);
         if (n == 0)
             continue;
@@ -156,22 +156,22 @@ static int ply_header(Ply *P)
             continue;
         if (lex_tok_is(tk[0], "end_header")) {
             if (n != 1)
-                return lex_fail(R, R->line, "unexpected text after 'end_header'");
+                return lex_fail(R, R->line, tk[1].s, "unexpected text after 'end_header'");
             break;
         }
         if (lex_tok_is(tk[0], "format")) {
             if (have_format)
-                return lex_fail(R, R->line, "second 'format' line");
+                return lex_fail(R, R->line, NULL, "second 'format' line");
             if (n != 3)
-                return lex_fail(R, R->line, "'format' takes a format and a version, got %d values", n - 1);
+                return lex_fail(R, R->line, NULL, "'format' takes a format and a version, got %d values", n - 1);
             if (lex_tok_is(tk[1], "binary_big_endian"))
-                return lex_fail(R, R->line, "binary_big_endian PLY is not supported (ascii and binary_little_endian are)");
+                return lex_fail(R, R->line, tk[1].s, "binary_big_endian PLY is not supported (ascii and binary_little_endian are)");
             if (lex_tok_is(tk[1], "binary_little_endian"))
                 P->binary = 1;
             else if (!lex_tok_is(tk[1], "ascii"))
-                return lex_fail(R, R->line, "unknown PLY format '%s'", lex_quote(tk[1], q));
+                return lex_fail(R, R->line, tk[1].s, "unknown PLY format '%s'", lex_quote(tk[1], q));
             if (!lex_tok_is(tk[2], "1.0"))
-                return lex_fail(R, R->line, "unsupported PLY version '%s' (1.0 is read)", lex_quote(tk[2], q));
+                return lex_fail(R, R->line, tk[2].s, "unsupported PLY version '%s' (1.0 is read)", lex_quote(tk[2], q));
             have_format = 1;
             continue;
         }
@@ -180,11 +180,11 @@ static int ply_header(Ply *P)
                 return -1;
             continue;
         }
-        return lex_fail(R, R->line, "unknown header keyword '%s'", lex_quote(tk[0], q));
+        return lex_fail(R, R->line, tk[0].s, "unknown header keyword '%s'", lex_quote(tk[0], q));
     }
     P->end_line = R->line;
     if (!have_format)
-        return lex_fail(R, R->line, "the header has no 'format' line");
+        return lex_fail(R, R->line, NULL, "the header has no 'format' line");
 
     /* the elements that make the mesh */
     static const char *const pos[3] = {"x", "y", "z"}, *const nrm[3] = {"nx", "ny", "nz"};
@@ -196,35 +196,35 @@ static int ply_header(Ply *P)
             P->face = i;
     }
     if (P->vertex < 0)
-        return lex_fail(R, P->end_line, "no 'vertex' element");
+        return lex_fail(R, P->end_line, NULL, "no 'vertex' element");
     PlyElem *V = &P->el[P->vertex];
     int nnrm = 0;
     for (int k = 0; k < 3; k++) {
         P->pos[k] = ply_find(V, pos[k]);
         P->nrm[k] = ply_find(V, nrm[k]);
         if (P->pos[k] < 0)
-            return lex_fail(R, V->line, "'vertex' element has no property '%s'", pos[k]);
+            return lex_fail(R, V->line, V->name.s, "'vertex' element has no property '%s'", pos[k]);
         if (V->props[P->pos[k]].count != PT_NONE)
-            return lex_fail(R, V->line, "vertex property '%s' is a list, not a number", pos[k]);
+            return lex_fail(R, V->line, V->name.s, "vertex property '%s' is a list, not a number", pos[k]);
         if (P->nrm[k] >= 0) {
             nnrm++;
             if (V->props[P->nrm[k]].count != PT_NONE)
-                return lex_fail(R, V->line, "vertex property '%s' is a list, not a number", nrm[k]);
+                return lex_fail(R, V->line, V->name.s, "vertex property '%s' is a list, not a number", nrm[k]);
         }
     }
     if (nnrm != 0 && nnrm != 3)
-        return lex_fail(R, V->line, "'vertex' element has some of nx, ny, nz but not all three");
+        return lex_fail(R, V->line, V->name.s, "'vertex' element has some of nx, ny, nz but not all three");
     if (P->face >= 0) {
         PlyElem *F = &P->el[P->face];
         P->idx = ply_find(F, "vertex_indices");
         if (P->idx < 0)
             P->idx = ply_find(F, "vertex_index");
         if (P->idx < 0)
-            return lex_fail(R, F->line, "'face' element has no 'vertex_indices' list");
+            return lex_fail(R, F->line, F->name.s, "'face' element has no 'vertex_indices' list");
         if (F->props[P->idx].count == PT_NONE)
-            return lex_fail(R, F->line, "face property '%s' is a number, not a list", lex_quote(F->props[P->idx].name, q));
+            return lex_fail(R, F->line, F->name.s, "face property '%s' is a number, not a list", lex_quote(F->props[P->idx].name, q));
         if (!ply_is_int(F->props[P->idx].type))
-            return lex_fail(R, F->line, "face property '%s' must have an integer item type",
+            return lex_fail(R, F->line, F->name.s, "face property '%s' must have an integer item type",
                         lex_quote(F->props[P->idx].name, q));
     }
     return 0;
@@ -260,13 +260,13 @@ static int ply_alloc(Ply *P)
         if (min == 0) /* no properties: an instance is nothing to read */
             continue;
         if ((unsigned long long)E->count > room / min)
-            return lex_fail(R, E->line, "%s '%s' elements announced, more than the %zu bytes after the header can hold",
+            return lex_fail(R, E->line, E->count_text.s, "%s '%s' elements announced, more than the %zu bytes after the header can hold",
                         lex_quote(E->count_text, q2), lex_quote(E->name, q), rem);
         room -= (unsigned long long)E->count * min;
     }
     const PlyElem *V = &P->el[P->vertex];
     if (V->count > INT_MAX)
-        return lex_fail(R, V->line, "%lld vertices announced, more than %d", V->count, INT_MAX);
+        return lex_fail(R, V->line, V->count_text.s, "%lld vertices announced, more than %d", V->count, INT_MAX);
     if (mesh_alloc_vertices(R, V->line, P->B, V->count, P->nrm[0] >= 0) != 0)
         return -1;
     if (P->face >= 0 && P->el[P->face].count > 0) {
@@ -302,7 +302,7 @@ static int ply_check_ascii(const LexReader *R, LexTok t, PlyType type)
     char q[LEX_QUOTE_LEN];
     long long v;
     if (ply_is_int(type))
-        return lex_parse_int(t, &v) == 0 ? 0 : lex_fail(R, R->line, "malformed integer '%s'", lex_quote(t, q));
+        return lex_parse_int(t, &v) == 0 ? 0 : lex_fail(R, R->line, t.s, "malformed integer '%s'", lex_quote(t, q));
     return mesh_check_number(R, t);
 }
 
@@ -319,13 +319,13 @@ static int ply_ascii(Ply *P)
             continue;
         for (long long i = 0; i < E->count; i++) {
             if (!lex_next_text_line(R, &s, &e, 0))
-                return lex_fail(R, lex_eof_line(R), "file ends after %lld of %lld '%s' elements", i, E->count,
+                return lex_fail_eof(R, "file ends after %lld of %lld '%s' elements", i, E->count,
                             lex_quote(E->name, q1));
             q = s;
             for (int j = 0; j < E->nprops; j++) {
                 const PlyProp *pr = &E->props[j];
                 if (!lex_next_tok(&q, e, &t))
-                    return lex_fail(R, R->line, "too few values for a '%s' element (no '%s')", lex_quote(E->name, q1),
+                    return lex_fail(R, R->line, NULL, "too few values for a '%s' element (no '%s')", lex_quote(E->name, q1),
                                 lex_quote(pr->name, q2));
                 if (pr->count == PT_NONE) {
                     float *slot = ei == P->vertex ? ply_slot(P, j, i) : NULL;
@@ -337,18 +337,18 @@ static int ply_ascii(Ply *P)
                 }
                 long long c;
                 if (lex_parse_int(t, &c) != 0)
-                    return lex_fail(R, R->line, "malformed list count '%s'", lex_quote(t, q1));
+                    return lex_fail(R, R->line, t.s, "malformed list count '%s'", lex_quote(t, q1));
                 if (c < 0)
-                    return lex_fail(R, R->line, "negative list count %lld", c);
+                    return lex_fail(R, R->line, t.s, "negative list count %lld", c);
                 int is_idx = ei == P->face && j == P->idx;
                 if (is_idx && c < 3)
-                    return lex_fail(R, R->line, "face with %lld corners (at least 3 needed)", c);
+                    return lex_fail(R, R->line, t.s, "face with %lld corners (at least 3 needed)", c);
                 int corner[3] = {0, 0, 0};
                 for (long long k = 0; k < c; k++) {
                     if (!lex_next_tok(&q, e, &t)) {
                         if (is_idx)
-                            return lex_fail(R, R->line, "face lists %lld of its %lld corners", k, c);
-                        return lex_fail(R, R->line, "too few values for a '%s' element (list '%s' announces %lld)",
+                            return lex_fail(R, R->line, NULL, "face lists %lld of its %lld corners", k, c);
+                        return lex_fail(R, R->line, NULL, "too few values for a '%s' element (list '%s' announces %lld)",
                                     lex_quote(E->name, q1), lex_quote(pr->name, q2), c);
                     }
                     if (!is_idx) {
@@ -358,19 +358,19 @@ static int ply_ascii(Ply *P)
                     }
                     long long idx;
                     if (lex_parse_int(t, &idx) != 0)
-                        return lex_fail(R, R->line, "malformed vertex index '%s'", lex_quote(t, q1));
+                        return lex_fail(R, R->line, t.s, "malformed vertex index '%s'", lex_quote(t, q1));
                     if (idx < 0 || idx >= nv)
-                        return lex_fail(R, R->line, "vertex index %s out of range (%d vertices)", lex_quote(t, q1), nv);
+                        return lex_fail(R, R->line, t.s, "vertex index %s out of range (%d vertices)", lex_quote(t, q1), nv);
                     if (mesh_fan_corner(P->R, P->B, k, (int)idx, 0, corner, NULL) != 0)
                         return -1;
                 }
             }
             if (lex_next_tok(&q, e, &t))
-                return lex_fail(R, R->line, "too many values for a '%s' element", lex_quote(E->name, q1));
+                return lex_fail(R, R->line, t.s, "too many values for a '%s' element", lex_quote(E->name, q1));
         }
     }
     if (lex_next_text_line(R, &s, &e, 0))
-        return lex_fail(R, R->line, "extra data after the announced elements");
+        return lex_fail(R, R->line, NULL, "extra data after the announced elements");
     return 0;
 }
 
@@ -432,7 +432,7 @@ static int ply_binary(Ply *P)
         if (!lists && ei != P->vertex) { /* fixed size and nothing to keep: skip it whole */
             size_t size = (size_t)ply_min_bytes(P, ei);
             if ((unsigned long long)E->count > (len - off) / size)
-                return lex_fail_at(R, E->line, len, "file ends after %zu of %lld '%s' elements", (len - off) / size,
+                return lex_fail_at(R, E->line, E->name.s, len, "file ends after %zu of %lld '%s' elements", (len - off) / size,
                                E->count, lex_quote(E->name, q1));
             off += (size_t)E->count * size;
             continue;
@@ -443,13 +443,13 @@ static int ply_binary(Ply *P)
                 size_t size = (size_t)ply_types[pr->type].size;
                 if (pr->count == PT_NONE) {
                     if (len - off < size)
-                        return lex_fail_at(R, E->line, len, "file ends after %lld of %lld '%s' elements", i, E->count,
+                        return lex_fail_at(R, E->line, E->name.s, len, "file ends after %lld of %lld '%s' elements", i, E->count,
                                        lex_quote(E->name, q1));
                     float *slot = ei == P->vertex ? ply_slot(P, j, i) : NULL;
                     if (slot) {
                         double d = ply_get(base + off, pr->type);
                         if (lex_to_float(d, slot) != 0)
-                            return lex_fail_at(R, E->line, off, "non-finite %s %g in vertex %lld", ply_slot_name(P, j), d,
+                            return lex_fail_at(R, E->line, E->name.s, off, "non-finite %s %g in vertex %lld", ply_slot_name(P, j), d,
                                            i);
                     }
                     off += size;
@@ -457,17 +457,17 @@ static int ply_binary(Ply *P)
                 }
                 size_t csize = (size_t)ply_types[pr->count].size;
                 if (len - off < csize)
-                    return lex_fail_at(R, E->line, len, "file ends after %lld of %lld '%s' elements", i, E->count,
+                    return lex_fail_at(R, E->line, E->name.s, len, "file ends after %lld of %lld '%s' elements", i, E->count,
                                    lex_quote(E->name, q1));
                 long long c = (long long)ply_get(base + off, pr->count);
                 if (c < 0)
-                    return lex_fail_at(R, E->line, off, "negative list count %lld", c);
+                    return lex_fail_at(R, E->line, E->name.s, off, "negative list count %lld", c);
                 int is_idx = ei == P->face && j == P->idx;
                 if (is_idx && c < 3)
-                    return lex_fail_at(R, E->line, off, "face with %lld corners (at least 3 needed)", c);
+                    return lex_fail_at(R, E->line, E->name.s, off, "face with %lld corners (at least 3 needed)", c);
                 off += csize;
                 if ((unsigned long long)c > (len - off) / size)
-                    return lex_fail_at(R, E->line, len, "file ends after %lld of %lld '%s' elements", i, E->count,
+                    return lex_fail_at(R, E->line, E->name.s, len, "file ends after %lld of %lld '%s' elements", i, E->count,
                                    lex_quote(E->name, q1));
                 if (!is_idx) {
                     off += (size_t)c * size;
@@ -477,7 +477,7 @@ static int ply_binary(Ply *P)
                 for (long long k = 0; k < c; k++, off += size) {
                     long long idx = (long long)ply_get(base + off, pr->type);
                     if (idx < 0 || idx >= nv)
-                        return lex_fail_at(R, E->line, off, "vertex index %lld out of range (%d vertices)", idx, nv);
+                        return lex_fail_at(R, E->line, E->name.s, off, "vertex index %lld out of range (%d vertices)", idx, nv);
                     if (mesh_fan_corner(P->R, P->B, k, (int)idx, 0, corner, NULL) != 0)
                         return -1;
                 }
@@ -485,7 +485,7 @@ static int ply_binary(Ply *P)
         }
     }
     if (off != len)
-        return lex_fail_at(R, P->end_line, off, "%zu byte%s of extra data after the announced elements", len - off,
+        return lex_fail_at(R, P->end_line, NULL, off, "%zu byte%s of extra data after the announced elements", len - off,
                        len - off == 1 ? "" : "s");
     return 0;
 }

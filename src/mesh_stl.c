@@ -41,7 +41,7 @@ static int weld_init(const LexReader *R, Weld *W, size_t nmax)
     W->mask = n - 1;
     W->slot = mesh_array(NULL, 0, n, sizeof *W->slot);
     if (!W->slot)
-        return lex_fail(R, 1, "out of memory for %zu vertices", nmax);
+        return lex_fail(R, 1, R->data, "out of memory for %zu vertices", nmax);
     memset(W->slot, 0xff, n * sizeof *W->slot);
     return 0;
 }
@@ -76,10 +76,10 @@ static int stl_alloc(const LexReader *R, MeshBuild *B, Weld *W, size_t nmax, siz
     if (nmax == 0)
         return 0;
     if (nmax > INT_MAX)
-        return lex_fail(R, 1, "more than %d vertices", INT_MAX);
+        return lex_fail(R, 1, R->data, "more than %d vertices", INT_MAX);
     B->m.v = mesh_array(NULL, 0, nmax, sizeof *B->m.v);
     if (!B->m.v)
-        return lex_fail(R, 1, "out of memory for %zu vertices", nmax);
+        return lex_fail(R, 1, R->data, "out of memory for %zu vertices", nmax);
     if (weld_init(R, W, nmax) != 0)
         return -1;
     return mesh_reserve_tris(R, 1, B, ntri);
@@ -116,7 +116,7 @@ static int stl_binary(LexReader *R, MeshBuild *B, uint32_t n)
     const unsigned char *d = (const unsigned char *)R->data;
     Weld W = {NULL, 0};
     if ((size_t)n * 3 > INT_MAX)
-        return lex_fail(R, 1, "binary STL of %lu triangles: more than %d vertices", (unsigned long)n, INT_MAX);
+        return lex_fail(R, 1, R->data, "binary STL of %lu triangles: more than %d vertices", (unsigned long)n, INT_MAX);
     int rc = stl_alloc(R, B, &W, (size_t)n * 3, n);
     for (uint32_t i = 0; rc == 0 && i < n; i++) {
         size_t off = STL_HEADER + (size_t)i * STL_RECORD + 12; /* after the facet normal */
@@ -125,7 +125,7 @@ static int stl_binary(LexReader *R, MeshBuild *B, uint32_t n)
             float x[3];
             for (int j = 0; j < 3 && rc == 0; j++)
                 if (!isfinite(x[j] = lef32(d + off + 4 * (size_t)j)))
-                    rc = lex_fail_at(R, 1, off + 4 * (size_t)j, "non-finite coordinate in triangle %lu",
+                    rc = lex_fail_at(R, 1, R->data, off + 4 * (size_t)j, "non-finite coordinate in triangle %lu",
                                      (unsigned long)i);
             if (rc == 0)
                 c[k] = weld(&W, &B->m, vec3(x[0], x[1], x[2]));
@@ -171,9 +171,9 @@ static int expect(Toks *T, const char *word, const char *after)
     LexTok t;
     char q[LEX_QUOTE_LEN];
     if (!next(T, &t))
-        return lex_fail(T->R, lex_eof_line(T->R), "file ends where '%s' should follow %s", word, after);
+        return lex_fail_eof(T->R, "file ends where '%s' should follow %s", word, after);
     if (!is(t, word))
-        return lex_fail(T->R, T->R->line, "expected '%s' after %s, got '%s'", word, after, lex_quote(t, q));
+        return lex_fail(T->R, T->R->line, t.s, "expected '%s' after %s, got '%s'", word, after, lex_quote(t, q));
     return 0;
 }
 
@@ -185,7 +185,7 @@ static int numbers(Toks *T, const char *what, Vec3 *p)
     for (int k = 0; k < 3; k++) {
         LexTok t;
         if (!next(T, &t))
-            return lex_fail(T->R, lex_eof_line(T->R), "file ends inside '%s' (3 numbers)", what);
+            return lex_fail_eof(T->R, "file ends inside '%s' (3 numbers)", what);
         if (p ? mesh_read_coord(T->R, t, "coordinate", &v[k]) : mesh_check_number(T->R, t))
             return -1;
     }
@@ -206,17 +206,17 @@ static int facet(Toks *T, MeshBuild *B, Weld *W)
     long long k = 0;
     for (;;) {
         if (!next(T, &t))
-            return lex_fail(T->R, lex_eof_line(T->R), "file ends inside a facet's loop");
+            return lex_fail_eof(T->R, "file ends inside a facet's loop");
         if (is(t, "endloop"))
             break;
         if (!is(t, "vertex"))
-            return lex_fail(T->R, T->R->line, "expected 'vertex' or 'endloop', got '%s'", lex_quote(t, q));
+            return lex_fail(T->R, T->R->line, t.s, "expected 'vertex' or 'endloop', got '%s'", lex_quote(t, q));
         Vec3 p;
         if (numbers(T, "vertex", &p) != 0 || mesh_fan_corner(T->R, B, k++, weld(W, &B->m, p), 0, c, NULL) != 0)
             return -1;
     }
     if (k < 3)
-        return lex_fail(T->R, T->R->line, "facet with %lld vertices (at least 3 needed)", k);
+        return lex_fail(T->R, T->R->line, NULL, "facet with %lld vertices (at least 3 needed)", k);
     return expect(T, "endfacet", "'endloop'");
 }
 
@@ -239,7 +239,7 @@ static int stl_ascii(LexReader *R, MeshBuild *B)
     int solids = 0;
     while (rc == 0 && next(&T, &t)) {
         if (!is(t, "solid")) {
-            rc = lex_fail(R, R->line, solids ? "expected 'solid' or the end of the file, got '%s'"
+            rc = lex_fail(R, R->line, t.s, solids ? "expected 'solid' or the end of the file, got '%s'"
                                              : "not an STL file: expected 'solid', got '%s'",
                           lex_quote(t, q));
             break;
@@ -248,7 +248,7 @@ static int stl_ascii(LexReader *R, MeshBuild *B)
         T.q = T.e; /* the solid's name: the rest of its line */
         for (;;) {
             if (!next(&T, &t)) {
-                rc = lex_fail(R, lex_eof_line(R), "file ends before 'endsolid'");
+                rc = lex_fail_eof(R, "file ends before 'endsolid'");
                 break;
             }
             if (is(t, "endsolid")) {
@@ -256,7 +256,7 @@ static int stl_ascii(LexReader *R, MeshBuild *B)
                 break;
             }
             if (!is(t, "facet")) {
-                rc = lex_fail(R, R->line, "expected 'facet' or 'endsolid', got '%s'", lex_quote(t, q));
+                rc = lex_fail(R, R->line, t.s, "expected 'facet' or 'endsolid', got '%s'", lex_quote(t, q));
                 break;
             }
             if ((rc = facet(&T, B, &W)) != 0)
@@ -264,7 +264,7 @@ static int stl_ascii(LexReader *R, MeshBuild *B)
         }
     }
     if (rc == 0 && solids == 0)
-        rc = lex_fail(R, lex_eof_line(R), "empty file: no 'solid'");
+        rc = lex_fail_eof(R, "empty file: no 'solid'");
     MESH_FREE(W.slot);
     stl_trim(B);
     return rc;
@@ -284,11 +284,11 @@ int mesh_read_stl(LexReader *R, MeshBuild *B)
         if (next(&T, &t) && is(t, "solid"))
             rc = stl_ascii(R, B);
         else if (len < STL_HEADER)
-            rc = lex_fail(R, 1, "not an STL file: %zu bytes, and no 'solid' for ASCII STL (binary STL takes at least "
+            rc = lex_fail(R, 1, R->data, "not an STL file: %zu bytes, and no 'solid' for ASCII STL (binary STL takes at least "
                                 "%d bytes)",
                           len, STL_HEADER);
         else
-            rc = lex_fail(R, 1,
+            rc = lex_fail(R, 1, R->data,
                           "binary STL announces %lu triangles, which take %llu bytes, but the file has %zu (and it "
                           "does not begin with 'solid' for ASCII STL)",
                           (unsigned long)n, (unsigned long long)STL_HEADER + (unsigned long long)n * STL_RECORD, len);

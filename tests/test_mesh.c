@@ -890,267 +890,279 @@ typedef struct {
 
 static const BadCase bad_cases[] = {
     /* ---- OFF ---- */
-    BAD("off empty", MESH_OFF, "", "t.off:1: empty file: no OFF header or counts line"),
-    BAD("off only comments", MESH_OFF, "# nothing\n\n", "t.off:2: empty file: no OFF header or counts line"),
-    BAD("off no counts", MESH_OFF, "OFF\n# counts?\n", "t.off:2: file ends before the counts line"),
-    BAD("off 4D", MESH_OFF, "4OFF\n", "t.off:1: unsupported OFF variant '4OFF' (OFF, COFF, NOFF and CNOFF are read)"),
-    BAD("off ST", MESH_OFF, "STOFF\n", "t.off:1: unsupported OFF variant 'STOFF' (OFF, COFF, NOFF and CNOFF are read)"),
-    BAD("off CC", MESH_OFF, "CCOFF\n", "t.off:1: unsupported OFF variant 'CCOFF' (OFF, COFF, NOFF and CNOFF are read)"),
-    BAD("off binary", MESH_OFF, "OFF BINARY\n", "t.off:1: binary OFF is not supported"),
+    BAD("off empty", MESH_OFF, "", "t.off:1:1: empty file: no OFF header or counts line"),
+    BAD("off only comments", MESH_OFF, "# nothing\n\n", "t.off:2:1: empty file: no OFF header or counts line"),
+    BAD("off no counts", MESH_OFF, "OFF\n# counts?\n", "t.off:2:10: file ends before the counts line"),
+    BAD("off 4D", MESH_OFF, "4OFF\n", "t.off:1:1: unsupported OFF variant '4OFF' (OFF, COFF, NOFF and CNOFF are read)"),
+    BAD("off ST", MESH_OFF, "STOFF\n", "t.off:1:1: unsupported OFF variant 'STOFF' (OFF, COFF, NOFF and CNOFF are read)"),
+    BAD("off CC", MESH_OFF, "CCOFF\n", "t.off:1:1: unsupported OFF variant 'CCOFF' (OFF, COFF, NOFF and CNOFF are read)"),
+    BAD("off binary", MESH_OFF, "OFF BINARY\n", "t.off:1:5: binary OFF is not supported"),
     BAD("off not off", MESH_OFF, "ply\nformat ascii 1.0\n",
-        "t.off:1: expected an OFF header or the counts line, got 'ply'"),
-    BAD("off counts 2", MESH_OFF, "OFF\n3 1\n", "t.off:2: counts line has 2 values, expected 3 (vertices faces edges)"),
+        "t.off:1:1: expected an OFF header or the counts line, got 'ply'"),
+    BAD("off counts 2", MESH_OFF, "OFF\n3 1\n", "t.off:2:1: counts line has 2 values, expected 3 (vertices faces edges)"),
     BAD("off counts 4", MESH_OFF, "OFF\n3 1 0 0\n",
-        "t.off:2: counts line has 4 values, expected 3 (vertices faces edges)"),
-    BAD("off count malformed", MESH_OFF, "OFF\n3 1.0 0\n", "t.off:2: malformed count '1.0'"),
-    BAD("off count negative", MESH_OFF, "OFF\n-3 1 0\n", "t.off:2: negative count '-3'"),
+        "t.off:2:1: counts line has 4 values, expected 3 (vertices faces edges)"),
+    BAD("off count malformed", MESH_OFF, "OFF\n3 1.0 0\n", "t.off:2:3: malformed count '1.0'"),
+    BAD("off count negative", MESH_OFF, "OFF\n-3 1 0\n", "t.off:2:1: negative count '-3'"),
     BAD("off huge vertex count", MESH_OFF, "OFF\n1000000000000 1 0\n0 0 0\n",
-        "t.off:2: 1000000000000 vertices announced, more than the 6 bytes after the counts line can hold"),
+        "t.off:2:1: 1000000000000 vertices announced, more than the 6 bytes after the counts line can hold"),
     BAD("off overflowing vertex count", MESH_OFF, "OFF\n99999999999999999999999 1 0\n0 0 0\n",
-        "t.off:2: 99999999999999999999999 vertices announced, more than the 6 bytes after the counts line can hold"),
+        "t.off:2:1: 99999999999999999999999 vertices announced, more than the 6 bytes after the counts line can hold"),
     BAD("off huge face count", MESH_OFF, "OFF 3 1000000000000 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
-        "t.off:1: 3 vertices and 1000000000000 faces announced, more than the 26 bytes after the counts line can "
+        "t.off:1:5: 3 vertices and 1000000000000 faces announced, more than the 26 bytes after the counts line can "
         "hold"),
     BAD("off truncated vertices", MESH_OFF, "OFF\n4 1 0\n0 0 0\n1 0 0\n" PAD,
-        "t.off:5: file ends after 2 of 4 vertices"),
+        "t.off:5:80: file ends after 2 of 4 vertices"),
     BAD("off truncated faces", MESH_OFF, "OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n" PAD,
-        "t.off:7: file ends after 1 of 2 faces"),
+        "t.off:7:80: file ends after 1 of 2 faces"),
     BAD("off truncated face line", MESH_OFF, OFF3 "0 0 0\n1 0 0\n0 1 0\n4 0 1 2\n",
-        "t.off:6: face lists 3 of its 4 corners"),
+        "t.off:6:1: face lists 3 of its 4 corners"),
     BAD("off truncated vertex line", MESH_OFF, OFF3 "0 0 0\n1 0\n0 1 0\n3 0 1 2\n" PAD,
-        "t.off:4: vertex line has 2 values, expected 3"),
+        "t.off:4:1: vertex line has 2 values, expected 3"),
     BAD("off too many vertex values", MESH_OFF, OFF3 "0 0 0\n1 0 0 0.5\n0 1 0\n3 0 1 2\n",
-        "t.off:4: vertex line has 4 values, expected 3"),
+        "t.off:4:1: vertex line has 4 values, expected 3"),
     BAD("off fewer vertices than announced", MESH_OFF, "OFF\n4 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n" PAD,
-        "t.off:6: vertex line has 4 values, expected 3 (a face line: fewer vertices than announced?)"),
+        "t.off:6:1: vertex line has 4 values, expected 3 (a face line: fewer vertices than announced?)"),
     BAD("off more vertices than announced", MESH_OFF, "OFF\n2 1 0\n0 0 0\n1 0 0\n0.5 1 0\n3 0 1 2\n",
-        "t.off:5: malformed corner count '0.5' (a vertex line: more vertices than announced?)"),
+        "t.off:5:1: malformed corner count '0.5' (a vertex line: more vertices than announced?)"),
     BAD("off extra face", MESH_OFF, OFF3 "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 2 1\n",
-        "t.off:7: extra data after the 1 face announced"),
+        "t.off:7:1: extra data after the 1 face announced"),
     BAD("off extra junk", MESH_OFF, "OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 2 1\n\nend\n",
-        "t.off:9: extra data after the 2 faces announced"),
+        "t.off:9:1: extra data after the 2 faces announced"),
     BAD("off NOFF without normals", MESH_OFF, "NOFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n" PAD,
-        "t.off:3: vertex line has 3 values, expected 6 (position, normal)"),
+        "t.off:3:1: vertex line has 3 values, expected 6 (position, normal)"),
     BAD("off COFF without colour", MESH_OFF, "COFF\n3 1 0\n0 0 0 1 1 1\n1 0 0\n0 1 0 1 1 1\n3 0 1 2\n" PAD,
-        "t.off:4: vertex line has 3 values, expected 6 or 7 (position, colour)"),
+        "t.off:4:1: vertex line has 3 values, expected 6 or 7 (position, colour)"),
     BAD("off index out of range", MESH_OFF, OFF3 "0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n",
-        "t.off:6: vertex index 3 out of range (3 vertices)"),
+        "t.off:6:7: vertex index 3 out of range (3 vertices)"),
     BAD("off negative index", MESH_OFF, OFF3 "0 0 0\n1 0 0\n0 1 0\n3 0 -1 2\n",
-        "t.off:6: vertex index -1 out of range (3 vertices)"),
+        "t.off:6:5: vertex index -1 out of range (3 vertices)"),
     BAD("off huge index", MESH_OFF, OFF3 "0 0 0\n1 0 0\n0 1 0\n3 0 1 4294967298\n",
-        "t.off:6: vertex index 4294967298 out of range (3 vertices)"),
+        "t.off:6:7: vertex index 4294967298 out of range (3 vertices)"),
     /* past 64 bits, as written (it was echoed saturated) */
     BAD("off index past 64 bits", MESH_OFF, OFF3 "0 0 0\n1 0 0\n0 1 0\n3 0 1 99999999999999999999\n",
-        "t.off:6: vertex index 99999999999999999999 out of range (3 vertices)"),
+        "t.off:6:7: vertex index 99999999999999999999 out of range (3 vertices)"),
     BAD("obj index past 64 bits", MESH_OBJ, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99999999999999999999\n",
-        "t.obj:4: vertex index 99999999999999999999 out of range (3 vertices)"),
-    BAD("off nan", MESH_OFF, OFF3 "0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n", "t.off:4: non-finite coordinate 'nan'"),
-    BAD("off -inf", MESH_OFF, OFF3 "0 0 0\n1 0 0\n0 -inf 0\n3 0 1 2\n", "t.off:5: non-finite coordinate '-inf'"),
+        "t.obj:4:7: vertex index 99999999999999999999 out of range (3 vertices)"),
+    BAD("off nan", MESH_OFF, OFF3 "0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n", "t.off:4:1: non-finite coordinate 'nan'"),
+    BAD("off -inf", MESH_OFF, OFF3 "0 0 0\n1 0 0\n0 -inf 0\n3 0 1 2\n", "t.off:5:3: non-finite coordinate '-inf'"),
     BAD("off Infinity", MESH_OFF, OFF3 "0 0 Infinity\n1 0 0\n0 1 0\n3 0 1 2\n",
-        "t.off:3: non-finite coordinate 'Infinity'"),
-    BAD("off 1e999", MESH_OFF, OFF3 "0 0 0\n1 0 1e999\n0 1 0\n3 0 1 2\n", "t.off:4: non-finite coordinate '1e999'"),
+        "t.off:3:5: non-finite coordinate 'Infinity'"),
+    BAD("off 1e999", MESH_OFF, OFF3 "0 0 0\n1 0 1e999\n0 1 0\n3 0 1 2\n", "t.off:4:5: non-finite coordinate '1e999'"),
     BAD("off 1e39 float overflow", MESH_OFF, OFF3 "0 0 0\n1 0 0\n-1e39 1 0\n3 0 1 2\n",
-        "t.off:5: non-finite coordinate '-1e39'"),
+        "t.off:5:1: non-finite coordinate '-1e39'"),
     BAD("off nan normal", MESH_OFF, "NOFF\n3 1 0\n0 0 0 0 0 1\n1 0 0 0 NaN 1\n0 1 0 0 0 1\n3 0 1 2\n",
-        "t.off:4: non-finite normal component 'NaN'"),
+        "t.off:4:9: non-finite normal component 'NaN'"),
     BAD("off malformed 1.2.3", MESH_OFF, OFF3 "0 0 0\n1.2.3 0 0\n0 1 0\n3 0 1 2\n",
-        "t.off:4: malformed number '1.2.3'"),
-    BAD("off malformed hex", MESH_OFF, OFF3 "0 0 0\n1 0 0\n0 0x1 0\n3 0 1 2\n", "t.off:5: malformed number '0x1'"),
-    BAD("off malformed 1e", MESH_OFF, OFF3 "0 0 0\n1 0 0\n0 1 1e\n3 0 1 2\n", "t.off:5: malformed number '1e'"),
-    BAD("off malformed comma", MESH_OFF, OFF3 "0 0 0\n1,5 0 0\n0 1 0\n3 0 1 2\n", "t.off:4: malformed number '1,5'"),
-    BAD("off NUL byte", MESH_OFF, OFF3 "0 0 0\n1 0\0 0\n0 1 0\n3 0 1 2\n", "t.off:4: malformed number '0?'"),
+        "t.off:4:1: malformed number '1.2.3'"),
+    BAD("off malformed hex", MESH_OFF, OFF3 "0 0 0\n1 0 0\n0 0x1 0\n3 0 1 2\n", "t.off:5:3: malformed number '0x1'"),
+    BAD("off malformed 1e", MESH_OFF, OFF3 "0 0 0\n1 0 0\n0 1 1e\n3 0 1 2\n", "t.off:5:5: malformed number '1e'"),
+    BAD("off malformed comma", MESH_OFF, OFF3 "0 0 0\n1,5 0 0\n0 1 0\n3 0 1 2\n", "t.off:4:1: malformed number '1,5'"),
+    BAD("off NUL byte", MESH_OFF, OFF3 "0 0 0\n1 0\0 0\n0 1 0\n3 0 1 2\n", "t.off:4:3: malformed number '0?'"),
     BAD("off long number", MESH_OFF,
         OFF3 "0 0 0\n1 0 0\n0 1 "
              "0.000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000"
              "0000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000"
              "0000000000000000000000000000000000000000000000000000000000000000000000000000000000000001\n3 0 1 2\n",
-        "t.off:5: number longer than 255 characters '0.00000000000000000000000000000000000000...'"),
+        "t.off:5:5: number longer than 255 characters '0.00000000000000000000000000000000000000...'"),
     BAD("off malformed index", MESH_OFF, OFF3 "0 0 0\n1 0 0\n0 1 0\n3 0 1.0 2\n",
-        "t.off:6: malformed vertex index '1.0'"),
+        "t.off:6:5: malformed vertex index '1.0'"),
     BAD("off malformed corner count", MESH_OFF, OFF3 "0 0 0\n1 0 0\n0 1 0\nthree 0 1 2\n",
-        "t.off:6: malformed corner count 'three'"),
+        "t.off:6:1: malformed corner count 'three'"),
     BAD("off two corners", MESH_OFF, OFF3 "0 0 0\n1 0 0\n0 1 0\n2 0 1\n" PAD,
-        "t.off:6: face with 2 corners (at least 3 needed)"),
+        "t.off:6:1: face with 2 corners (at least 3 needed)"),
     BAD("off zero corners", MESH_OFF, OFF3 "0 0 0\n1 0 0\n0 1 0\n0\n" PAD,
-        "t.off:6: face with 0 corners (at least 3 needed)"),
+        "t.off:6:1: face with 0 corners (at least 3 needed)"),
     /* without the padding too: the counts' bound takes a face to be at least
      * "0\n", so the face's own error speaks (it blamed the counts) */
     BAD("off two corners, short file", MESH_OFF, OFF3 "0 0 0\n1 0 0\n0 1 0\n2 0 1\n",
-        "t.off:6: face with 2 corners (at least 3 needed)"),
+        "t.off:6:1: face with 2 corners (at least 3 needed)"),
     BAD("off zero corners, short file", MESH_OFF, OFF3 "0 0 0\n1 0 0\n0 1 0\n0",
-        "t.off:6: face with 0 corners (at least 3 needed)"),
+        "t.off:6:1: face with 0 corners (at least 3 needed)"),
     BAD("off colour too long", MESH_OFF, OFF3 "0 0 0\n1 0 0\n0 1 0\n3 0 1 2 1 1 1 1 1\n",
-        "t.off:6: face has 5 values after its 3 corners, at most 4 (a colour) allowed"),
+        "t.off:6:1: face has 5 values after its 3 corners, at most 4 (a colour) allowed"),
     BAD("off colour malformed", MESH_OFF, OFF3 "0 0 0\n1 0 0\n0 1 0\n3 0 1 2 red\n",
-        "t.off:6: malformed number 'red'"),
+        "t.off:6:9: malformed number 'red'"),
 
     /* ---- OBJ (no counts: truncation shows as a short line or face) ---- */
-    BAD("obj v short", MESH_OBJ, "v 0 0 0\nv 1 0\n", "t.obj:2: 'v' takes 3 or 4 numbers (or 6 with a colour), got 2"),
-    BAD("obj v 5 values", MESH_OBJ, "v 0 0 0 1 1\n", "t.obj:1: 'v' takes 3 or 4 numbers (or 6 with a colour), got 5"),
-    BAD("obj vn short", MESH_OBJ, "vn 0 1\n", "t.obj:1: 'vn' takes 3 numbers, got 2"),
-    BAD("obj nan", MESH_OBJ, "v 0 0 0\nv 0 nan 0\n", "t.obj:2: non-finite coordinate 'nan'"),
-    BAD("obj inf", MESH_OBJ, "v 0 0 0\nv 0 0 +INF\n", "t.obj:2: non-finite coordinate '+INF'"),
-    BAD("obj 1e999", MESH_OBJ, "# c\nv 1e999 0 0\n", "t.obj:2: non-finite coordinate '1e999'"),
-    BAD("obj -1e39", MESH_OBJ, "v 0 -1e39 0\n", "t.obj:1: non-finite coordinate '-1e39'"),
-    BAD("obj normal inf", MESH_OBJ, "vn inf 0 0\n", "t.obj:1: non-finite normal component 'inf'"),
-    BAD("obj malformed", MESH_OBJ, "v 0 0 0,5\n", "t.obj:1: malformed number '0,5'"),
-    BAD("obj malformed w", MESH_OBJ, "v 0 0 0 w\n", "t.obj:1: malformed number 'w'"),
+    /* columns count bytes from each line's start: after "\r\n", after a lone
+     * CR, and after the byte-order mark on the first line; blanks count */
+    BAD("obj column crlf", MESH_OBJ, "v 0 0 0\r\nv 1 0 0\r\nv 0 1 0\r\nf 1 2  9\r\n",
+        "t.obj:4:8: vertex index 9 out of range (3 vertices)"),
+    BAD("obj column lone cr", MESH_OBJ, "v 0 0 0\rv 1 0 0\rv 0 1 0\r\tf 1 2 9\r",
+        "t.obj:4:8: vertex index 9 out of range (3 vertices)"),
+    BAD("obj column bom", MESH_OBJ, "\xef\xbb\xbfv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 3 2 1 0x\n",
+        "t.obj:5:9: malformed vertex index '0x'"),
+    BAD("obj column bom first line", MESH_OBJ, "\xef\xbb\xbf  f 1 2 3\n", "t.obj:1:5: vertex index 1 out of range (0 vertices)"),
+    BAD("obj line column", MESH_OBJ, "v 0 0 0\n  vn 1 0\n", "t.obj:2:3: 'vn' takes 3 numbers, got 2"),
+    BAD("stl end column crlf", MESH_STL, "solid a\r\nfacet normal 0 0 1\r\n",
+        "t.stl:2:19: file ends where 'outer' should follow the facet normal"),
+    BAD("obj v short", MESH_OBJ, "v 0 0 0\nv 1 0\n", "t.obj:2:1: 'v' takes 3 or 4 numbers (or 6 with a colour), got 2"),
+    BAD("obj v 5 values", MESH_OBJ, "v 0 0 0 1 1\n", "t.obj:1:1: 'v' takes 3 or 4 numbers (or 6 with a colour), got 5"),
+    BAD("obj vn short", MESH_OBJ, "vn 0 1\n", "t.obj:1:1: 'vn' takes 3 numbers, got 2"),
+    BAD("obj nan", MESH_OBJ, "v 0 0 0\nv 0 nan 0\n", "t.obj:2:5: non-finite coordinate 'nan'"),
+    BAD("obj inf", MESH_OBJ, "v 0 0 0\nv 0 0 +INF\n", "t.obj:2:7: non-finite coordinate '+INF'"),
+    BAD("obj 1e999", MESH_OBJ, "# c\nv 1e999 0 0\n", "t.obj:2:3: non-finite coordinate '1e999'"),
+    BAD("obj -1e39", MESH_OBJ, "v 0 -1e39 0\n", "t.obj:1:5: non-finite coordinate '-1e39'"),
+    BAD("obj normal inf", MESH_OBJ, "vn inf 0 0\n", "t.obj:1:4: non-finite normal component 'inf'"),
+    BAD("obj malformed", MESH_OBJ, "v 0 0 0,5\n", "t.obj:1:7: malformed number '0,5'"),
+    BAD("obj malformed w", MESH_OBJ, "v 0 0 0 w\n", "t.obj:1:9: malformed number 'w'"),
     BAD("obj index out of range", MESH_OBJ, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n",
-        "t.obj:4: vertex index 4 out of range (3 vertices)"),
+        "t.obj:4:7: vertex index 4 out of range (3 vertices)"),
     BAD("obj relative out of range", MESH_OBJ, "v 0 0 0\nv 1 0 0\nf -1 -2 -3\nv 0 1 0\n",
-        "t.obj:3: relative vertex index -3 out of range (2 vertices defined so far)"),
+        "t.obj:3:9: relative vertex index -3 out of range (2 vertices defined so far)"),
     BAD("obj index zero", MESH_OBJ, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n",
-        "t.obj:4: vertex index 0 is invalid (OBJ indices start at 1)"),
+        "t.obj:4:3: vertex index 0 is invalid (OBJ indices start at 1)"),
     BAD("obj normal out of range", MESH_OBJ, "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvn 0 0 1\nf 1//1 2//3 3//1\n",
-        "t.obj:6: normal index 3 out of range (2 normals)"),
+        "t.obj:6:11: normal index 3 out of range (2 normals)"),
     BAD("obj texture out of range", MESH_OBJ, "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/-2 3/1\n",
-        "t.obj:5: relative texture coordinate index -2 out of range (1 texture coordinates defined so far)"),
-    BAD("obj malformed index", MESH_OBJ, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 b 3\n", "t.obj:4: malformed vertex index 'b'"),
+        "t.obj:5:9: relative texture coordinate index -2 out of range (1 texture coordinates defined so far)"),
+    BAD("obj malformed index", MESH_OBJ, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 b 3\n", "t.obj:4:5: malformed vertex index 'b'"),
     BAD("obj corner trailing slash", MESH_OBJ, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/ 2 3\n",
-        "t.obj:4: malformed face corner '1/'"),
+        "t.obj:4:3: malformed face corner '1/'"),
     BAD("obj corner empty normal", MESH_OBJ, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1// 2 3\n",
-        "t.obj:4: malformed face corner '1//'"),
+        "t.obj:4:3: malformed face corner '1//'"),
     BAD("obj corner four parts", MESH_OBJ, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1/1/1 2 3\n",
-        "t.obj:4: malformed face corner '1/1/1/1'"),
+        "t.obj:4:3: malformed face corner '1/1/1/1'"),
     BAD("obj corner no vertex", MESH_OBJ, "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf /1 2 3\n",
-        "t.obj:5: malformed face corner '/1'"),
+        "t.obj:5:3: malformed face corner '/1'"),
     BAD("obj mixed normals", MESH_OBJ, "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3\n",
-        "t.obj:5: face mixes corners with and without normals"),
-    BAD("obj two corners", MESH_OBJ, "v 0 0 0\nv 1 0 0\nf 1 2\n", "t.obj:3: face with 2 corners (at least 3 needed)"),
-    BAD("obj no corners", MESH_OBJ, "v 0 0 0\nf # nothing\n", "t.obj:2: face with 0 corners (at least 3 needed)"),
-    BAD("obj unknown statement", MESH_OBJ, "v 0 0 0\n3 0 1 2\n", "t.obj:2: unknown statement '3'"),
-    BAD("obj NUL byte", MESH_OBJ, "v 0 0 0\n\0 1 2\n", "t.obj:2: unknown statement '?'"),
+        "t.obj:5:13: face mixes corners with and without normals"),
+    BAD("obj two corners", MESH_OBJ, "v 0 0 0\nv 1 0 0\nf 1 2\n", "t.obj:3:1: face with 2 corners (at least 3 needed)"),
+    BAD("obj no corners", MESH_OBJ, "v 0 0 0\nf # nothing\n", "t.obj:2:1: face with 0 corners (at least 3 needed)"),
+    BAD("obj unknown statement", MESH_OBJ, "v 0 0 0\n3 0 1 2\n", "t.obj:2:1: unknown statement '3'"),
+    BAD("obj NUL byte", MESH_OBJ, "v 0 0 0\n\0 1 2\n", "t.obj:2:1: unknown statement '?'"),
 
     /* ---- STL, ASCII ---- */
-    BAD("stl empty", MESH_STL, "", "t.stl:1: not an STL file: 0 bytes, and no 'solid' for ASCII STL (binary STL "
+    BAD("stl empty", MESH_STL, "", "t.stl:1:1: not an STL file: 0 bytes, and no 'solid' for ASCII STL (binary STL "
                                    "takes at least 84 bytes)"),
-    BAD("stl not stl", MESH_STL, "OFF\n3 1 0\n", "t.stl:1: not an STL file: 10 bytes, and no 'solid' for ASCII STL "
+    BAD("stl not stl", MESH_STL, "OFF\n3 1 0\n", "t.stl:1:1: not an STL file: 10 bytes, and no 'solid' for ASCII STL "
                                                  "(binary STL takes at least 84 bytes)"),
     BAD("stl no endsolid", MESH_STL, "solid a\nfacet normal 0 0 1 outer loop vertex 0 0 0 vertex 1 0 0 vertex 0 1 0\n"
                                      "endloop endfacet\n",
-        "t.stl:3: file ends before 'endsolid'"),
+        "t.stl:3:17: file ends before 'endsolid'"),
     BAD("stl no facet", MESH_STL, "solid a\nfacets normal 0 0 1\n",
-        "t.stl:2: expected 'facet' or 'endsolid', got 'facets'"),
-    BAD("stl no normal", MESH_STL, "solid a\nfacet outer loop\n", "t.stl:2: expected 'normal' after 'facet', got 'outer'"),
-    BAD("stl short normal", MESH_STL, "solid a\nfacet normal 0 0 outer loop\n", "t.stl:2: malformed number 'outer'"),
+        "t.stl:2:1: expected 'facet' or 'endsolid', got 'facets'"),
+    BAD("stl no normal", MESH_STL, "solid a\nfacet outer loop\n", "t.stl:2:7: expected 'normal' after 'facet', got 'outer'"),
+    BAD("stl short normal", MESH_STL, "solid a\nfacet normal 0 0 outer loop\n", "t.stl:2:18: malformed number 'outer'"),
     BAD("stl no loop", MESH_STL, "solid a\nfacet normal 0 0 1 outer\nvertex 0 0 0\n",
-        "t.stl:3: expected 'loop' after 'outer', got 'vertex'"),
+        "t.stl:3:1: expected 'loop' after 'outer', got 'vertex'"),
     BAD("stl bad vertex", MESH_STL, "solid a\nfacet normal 0 0 1 outer loop\nvertex 0 0 0\nvertex 1 0\nvertex 0 1 0\n",
-        "t.stl:5: malformed number 'vertex'"),
+        "t.stl:5:1: malformed number 'vertex'"),
     BAD("stl nan vertex", MESH_STL, "solid a\nfacet normal 0 0 1 outer loop\nvertex 0 0 0\nvertex 1 0 nan\n",
-        "t.stl:4: non-finite coordinate 'nan'"),
+        "t.stl:4:12: non-finite coordinate 'nan'"),
     BAD("stl 1e39 vertex", MESH_STL, "solid a\nfacet normal 0 0 1 outer loop\nvertex 0 0 0\nvertex 1e39 0 0\n",
-        "t.stl:4: non-finite coordinate '1e39'"),
+        "t.stl:4:8: non-finite coordinate '1e39'"),
     BAD("stl two vertices", MESH_STL, "solid a\nfacet normal 0 0 1 outer loop\nvertex 0 0 0\nvertex 1 0 0\nendloop\n"
                                       "endfacet\nendsolid a\n",
-        "t.stl:5: facet with 2 vertices (at least 3 needed)"),
+        "t.stl:5:1: facet with 2 vertices (at least 3 needed)"),
     BAD("stl no endloop", MESH_STL, "solid a\nfacet normal 0 0 1 outer loop\nvertex 0 0 0\nvertex 1 0 0\n"
                                     "vertex 0 1 0\nendfacet\n",
-        "t.stl:6: expected 'vertex' or 'endloop', got 'endfacet'"),
+        "t.stl:6:1: expected 'vertex' or 'endloop', got 'endfacet'"),
     BAD("stl no endfacet", MESH_STL, "solid a\nfacet normal 0 0 1 outer loop\nvertex 0 0 0\nvertex 1 0 0\n"
                                      "vertex 0 1 0\nendloop\nendsolid a\n",
-        "t.stl:7: expected 'endfacet' after 'endloop', got 'endsolid'"),
+        "t.stl:7:1: expected 'endfacet' after 'endloop', got 'endsolid'"),
     BAD("stl junk after", MESH_STL, "solid a\nendsolid a\n\njunk\n",
-        "t.stl:4: expected 'solid' or the end of the file, got 'junk'"),
+        "t.stl:4:1: expected 'solid' or the end of the file, got 'junk'"),
     BAD("stl truncated", MESH_STL, "solid a\nfacet normal 0 0 1 outer loop\nvertex 0 0",
-        "t.stl:3: file ends inside 'vertex' (3 numbers)"),
+        "t.stl:3:11: file ends inside 'vertex' (3 numbers)"),
     BAD("stl NUL byte", MESH_STL, "solid a\nfacet normal 0 0 1 outer loop\nvertex 0 \0 0\n",
-        "t.stl:3: malformed number '?'"),
+        "t.stl:3:10: malformed number '?'"),
 
     /* ---- PLY, ASCII ---- */
-    BAD("ply empty", MESH_PLY, "", "t.ply:1: not a PLY file (the first line must be 'ply')"),
-    BAD("ply not ply", MESH_PLY, "OFF\n3 1 0\n", "t.ply:1: not a PLY file (the first line must be 'ply')"),
+    BAD("ply empty", MESH_PLY, "", "t.ply:1:1: not a PLY file (the first line must be 'ply')"),
+    BAD("ply not ply", MESH_PLY, "OFF\n3 1 0\n", "t.ply:1:1: not a PLY file (the first line must be 'ply')"),
     BAD("ply no end_header", MESH_PLY, "ply\nformat ascii 1.0\nelement vertex 0\n",
-        "t.ply:3: header has no 'end_header' line"),
-    BAD("ply no format", MESH_PLY, "ply\nelement vertex 0\nend_header\n", "t.ply:3: the header has no 'format' line"),
+        "t.ply:3:17: header has no 'end_header' line"),
+    BAD("ply no format", MESH_PLY, "ply\nelement vertex 0\nend_header\n", "t.ply:3:1: the header has no 'format' line"),
     BAD("ply big endian", MESH_PLY, "ply\nformat binary_big_endian 1.0\nend_header\n",
-        "t.ply:2: binary_big_endian PLY is not supported (ascii and binary_little_endian are)"),
-    BAD("ply unknown format", MESH_PLY, "ply\nformat text 1.0\nend_header\n", "t.ply:2: unknown PLY format 'text'"),
+        "t.ply:2:8: binary_big_endian PLY is not supported (ascii and binary_little_endian are)"),
+    BAD("ply unknown format", MESH_PLY, "ply\nformat text 1.0\nend_header\n", "t.ply:2:8: unknown PLY format 'text'"),
     BAD("ply version", MESH_PLY, "ply\nformat ascii 2.0\nend_header\n",
-        "t.ply:2: unsupported PLY version '2.0' (1.0 is read)"),
+        "t.ply:2:14: unsupported PLY version '2.0' (1.0 is read)"),
     BAD("ply two formats", MESH_PLY, "ply\nformat ascii 1.0\nformat ascii 1.0\nend_header\n",
-        "t.ply:3: second 'format' line"),
+        "t.ply:3:1: second 'format' line"),
     BAD("ply unknown keyword", MESH_PLY, "ply\nformat ascii 1.0\nelemnt vertex 3\nend_header\n",
-        "t.ply:3: unknown header keyword 'elemnt'"),
+        "t.ply:3:1: unknown header keyword 'elemnt'"),
     BAD("ply property first", MESH_PLY, "ply\nformat ascii 1.0\nproperty float x\nend_header\n",
-        "t.ply:3: 'property' before any 'element'"),
+        "t.ply:3:1: 'property' before any 'element'"),
     BAD("ply unknown type", MESH_PLY, "ply\nformat ascii 1.0\nelement vertex 1\nproperty float16 x\nend_header\n",
-        "t.ply:4: unknown property type 'float16'"),
+        "t.ply:4:10: unknown property type 'float16'"),
     BAD("ply float list count", MESH_PLY,
         "ply\nformat ascii 1.0\nelement vertex 1\nproperty list float int x\nend_header\n",
-        "t.ply:4: list count type must be an integer type, not 'float'"),
+        "t.ply:4:15: list count type must be an integer type, not 'float'"),
     BAD("ply duplicate property", MESH_PLY,
         "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty double x\nend_header\n",
-        "t.ply:5: second property 'x' in element 'vertex'"),
+        "t.ply:5:17: second property 'x' in element 'vertex'"),
     BAD("ply duplicate element", MESH_PLY,
         "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nelement vertex 2\nend_header\n",
-        "t.ply:5: second 'vertex' element"),
+        "t.ply:5:9: second 'vertex' element"),
     BAD("ply malformed element count", MESH_PLY, "ply\nformat ascii 1.0\nelement vertex -1\nend_header\n",
-        "t.ply:3: malformed element count '-1'"),
+        "t.ply:3:16: malformed element count '-1'"),
     BAD("ply no vertex", MESH_PLY, "ply\nformat ascii 1.0\nelement face 0\nend_header\n",
-        "t.ply:4: no 'vertex' element"),
+        "t.ply:4:1: no 'vertex' element"),
     BAD("ply no z", MESH_PLY,
         "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nend_header\n0 0\n",
-        "t.ply:3: 'vertex' element has no property 'z'"),
+        "t.ply:3:9: 'vertex' element has no property 'z'"),
     BAD("ply list x", MESH_PLY,
         "ply\nformat ascii 1.0\nelement vertex 1\nproperty list uchar float x\nproperty float y\nproperty float z\n"
         "end_header\n",
-        "t.ply:3: vertex property 'x' is a list, not a number"),
+        "t.ply:3:9: vertex property 'x' is a list, not a number"),
     BAD("ply partial normals", MESH_PLY,
         "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
         "property float nx\nproperty float nz\nend_header\n0 0 0 0 1\n",
-        "t.ply:3: 'vertex' element has some of nx, ny, nz but not all three"),
+        "t.ply:3:9: 'vertex' element has some of nx, ny, nz but not all three"),
     BAD("ply no vertex_indices", MESH_PLY,
         "ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nproperty float y\nproperty float z\n"
         "element face 0\nproperty list uchar int indices\nend_header\n",
-        "t.ply:7: 'face' element has no 'vertex_indices' list"),
+        "t.ply:7:9: 'face' element has no 'vertex_indices' list"),
     BAD("ply float vertex_indices", MESH_PLY,
         "ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nproperty float y\nproperty float z\n"
         "element face 0\nproperty list uchar float vertex_indices\nend_header\n",
-        "t.ply:7: face property 'vertex_indices' must have an integer item type"),
+        "t.ply:7:9: face property 'vertex_indices' must have an integer item type"),
     BAD("ply huge vertex count", MESH_PLY, PLYH(1000000000000, 1) "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
-        "t.ply:3: 1000000000000 'vertex' elements announced, more than the 26 bytes after the header can hold"),
+        "t.ply:3:16: 1000000000000 'vertex' elements announced, more than the 26 bytes after the header can hold"),
     BAD("ply huge face count", MESH_PLY, PLYH(3, 1000000000000) "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
-        "t.ply:7: 1000000000000 'face' elements announced, more than the 26 bytes after the header can hold"),
+        "t.ply:7:14: 1000000000000 'face' elements announced, more than the 26 bytes after the header can hold"),
     BAD("ply truncated vertices", MESH_PLY, PLYH(3, 1) "0.0000 0.0000 0.0000\n1.0000 0.0000 0.0000\n",
-        "t.ply:11: file ends after 2 of 3 'vertex' elements"),
+        "t.ply:11:21: file ends after 2 of 3 'vertex' elements"),
     BAD("ply truncated faces", MESH_PLY, PLYH(3, 2) "0.0000 0.0000 0.0000\n1 0 0\n0 1 0\n3 0 1 2\n",
-        "t.ply:13: file ends after 1 of 2 'face' elements"),
+        "t.ply:13:8: file ends after 1 of 2 'face' elements"),
     BAD("ply too few values", MESH_PLY, PLYH(3, 1) "0 0 0\n1 0\n0 1 0\n3 0 1 2\n" PAD,
-        "t.ply:11: too few values for a 'vertex' element (no 'z')"),
+        "t.ply:11:1: too few values for a 'vertex' element (no 'z')"),
     BAD("ply too many values", MESH_PLY, PLYH(3, 1) "0 0 0\n1 0 0 0\n0 1 0\n3 0 1 2\n",
-        "t.ply:11: too many values for a 'vertex' element"),
+        "t.ply:11:7: too many values for a 'vertex' element"),
     BAD("ply extra line", MESH_PLY, PLYH(3, 1) "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 2 1\n",
-        "t.ply:14: extra data after the announced elements"),
+        "t.ply:14:1: extra data after the announced elements"),
     BAD("ply face lists too few", MESH_PLY, PLYH(3, 1) "0 0 0\n1 0 0\n0 1 0\n4 0 1 2\n",
-        "t.ply:13: face lists 3 of its 4 corners"),
+        "t.ply:13:1: face lists 3 of its 4 corners"),
     BAD("ply other list too short", MESH_PLY,
         "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
         "property list uchar int extra\nend_header\n0 0 0 3 1 2\n" PAD,
-        "t.ply:9: too few values for a 'vertex' element (list 'extra' announces 3)"),
+        "t.ply:9:1: too few values for a 'vertex' element (list 'extra' announces 3)"),
     BAD("ply two corners", MESH_PLY, PLYH(3, 1) "0 0 0\n1 0 0\n0 1 0\n2 0 1\n" PAD,
-        "t.ply:13: face with 2 corners (at least 3 needed)"),
+        "t.ply:13:1: face with 2 corners (at least 3 needed)"),
     BAD("ply index out of range", MESH_PLY, PLYH(3, 1) "0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n",
-        "t.ply:13: vertex index 3 out of range (3 vertices)"),
+        "t.ply:13:7: vertex index 3 out of range (3 vertices)"),
     BAD("ply negative index", MESH_PLY, PLYH(3, 1) "0 0 0\n1 0 0\n0 1 0\n3 0 -1 2\n",
-        "t.ply:13: vertex index -1 out of range (3 vertices)"),
+        "t.ply:13:5: vertex index -1 out of range (3 vertices)"),
     BAD("ply negative list count", MESH_PLY, PLYH(3, 1) "0 0 0\n1 0 0\n0 1 0\n-3 0 1 2\n",
-        "t.ply:13: negative list count -3"),
-    BAD("ply nan", MESH_PLY, PLYH(3, 1) "0 0 0\n1 nan 0\n0 1 0\n3 0 1 2\n", "t.ply:11: non-finite coordinate 'nan'"),
+        "t.ply:13:1: negative list count -3"),
+    BAD("ply nan", MESH_PLY, PLYH(3, 1) "0 0 0\n1 nan 0\n0 1 0\n3 0 1 2\n", "t.ply:11:3: non-finite coordinate 'nan'"),
     BAD("ply 1e999", MESH_PLY, PLYH(3, 1) "0 0 1e999\n1 0 0\n0 1 0\n3 0 1 2\n",
-        "t.ply:10: non-finite coordinate '1e999'"),
+        "t.ply:10:5: non-finite coordinate '1e999'"),
     BAD("ply malformed", MESH_PLY, PLYH(3, 1) "0 0 0\n1 0 0\n0 1.0.0 0\n3 0 1 2\n",
-        "t.ply:12: malformed number '1.0.0'"),
+        "t.ply:12:3: malformed number '1.0.0'"),
     BAD("ply malformed index", MESH_PLY, PLYH(3, 1) "0 0 0\n1 0 0\n0 1 0\n3 0 x 2\n",
-        "t.ply:13: malformed vertex index 'x'"),
+        "t.ply:13:5: malformed vertex index 'x'"),
     BAD("ply malformed integer", MESH_PLY,
         "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
         "property uchar red\nend_header\n0 0 0 1.5\n",
-        "t.ply:9: malformed integer '1.5'"),
+        "t.ply:9:7: malformed integer '1.5'"),
     BAD("ply integer coordinate", MESH_PLY,
         "ply\nformat ascii 1.0\nelement vertex 1\nproperty int x\nproperty float y\nproperty float z\n"
         "end_header\n0.5 0 0\n",
-        "t.ply:8: malformed integer '0.5'"),
+        "t.ply:8:1: malformed integer '0.5'"),
 };
 
 static void test_bad_inputs(void **state)
@@ -1197,49 +1209,49 @@ static void test_bad_binary(void **state)
     /* cut inside the faces or the vertices: the bytes left cannot hold the
      * counts (2 faces of at least 15 bytes, 4 vertices of at least 17) */
     snprintf(want, sizeof want,
-             "t.ply:8: 4 'vertex' elements announced, more than the %zu bytes after the header can hold",
+             "t.ply:8:16: 4 'vertex' elements announced, more than the %zu bytes after the header can hold",
              face2 + 3 - data);
     expect_error_n(MESH_PLY, (const char *)B.b, face2 + 3, want);
     snprintf(want, sizeof want,
-             "t.ply:8: 4 'vertex' elements announced, more than the %zu bytes after the header can hold",
+             "t.ply:8:16: 4 'vertex' elements announced, more than the %zu bytes after the header can hold",
              vert2 + 8 - data);
     expect_error_n(MESH_PLY, (const char *)B.b, vert2 + 8, want);
     /* cut within the slack that lists longer than their minimum leave: the
      * instance that runs out is found while reading */
-    snprintf(want, sizeof want, "t.ply:8: file ends after 3 of 4 'vertex' elements at byte offset %zu", mat0 - 1);
+    snprintf(want, sizeof want, "t.ply:8:9: file ends after 3 of 4 'vertex' elements at byte offset %zu", mat0 - 1);
     expect_error_n(MESH_PLY, (const char *)B.b, mat0 - 1, want);
-    snprintf(want, sizeof want, "t.ply:14: file ends after 1 of 2 'material' elements at byte offset %zu",
+    snprintf(want, sizeof want, "t.ply:14:9: file ends after 1 of 2 'material' elements at byte offset %zu",
              B.n - 1);
     expect_error_n(MESH_PLY, (const char *)B.b, B.n - 1, want);
 
     /* a byte too many */
     C = B;
     put_u8(&C, 0);
-    snprintf(want, sizeof want, "t.ply:17: 1 byte of extra data after the announced elements at byte offset %zu",
+    snprintf(want, sizeof want, "t.ply:17:1: 1 byte of extra data after the announced elements at byte offset %zu",
              B.n);
     expect_error_n(MESH_PLY, (const char *)C.b, C.n, want);
 
     /* index out of range, negative index, two corners, huge count */
     C = B;
     C.b[face2 + 2 + 4] = 4; /* second face's second index: 1 -> 4 */
-    snprintf(want, sizeof want, "t.ply:4: vertex index 4 out of range (4 vertices) at byte offset %zu",
+    snprintf(want, sizeof want, "t.ply:4:9: vertex index 4 out of range (4 vertices) at byte offset %zu",
              face2 + 2 + 4);
     expect_error_n(MESH_PLY, (const char *)C.b, C.n, want);
     C = B;
     memset(C.b + face2 + 2, 0xff, 4); /* -1 */
-    snprintf(want, sizeof want, "t.ply:4: vertex index -1 out of range (4 vertices) at byte offset %zu", face2 + 2);
+    snprintf(want, sizeof want, "t.ply:4:9: vertex index -1 out of range (4 vertices) at byte offset %zu", face2 + 2);
     expect_error_n(MESH_PLY, (const char *)C.b, C.n, want);
     C = B;
     C.b[face2 + 1] = 2;
-    snprintf(want, sizeof want, "t.ply:4: face with 2 corners (at least 3 needed) at byte offset %zu", face2 + 1);
+    snprintf(want, sizeof want, "t.ply:4:9: face with 2 corners (at least 3 needed) at byte offset %zu", face2 + 1);
     expect_error_n(MESH_PLY, (const char *)C.b, C.n, want);
     C = B;
     C.b[face2 + 1] = 250; /* the list runs past the end of the file */
-    snprintf(want, sizeof want, "t.ply:4: file ends after 1 of 2 'face' elements at byte offset %zu", B.n);
+    snprintf(want, sizeof want, "t.ply:4:9: file ends after 1 of 2 'face' elements at byte offset %zu", B.n);
     expect_error_n(MESH_PLY, (const char *)C.b, C.n, want);
     C = B;
     C.b[vert2 + 15] = 0xff, C.b[vert2 + 16] = 0xff; /* extra list of 65535 uint */
-    snprintf(want, sizeof want, "t.ply:8: file ends after 2 of 4 'vertex' elements at byte offset %zu", B.n);
+    snprintf(want, sizeof want, "t.ply:8:9: file ends after 2 of 4 'vertex' elements at byte offset %zu", B.n);
     expect_error_n(MESH_PLY, (const char *)C.b, C.n, want);
 
     /* non-finite coordinates: a double NaN, a double too large for float, a float inf */
@@ -1247,15 +1259,15 @@ static void test_bad_binary(void **state)
     double nan_d = NAN, big = 1e300;
     float inf_f = INFINITY;
     memcpy(C.b + vert2, &nan_d, 8);
-    snprintf(want, sizeof want, "t.ply:8: non-finite coordinate nan in vertex 2 at byte offset %zu", vert2);
+    snprintf(want, sizeof want, "t.ply:8:9: non-finite coordinate nan in vertex 2 at byte offset %zu", vert2);
     expect_error_n(MESH_PLY, (const char *)C.b, C.n, want);
     C = B;
     memcpy(C.b + vert0, &big, 8);
-    snprintf(want, sizeof want, "t.ply:8: non-finite coordinate 1e+300 in vertex 0 at byte offset %zu", vert0);
+    snprintf(want, sizeof want, "t.ply:8:9: non-finite coordinate 1e+300 in vertex 0 at byte offset %zu", vert0);
     expect_error_n(MESH_PLY, (const char *)C.b, C.n, want);
     C = B;
     memcpy(C.b + vert0 + 8, &inf_f, 4);
-    snprintf(want, sizeof want, "t.ply:8: non-finite coordinate inf in vertex 0 at byte offset %zu", vert0 + 8);
+    snprintf(want, sizeof want, "t.ply:8:9: non-finite coordinate inf in vertex 0 at byte offset %zu", vert0 + 8);
     expect_error_n(MESH_PLY, (const char *)C.b, C.n, want);
 
     /* counts the data cannot hold: fail before allocating */
@@ -1264,21 +1276,21 @@ static void test_bad_binary(void **state)
                 "property float y\nproperty float z\nend_header\n");
     put_f32(&C, 0), put_f32(&C, 0), put_f32(&C, 0);
     expect_error_n(MESH_PLY, (const char *)C.b, C.n,
-                   "t.ply:3: 4000000000 'vertex' elements announced, more than the 12 bytes after the header can hold");
+                   "t.ply:3:16: 4000000000 'vertex' elements announced, more than the 12 bytes after the header can hold");
     C.n = 0;
     put_str(&C, "ply\nformat binary_little_endian 1.0\nelement vertex 0\nproperty float x\nproperty float y\n"
                 "property float z\nelement face 5\nproperty list int int vertex_indices\nend_header\n");
     for (int i = 0; i < 4; i++)
         put_i32(&C, 3), put_i32(&C, 0), put_i32(&C, 0), put_i32(&C, 0);
     expect_error_n(MESH_PLY, (const char *)C.b, C.n,
-                   "t.ply:7: 5 'face' elements announced, more than the 64 bytes after the header can hold");
+                   "t.ply:7:14: 5 'face' elements announced, more than the 64 bytes after the header can hold");
     /* a skipped element of 1e12 instances */
     C.n = 0;
     put_str(&C, "ply\nformat binary_little_endian 1.0\nelement vertex 0\nproperty float x\nproperty float y\n"
                 "property float z\nelement junk 1000000000000\nproperty uchar a\nend_header\n");
     put_u8(&C, 1);
     expect_error_n(MESH_PLY, (const char *)C.b, C.n,
-                   "t.ply:7: 1000000000000 'junk' elements announced, more than the 1 bytes after the header can hold");
+                   "t.ply:7:14: 1000000000000 'junk' elements announced, more than the 1 bytes after the header can hold");
 
     /* an element without properties takes no bytes, however many it has */
     Mesh m;
@@ -1300,28 +1312,28 @@ static void test_bad_binary_stl(void **state)
     binary_stl(&B, stl_square, 2);
     memcpy(B.b, "mesh", 4); /* no 'solid': binary or nothing */
     expect_error_n(MESH_STL, (const char *)B.b, B.n - 1,
-                   "t.stl:1: binary STL announces 2 triangles, which take 184 bytes, but the file has 183 (and it does "
+                   "t.stl:1:1: binary STL announces 2 triangles, which take 184 bytes, but the file has 183 (and it does "
                    "not begin with 'solid' for ASCII STL)");
     expect_error_n(MESH_STL, (const char *)B.b, 83,
-                   "t.stl:1: not an STL file: 83 bytes, and no 'solid' for ASCII STL (binary STL takes at least 84 "
+                   "t.stl:1:1: not an STL file: 83 bytes, and no 'solid' for ASCII STL (binary STL takes at least 84 "
                    "bytes)");
     Buf C = B;
     put_u8(&C, 0);
     expect_error_n(MESH_STL, (const char *)C.b, C.n,
-                   "t.stl:1: binary STL announces 2 triangles, which take 184 bytes, but the file has 185 (and it does "
+                   "t.stl:1:1: binary STL announces 2 triangles, which take 184 bytes, but the file has 185 (and it does "
                    "not begin with 'solid' for ASCII STL)");
     /* a count of 4e9 in 184 bytes: refused before anything is allocated */
     C = B;
     C.b[83] = 0xee;
     expect_error_n(MESH_STL, (const char *)C.b, C.n,
-                   "t.stl:1: binary STL announces 3992977410 triangles, which take 199648870584 bytes, but the file "
+                   "t.stl:1:1: binary STL announces 3992977410 triangles, which take 199648870584 bytes, but the file "
                    "has 184 (and it does not begin with 'solid' for ASCII STL)");
     /* the second triangle's third vertex's y */
     C = B;
     float inf = INFINITY;
     size_t off = 84 + 50 + 12 + 2 * 12 + 4;
     memcpy(C.b + off, &inf, 4);
-    expect_error_n(MESH_STL, (const char *)C.b, C.n, "t.stl:1: non-finite coordinate in triangle 1 at byte offset 174");
+    expect_error_n(MESH_STL, (const char *)C.b, C.n, "t.stl:1:1: non-finite coordinate in triangle 1 at byte offset 174");
     assert_int_equal(off, 174);
 }
 
@@ -1333,7 +1345,7 @@ static void test_error_buffer(void **state)
     char err[16];
     memset(err, 'x', sizeof err);
     assert_int_equal(mesh_parse("t.off", "OFF\n3 1\n", 8, MESH_OFF, &m, err, 10), -1);
-    assert_string_equal(err, "t.off:2: ");
+    assert_string_equal(err, "t.off:2:1");
     assert_int_equal(err[10], 'x');
     assert_int_equal(mesh_parse("t.off", "OFF\n3 1\n", 8, MESH_OFF, &m, NULL, 0), -1);
     /* a NULL buffer of length 0 is an empty file */
@@ -1396,7 +1408,7 @@ static void test_load(void **state)
     write_file(path, bad, strlen(bad));
     assert_int_equal(mesh_load(path, &m, err, sizeof err), -1);
     char want[512];
-    snprintf(want, sizeof want, "%s:6: vertex index 9 out of range (3 vertices)", path);
+    snprintf(want, sizeof want, "%s:6:7: vertex index 9 out of range (3 vertices)", path);
     assert_string_equal(err, want);
     assert_true(mesh_is_empty(&m));
     remove(path);

@@ -3,7 +3,7 @@
  * time by FUZZ_FORMAT (MESH_OFF, MESH_OBJ, MESH_PLY or MESH_STL; STL both
  * ASCII and binary). A mesh that parses must pass mesh_validate, before and
  * after its vertex normals are computed; one that does not must leave the
- * Mesh empty and a message "fuzz.in:line: ..." or "fuzz.in: ...".
+ * Mesh empty and a message "fuzz.in:line:col: ...", as the scene's.
  */
 #include "fuzz.h"
 
@@ -18,7 +18,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     Mesh m;
     char err[1024] = "";
     if (mesh_parse(FUZZ_NAME, (const char *)data, size, FUZZ_FORMAT, &m, err, sizeof err) != 0) {
-        fuzz_check_message(err, 0, 1);
+        fuzz_check_message(err, 2, 2);
         fuzz_require(!m.v && !m.n && !m.tri && !m.ntri && !m.nv && !m.nt && !m.nn,
                      "a failed parse left data in the mesh", err);
         return 0;
