@@ -1,6 +1,7 @@
 /* Tests for rayfile.c: round trip, the byte layout, tmin, and bad files. */
 #include <stdarg.h>
 #include <stddef.h>
+#include <float.h>
 #include <stdint.h>
 #include <setjmp.h>
 #include <stdio.h>
@@ -112,8 +113,9 @@ static void test_bad_files(void **state)
     assert_string_equal(err, want);
 }
 
-/* From memory: a zero direction, and a tmin that throws the origin out of
- * float range, are refused by ray; rayfile_ray_ok agrees. */
+/* From memory: a zero direction, one too short to trace, and a tmin that
+ * throws the origin out of float range, are refused by ray; rayfile_ray_ok
+ * agrees. */
 static void test_parse_refuses_untraceable_rays(void **state)
 {
     (void)state;
@@ -126,6 +128,17 @@ static void test_parse_refuses_untraceable_rays(void **state)
     memcpy(b + 16, zero, sizeof zero);
     assert_int_equal(rayfile_parse("mem", b, sizeof b, &r, &n, err, sizeof err), -1);
     assert_string_equal(err, "mem: ray 0 has a zero direction");
+    /* every component subnormal: 1 / d overflowed, and the BVH let the ray
+     * pass a mesh it hits at t = 10^39 * distance (it read as a miss) */
+    const float tiny[8] = {0, 0, -5, 1e-45f, -1e-40f, 1e-39f, 0, INFINITY};
+    memcpy(b + 16, tiny, sizeof tiny);
+    assert_int_equal(rayfile_parse("mem", b, sizeof b, &r, &n, err, sizeof err), -1);
+    assert_string_equal(err, "mem: ray 0 has a direction too short to trace (no component of at least FLT_MIN, 2^-126)");
+    const float least[8] = {0, 0, -5, 1e-45f, 0, FLT_MIN, 0, INFINITY};
+    memcpy(b + 16, least, sizeof least);
+    assert_int_equal(rayfile_parse("mem", b, sizeof b, &r, &n, err, sizeof err), 0);
+    assert_true(rayfile_ray_ok(&r[0]));
+    free(r);
     const float far[8] = {0, 0, 0, 0, 0, 3e38f, 3e38f, INFINITY};
     memcpy(b + 16, far, sizeof far);
     assert_int_equal(rayfile_parse("mem", b, sizeof b, &r, &n, err, sizeof err), -1);

@@ -18,8 +18,9 @@
 
 #include "lancer/ray.h"
 
-/* 1 when r is a ray that lancer can trace: a finite origin and a finite,
- * nonzero direction, and a tmax that is not NaN. */
+/* 1 when r is a ray that lancer can trace: a finite origin, a finite
+ * direction with a component of at least FLT_MIN in magnitude, and a tmax
+ * that is not NaN. */
 int rayfile_ray_ok(const Ray *r);
 
 /* Writes n rays atomically (afile.h). Returns 0, or -1 with a message. */
