@@ -3,9 +3,11 @@
  *
  *     Ray r = ray_make(origin, unit_direction, INFINITY);
  *
- * A ray accepts hits with 0 < t < tmax. There is no t_min epsilon: secondary
- * rays start from an origin already pushed off their surface (see shade.c),
- * so a fixed epsilon would only skip real hits at small scales.
+ * A ray accepts hits with 0 < t < tmax. Its direction needs a component of
+ * at least FLT_MIN in magnitude (rayfile_ray_ok): the BVH's box test takes
+ * the reciprocal. There is no t_min epsilon: secondary rays start from an
+ * origin already pushed off their surface (see shade.c), so a fixed epsilon
+ * would only skip real hits at small scales.
  */
 #ifndef LANCER_RAY_H
 #define LANCER_RAY_H
