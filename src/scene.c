@@ -1344,6 +1344,8 @@ static int parse_mesh(Parser *P, Loc at)
     if (v[PN_MODE].set && !v[PN].set)
         return fail(P, v[PN_MODE].key, "mesh: 'pn_mode' is for a 'pn' mesh");
     OBJECT_XF("mesh");
+    if (!v[FILE_].str[0])
+        return fail(P, v[FILE_].value, "mesh: 'file' is empty");
     /* A relative path is relative to the scene file's folder. */
     char path[2 * SCENE_PATH_MAX];
     const char *slash = strrchr(P->name, '/');

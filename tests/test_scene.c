@@ -1061,6 +1061,9 @@ static void test_mesh_statement(void **state)
     const char *missing = CAM "material m { }\nmesh { file \"nowhere.off\" material m }\n";
     assert_int_equal(scene_parse("t.scn", missing, strlen(missing), &s, err, sizeof err), -1);
     assert_string_equal(err, "t.scn:3:13: mesh: nowhere.off: cannot open: No such file or directory");
+    const char *empty = CAM "material m { }\nmesh { file \"\" material m }\n";
+    assert_int_equal(scene_parse("t.scn", empty, strlen(empty), &s, err, sizeof err), -1);
+    assert_string_equal(err, "t.scn:3:13: mesh: 'file' is empty");
     snprintf(text, sizeof text, CAM "material m { }\nmesh { file \"%s\" material m flat smooth }\n", path);
     assert_int_equal(scene_parse("t.scn", text, strlen(text), &s, err, sizeof err), -1);
     assert_non_null(strstr(err, "t.scn:3:"));
