@@ -238,6 +238,18 @@ has "$T/err" "--png $T/same: is also the -o output"
 if [ -e "$T/same" ]; then bad "a file was written for -o X --png X"; else ok; fi
 expect 1 "$LANCER" diff "$T/t1.exr" "$T/t2.exr" --heatmap "$T/t2.exr"
 has "$T/err" "is the input"
+# an image named for another format: refused before anything is written
+expect 1 "$LANCER" render "$T/tiny.scn" -o "$T/wrong.png"
+has "$T/err" "-o $T/wrong.png: this output is an OpenEXR image; end its name in .exr, not .png"
+if [ -e "$T/wrong.png" ]; then bad "an EXR was written as $T/wrong.png"; else ok; fi
+expect 1 "$LANCER" render "$T/tiny.scn" -o "$T/right.exr" --png "$T/wrong.EXR"
+has "$T/err" "--png $T/wrong.EXR: this output is a PNG image; end its name in .png, not .EXR"
+if [ -e "$T/right.exr" ]; then bad "-o was written though --png was refused"; else ok; fi
+expect 1 "$LANCER" merge -o "$T/merged.jpg" "$T/t1.exr"
+has "$T/err" "-o $T/merged.jpg: this output is an OpenEXR image; end its name in .exr, not .jpg"
+expect 1 "$LANCER" diff "$T/t1.exr" "$T/t2.exr" --heatmap "$T/heat.tiff"
+has "$T/err" "--heatmap $T/heat.tiff: this output is a PNG image; end its name in .png, not .tiff"
+expect 0 "$LANCER" render "$T/tiny.scn" -o "$T/upper.EXR" --png "$T/upper.PnG"
 expect 0 "$LANCER" diff "$T/t1.exr" "$T/t2.exr"
 # an answer on stdout that cannot be written fails the run
 if [ -w /dev/full ]; then

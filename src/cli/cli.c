@@ -3,6 +3,7 @@
  */
 #include "cli.h"
 
+#include <ctype.h>
 #include <errno.h>
 #include <limits.h>
 #include <stdarg.h>
@@ -141,6 +142,24 @@ int cli_check_output(const char *path)
     return 0;
 }
 
+/* The extension of path (from its last '.') when it names an image format
+ * other than ext's, else NULL. */
+static const char *other_image_ext(const char *path, const char *ext)
+{
+    static const char *const image[] = {".exr", ".png", ".jpg", ".jpeg", ".tif", ".tiff", ".ppm", ".bmp", ".hdr", ".tga"};
+    const char *dot = strrchr(path, '.');
+    if (!dot || strchr(dot, '/'))
+        return NULL;
+    for (size_t i = 0; i < sizeof image / sizeof image[0]; i++) {
+        size_t k = 0;
+        while (image[i][k] && tolower((unsigned char)dot[k]) == image[i][k])
+            k++;
+        if (!image[i][k] && !dot[k])
+            return strcmp(image[i], ext) != 0 ? dot : NULL;
+    }
+    return NULL;
+}
+
 int cli_check_outputs(const CliOutput *out, int nout, const char *const *in, int nin)
 {
     for (int i = 0; i < nout; i++) {
@@ -158,6 +177,12 @@ int cli_check_outputs(const CliOutput *out, int nout, const char *const *in, int
                         out[i].option, out[i].path, out[j].option);
                 return -1;
             }
+        const char *wrong = out[i].ext ? other_image_ext(out[i].path, out[i].ext) : NULL;
+        if (wrong) {
+            fprintf(stderr, "lancer: %s %s: this output is %s image; end its name in %s, not %s\n", out[i].option,
+                    out[i].path, strcmp(out[i].ext, ".exr") == 0 ? "an OpenEXR" : "a PNG", out[i].ext, wrong);
+            return -1;
+        }
         if (cli_check_output(out[i].path) != 0)
             return -1;
     }

@@ -79,15 +79,17 @@ int cli_check_output(const char *path);
 int cli_image_size(int width, int height, int sw, int sh, int *w, int *h);
 
 /* A file a command writes: the option that names it ("--png"), its path
- * (NULL: not written this run). */
+ * (NULL: not written this run), and for an image the extension of its
+ * format (".png"; NULL for other files). */
 typedef struct {
-    const char *option, *path;
+    const char *option, *path, *ext;
 } CliOutput;
 
-/* 0 when every output can be written (cli_check_output), and names neither
+/* 0 when every output can be written (cli_check_output), names neither
  * one of the run's inputs nor another output, the same file by device and
- * inode or, for files yet to be made, by folder and name; else -1 after a
- * message. */
+ * inode or, for files yet to be made, by folder and name, and an image's
+ * name does not end in another image format's extension (an EXR named
+ * out.png); else -1 after a message. */
 int cli_check_outputs(const CliOutput *out, int nout, const char *const *in, int nin);
 
 #endif

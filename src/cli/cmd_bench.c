@@ -146,7 +146,7 @@ static int gen_rays(const Scene *s, const Accel *acc, const char *mesh, const ch
     CliOutput outs[3];
     for (int i = 0; i < 3; i++) {
         snprintf(paths[i], sizeof paths[i], "%s/%s", dir, names[i]);
-        outs[i] = (CliOutput){"OUTDIR", paths[i]};
+        outs[i] = (CliOutput){"OUTDIR", paths[i], NULL};
     }
     if (cli_check_outputs(outs, 3, &mesh, 1) != 0)
         return 1;

@@ -54,7 +54,7 @@ static int run(void *args, const char **pos, int npos)
     Args *a = args;
     if (npos < 2)
         return cli_usage_error("diff", "needs two images, A and B");
-    const CliOutput heat_out = {"--heatmap", a->heatmap};
+    const CliOutput heat_out = {"--heatmap", a->heatmap, ".png"};
     if (cli_check_outputs(&heat_out, 1, pos, 2) != 0)
         return 1;
     Image ia, ib, small, heat;

@@ -64,7 +64,7 @@ static int run(void *args, const char **pos, int npos)
         rc = 1;
     } else {
         out = out ? out : path;
-        const CliOutput o = {"-o", out};
+        const CliOutput o = {"-o", out, NULL};
         FILE *f;
         if (cli_check_outputs(&o, 1, (const char *const *)s.inputs, s.ninputs) != 0) {
             rc = 1;

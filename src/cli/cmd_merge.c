@@ -86,7 +86,7 @@ static int run(void *args, const char **pos, int npos)
         return cli_usage_error("merge", "needs -o OUT.exr");
     if (npos == 0)
         return cli_usage_error("merge", "needs the tiles to merge");
-    const CliOutput outs[] = {{"-o", a->exr}, {"--png", a->png}};
+    const CliOutput outs[] = {{"-o", a->exr, ".exr"}, {"--png", a->png, ".png"}};
     if (cli_check_outputs(outs, 2, pos, npos) != 0)
         return 1;
     char err[AFILE_PATH_MAX + 512], why[512];
