@@ -23,12 +23,13 @@ static int obj_index(const LexReader *R, LexTok t, const ObjIndexKind *k, int *o
         return lex_fail(R, R->line, t.s, "%s index 0 is invalid (OBJ indices start at 1)", k->what);
     if (i > 0) {
         if (i > k->total)
-            return lex_fail(R, R->line, t.s, "%s index %s out of range (%lld %s)", k->what, lex_quote(t, q), k->total, k->plural);
+            return lex_fail(R, R->line, t.s, "%s index %s out of range (%lld %s)", k->what, lex_quote(t, q), k->total,
+                            k->plural);
         *out = (int)(i - 1);
     } else {
         if (-i > k->so_far)
             return lex_fail(R, R->line, t.s, "relative %s index %s out of range (%lld %s defined so far)", k->what,
-                        lex_quote(t, q), k->so_far, k->plural);
+                            lex_quote(t, q), k->so_far, k->plural);
         *out = (int)(k->so_far + i);
     }
     return 0;

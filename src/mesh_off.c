@@ -23,7 +23,8 @@ static int off_header(const LexReader *R, LexTok t, int *normals, int *colour)
         }
         if (i + 3 == t.len)
             return 0;
-        return lex_fail(R, R->line, t.s, "unsupported OFF variant '%s' (OFF, COFF, NOFF and CNOFF are read)", lex_quote(t, q));
+        return lex_fail(R, R->line, t.s, "unsupported OFF variant '%s' (OFF, COFF, NOFF and CNOFF are read)",
+                        lex_quote(t, q));
     }
     return lex_fail(R, R->line, t.s, "expected an OFF header or the counts line, got '%s'", lex_quote(t, q));
 }
@@ -58,7 +59,8 @@ int mesh_read_off(LexReader *R, MeshBuild *B)
     long long cnt[3];
     int nc = lex_split(s, e, tk, 3);
     if (nc != 3)
-        return lex_fail(R, R->line, nc > 0 ? tk[0].s : NULL, "counts line has %d values, expected 3 (vertices faces edges)", nc);
+        return lex_fail(R, R->line, nc > 0 ? tk[0].s : NULL,
+                        "counts line has %d values, expected 3 (vertices faces edges)", nc);
     for (int i = 0; i < 3; i++) {
         if (lex_parse_int(tk[i], &cnt[i]) != 0)
             return lex_fail(R, R->line, tk[i].s, "malformed count '%s'", lex_quote(tk[i], qb));
@@ -75,13 +77,14 @@ int mesh_read_off(LexReader *R, MeshBuild *B)
     unsigned long long vmin = 2 * (unsigned long long)nvals, fmin = 2;
     char qb2[LEX_QUOTE_LEN]; /* counts are quoted as written: they may have saturated */
     if ((unsigned long long)nv > room / vmin)
-        return lex_fail(R, cline, tk[0].s, "%s vertices announced, more than the %zu bytes after the counts line can hold",
-                    lex_quote(tk[0], qb), rem);
+        return lex_fail(R, cline, tk[0].s,
+                        "%s vertices announced, more than the %zu bytes after the counts line can hold",
+                        lex_quote(tk[0], qb), rem);
     room -= (unsigned long long)nv * vmin;
     if ((unsigned long long)nf > room / fmin)
         return lex_fail(R, cline, tk[0].s,
-                    "%s vertices and %s faces announced, more than the %zu bytes after the counts line can hold",
-                    lex_quote(tk[0], qb), lex_quote(tk[1], qb2), rem);
+                        "%s vertices and %s faces announced, more than the %zu bytes after the counts line can hold",
+                        lex_quote(tk[0], qb), lex_quote(tk[1], qb2), rem);
     if (nv > INT_MAX)
         return lex_fail(R, cline, tk[0].s, "%lld vertices announced, more than %d", nv, INT_MAX);
     if (mesh_alloc_vertices(R, cline, B, nv, normals) != 0)
@@ -103,7 +106,7 @@ int mesh_read_off(LexReader *R, MeshBuild *B)
             for (int j = 0; j < n && j < 11; j++)
                 ints &= lex_parse_int(tk[j], &unused) == 0;
             return lex_fail(R, R->line, NULL, "vertex line has %d values, expected %s%s", n, expect[colour][normals],
-                        ints ? " (a face line: fewer vertices than announced?)" : "");
+                            ints ? " (a face line: fewer vertices than announced?)" : "");
         }
         if (mesh_read_coord(R, tk[0], "coordinate", &m->v[i].x) != 0 ||
             mesh_read_coord(R, tk[1], "coordinate", &m->v[i].y) != 0 ||
@@ -126,7 +129,7 @@ int mesh_read_off(LexReader *R, MeshBuild *B)
         lex_next_tok(&q, e, &t);
         if (lex_parse_int(t, &k) != 0)
             return lex_fail(R, R->line, t.s, "malformed corner count '%s'%s", lex_quote(t, qb),
-                        lex_is_decimal(t) ? " (a vertex line: more vertices than announced?)" : "");
+                            lex_is_decimal(t) ? " (a vertex line: more vertices than announced?)" : "");
         if (k < 3)
             return lex_fail(R, R->line, NULL, "face with %lld corners (at least 3 needed)", k);
         int c[3] = {0, 0, 0};
@@ -147,8 +150,8 @@ int mesh_read_off(LexReader *R, MeshBuild *B)
             extra++;
         }
         if (extra > 4)
-            return lex_fail(R, R->line, NULL, "face has %d values after its %lld corners, at most 4 (a colour) allowed", extra,
-                        k);
+            return lex_fail(R, R->line, NULL, "face has %d values after its %lld corners, at most 4 (a colour) allowed",
+                            extra, k);
     }
     if (lex_next_text_line(R, &s, &e, 1))
         return lex_fail(R, R->line, NULL, "extra data after the %lld face%s announced", nf, nf == 1 ? "" : "s");

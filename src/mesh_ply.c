@@ -115,7 +115,8 @@ static int ply_declare(Ply *P, const LexTok *tk, int n)
         if (pr.type == PT_NONE)
             return lex_fail(R, R->line, tk[3].s, "unknown property type '%s'", lex_quote(tk[3], q));
         if (!ply_is_int(pr.count))
-            return lex_fail(R, R->line, tk[2].s, "list count type must be an integer type, not '%s'", lex_quote(tk[2], q));
+            return lex_fail(R, R->line, tk[2].s, "list count type must be an integer type, not '%s'",
+                            lex_quote(tk[2], q));
     } else {
         if (n != 3)
             return lex_fail(R, R->line, NULL, "'property' takes a type and a name");
@@ -127,7 +128,8 @@ static int ply_declare(Ply *P, const LexTok *tk, int n)
     }
     for (int i = 0; i < E->nprops; i++)
         if (lex_tok_same(E->props[i].name, pr.name))
-            return lex_fail(R, R->line, pr.name.s, "second property '%s' in element '%s'", lex_quote(pr.name, q), lex_quote(E->name, q2));
+            return lex_fail(R, R->line, pr.name.s, "second property '%s' in element '%s'", lex_quote(pr.name, q),
+                            lex_quote(E->name, q2));
     void *p = mesh_grow(E->props, &E->cap, E->nprops, 8, sizeof *E->props);
     if (!p)
         return lex_fail(R, R->line, NULL, "out of memory");
@@ -165,7 +167,8 @@ static int ply_header(Ply *P)
             if (n != 3)
                 return lex_fail(R, R->line, NULL, "'format' takes a format and a version, got %d values", n - 1);
             if (lex_tok_is(tk[1], "binary_big_endian"))
-                return lex_fail(R, R->line, tk[1].s, "binary_big_endian PLY is not supported (ascii and binary_little_endian are)");
+                return lex_fail(R, R->line, tk[1].s,
+                                "binary_big_endian PLY is not supported (ascii and binary_little_endian are)");
             if (lex_tok_is(tk[1], "binary_little_endian"))
                 P->binary = 1;
             else if (!lex_tok_is(tk[1], "ascii"))
@@ -222,10 +225,11 @@ static int ply_header(Ply *P)
         if (P->idx < 0)
             return lex_fail(R, F->line, F->name.s, "'face' element has no 'vertex_indices' list");
         if (F->props[P->idx].count == PT_NONE)
-            return lex_fail(R, F->line, F->name.s, "face property '%s' is a number, not a list", lex_quote(F->props[P->idx].name, q));
+            return lex_fail(R, F->line, F->name.s, "face property '%s' is a number, not a list",
+                            lex_quote(F->props[P->idx].name, q));
         if (!ply_is_int(F->props[P->idx].type))
             return lex_fail(R, F->line, F->name.s, "face property '%s' must have an integer item type",
-                        lex_quote(F->props[P->idx].name, q));
+                            lex_quote(F->props[P->idx].name, q));
     }
     return 0;
 }
@@ -260,8 +264,9 @@ static int ply_alloc(Ply *P)
         if (min == 0) /* no properties: an instance is nothing to read */
             continue;
         if ((unsigned long long)E->count > room / min)
-            return lex_fail(R, E->line, E->count_text.s, "%s '%s' elements announced, more than the %zu bytes after the header can hold",
-                        lex_quote(E->count_text, q2), lex_quote(E->name, q), rem);
+            return lex_fail(R, E->line, E->count_text.s,
+                            "%s '%s' elements announced, more than the %zu bytes after the header can hold",
+                            lex_quote(E->count_text, q2), lex_quote(E->name, q), rem);
         room -= (unsigned long long)E->count * min;
     }
     const PlyElem *V = &P->el[P->vertex];
@@ -320,13 +325,13 @@ static int ply_ascii(Ply *P)
         for (long long i = 0; i < E->count; i++) {
             if (!lex_next_text_line(R, &s, &e, 0))
                 return lex_fail_eof(R, "file ends after %lld of %lld '%s' elements", i, E->count,
-                            lex_quote(E->name, q1));
+                                    lex_quote(E->name, q1));
             q = s;
             for (int j = 0; j < E->nprops; j++) {
                 const PlyProp *pr = &E->props[j];
                 if (!lex_next_tok(&q, e, &t))
-                    return lex_fail(R, R->line, NULL, "too few values for a '%s' element (no '%s')", lex_quote(E->name, q1),
-                                lex_quote(pr->name, q2));
+                    return lex_fail(R, R->line, NULL, "too few values for a '%s' element (no '%s')",
+                                    lex_quote(E->name, q1), lex_quote(pr->name, q2));
                 if (pr->count == PT_NONE) {
                     float *slot = ei == P->vertex ? ply_slot(P, j, i) : NULL;
                     if (slot && ply_is_int(pr->type) && ply_check_ascii(R, t, pr->type) != 0)
@@ -348,8 +353,9 @@ static int ply_ascii(Ply *P)
                     if (!lex_next_tok(&q, e, &t)) {
                         if (is_idx)
                             return lex_fail(R, R->line, NULL, "face lists %lld of its %lld corners", k, c);
-                        return lex_fail(R, R->line, NULL, "too few values for a '%s' element (list '%s' announces %lld)",
-                                    lex_quote(E->name, q1), lex_quote(pr->name, q2), c);
+                        return lex_fail(R, R->line, NULL,
+                                        "too few values for a '%s' element (list '%s' announces %lld)",
+                                        lex_quote(E->name, q1), lex_quote(pr->name, q2), c);
                     }
                     if (!is_idx) {
                         if (ply_check_ascii(R, t, pr->type) != 0)
@@ -360,7 +366,8 @@ static int ply_ascii(Ply *P)
                     if (lex_parse_int(t, &idx) != 0)
                         return lex_fail(R, R->line, t.s, "malformed vertex index '%s'", lex_quote(t, q1));
                     if (idx < 0 || idx >= nv)
-                        return lex_fail(R, R->line, t.s, "vertex index %s out of range (%d vertices)", lex_quote(t, q1), nv);
+                        return lex_fail(R, R->line, t.s, "vertex index %s out of range (%d vertices)", lex_quote(t, q1),
+                                        nv);
                     if (mesh_fan_corner(P->R, P->B, k, (int)idx, 0, corner, NULL) != 0)
                         return -1;
                 }
@@ -432,8 +439,8 @@ static int ply_binary(Ply *P)
         if (!lists && ei != P->vertex) { /* fixed size and nothing to keep: skip it whole */
             size_t size = (size_t)ply_min_bytes(P, ei);
             if ((unsigned long long)E->count > (len - off) / size)
-                return lex_fail_at(R, E->line, E->name.s, len, "file ends after %zu of %lld '%s' elements", (len - off) / size,
-                               E->count, lex_quote(E->name, q1));
+                return lex_fail_at(R, E->line, E->name.s, len, "file ends after %zu of %lld '%s' elements",
+                                   (len - off) / size, E->count, lex_quote(E->name, q1));
             off += (size_t)E->count * size;
             continue;
         }
@@ -443,22 +450,22 @@ static int ply_binary(Ply *P)
                 size_t size = (size_t)ply_types[pr->type].size;
                 if (pr->count == PT_NONE) {
                     if (len - off < size)
-                        return lex_fail_at(R, E->line, E->name.s, len, "file ends after %lld of %lld '%s' elements", i, E->count,
-                                       lex_quote(E->name, q1));
+                        return lex_fail_at(R, E->line, E->name.s, len, "file ends after %lld of %lld '%s' elements", i,
+                                           E->count, lex_quote(E->name, q1));
                     float *slot = ei == P->vertex ? ply_slot(P, j, i) : NULL;
                     if (slot) {
                         double d = ply_get(base + off, pr->type);
                         if (lex_to_float(d, slot) != 0)
-                            return lex_fail_at(R, E->line, E->name.s, off, "non-finite %s %g in vertex %lld", ply_slot_name(P, j), d,
-                                           i);
+                            return lex_fail_at(R, E->line, E->name.s, off, "non-finite %s %g in vertex %lld",
+                                               ply_slot_name(P, j), d, i);
                     }
                     off += size;
                     continue;
                 }
                 size_t csize = (size_t)ply_types[pr->count].size;
                 if (len - off < csize)
-                    return lex_fail_at(R, E->line, E->name.s, len, "file ends after %lld of %lld '%s' elements", i, E->count,
-                                   lex_quote(E->name, q1));
+                    return lex_fail_at(R, E->line, E->name.s, len, "file ends after %lld of %lld '%s' elements", i,
+                                       E->count, lex_quote(E->name, q1));
                 long long c = (long long)ply_get(base + off, pr->count);
                 if (c < 0)
                     return lex_fail_at(R, E->line, E->name.s, off, "negative list count %lld", c);
@@ -467,8 +474,8 @@ static int ply_binary(Ply *P)
                     return lex_fail_at(R, E->line, E->name.s, off, "face with %lld corners (at least 3 needed)", c);
                 off += csize;
                 if ((unsigned long long)c > (len - off) / size)
-                    return lex_fail_at(R, E->line, E->name.s, len, "file ends after %lld of %lld '%s' elements", i, E->count,
-                                   lex_quote(E->name, q1));
+                    return lex_fail_at(R, E->line, E->name.s, len, "file ends after %lld of %lld '%s' elements", i,
+                                       E->count, lex_quote(E->name, q1));
                 if (!is_idx) {
                     off += (size_t)c * size;
                     continue;
@@ -477,7 +484,8 @@ static int ply_binary(Ply *P)
                 for (long long k = 0; k < c; k++, off += size) {
                     long long idx = (long long)ply_get(base + off, pr->type);
                     if (idx < 0 || idx >= nv)
-                        return lex_fail_at(R, E->line, E->name.s, off, "vertex index %lld out of range (%d vertices)", idx, nv);
+                        return lex_fail_at(R, E->line, E->name.s, off, "vertex index %lld out of range (%d vertices)",
+                                           idx, nv);
                     if (mesh_fan_corner(P->R, P->B, k, (int)idx, 0, corner, NULL) != 0)
                         return -1;
                 }
@@ -485,8 +493,8 @@ static int ply_binary(Ply *P)
         }
     }
     if (off != len)
-        return lex_fail_at(R, P->end_line, NULL, off, "%zu byte%s of extra data after the announced elements", len - off,
-                       len - off == 1 ? "" : "s");
+        return lex_fail_at(R, P->end_line, NULL, off, "%zu byte%s of extra data after the announced elements",
+                           len - off, len - off == 1 ? "" : "s");
     return 0;
 }
 

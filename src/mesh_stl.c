@@ -239,8 +239,9 @@ static int stl_ascii(LexReader *R, MeshBuild *B)
     int solids = 0;
     while (rc == 0 && next(&T, &t)) {
         if (!is(t, "solid")) {
-            rc = lex_fail(R, R->line, t.s, solids ? "expected 'solid' or the end of the file, got '%s'"
-                                             : "not an STL file: expected 'solid', got '%s'",
+            rc = lex_fail(R, R->line, t.s,
+                          solids ? "expected 'solid' or the end of the file, got '%s'"
+                                 : "not an STL file: expected 'solid', got '%s'",
                           lex_quote(t, q));
             break;
         }
@@ -284,8 +285,9 @@ int mesh_read_stl(LexReader *R, MeshBuild *B)
         if (next(&T, &t) && is(t, "solid"))
             rc = stl_ascii(R, B);
         else if (len < STL_HEADER)
-            rc = lex_fail(R, 1, R->data, "not an STL file: %zu bytes, and no 'solid' for ASCII STL (binary STL takes at least "
-                                "%d bytes)",
+            rc = lex_fail(R, 1, R->data,
+                          "not an STL file: %zu bytes, and no 'solid' for ASCII STL (binary STL takes at least "
+                          "%d bytes)",
                           len, STL_HEADER);
         else
             rc = lex_fail(R, 1, R->data,

@@ -46,10 +46,7 @@ static float get_f32(const unsigned char *p)
 /* No component of d reaches FLT_MIN (zero included): the reciprocal of the
  * largest, which the BVH's slab test takes, would overflow, and the ray
  * would pass through every box unseen. */
-static int dir_too_short(Vec3 d)
-{
-    return !(fabsf(d.x) >= FLT_MIN || fabsf(d.y) >= FLT_MIN || fabsf(d.z) >= FLT_MIN);
-}
+static int dir_too_short(Vec3 d) { return !(fabsf(d.x) >= FLT_MIN || fabsf(d.y) >= FLT_MIN || fabsf(d.z) >= FLT_MIN); }
 
 int rayfile_ray_ok(const Ray *r)
 {
@@ -114,10 +111,13 @@ int rayfile_parse(const char *name, const void *data, size_t size, Ray **rays, s
         }
         Vec3 o = vec3(v[0], v[1], v[2]), d = vec3(v[3], v[4], v[5]);
         r[i] = ray_make(vec_madd(o, d, v[6]), d, v[7] - v[6]);
-        const char *bad = d.x == 0.0f && d.y == 0.0f && d.z == 0.0f ? "a zero direction"
-                          : dir_too_short(d) ? "a direction too short to trace (no component of at least FLT_MIN, 2^-126)"
-                          : !rayfile_ray_ok(&r[i]) ? "a tmin that moves its origin out of float range"
-                                                   : NULL;
+        const char *bad = NULL;
+        if (d.x == 0.0f && d.y == 0.0f && d.z == 0.0f)
+            bad = "a zero direction";
+        else if (dir_too_short(d))
+            bad = "a direction too short to trace (no component of at least FLT_MIN, 2^-126)";
+        else if (!rayfile_ray_ok(&r[i]))
+            bad = "a tmin that moves its origin out of float range";
         if (bad) {
             snprintf(err, errlen, "%s: ray %llu has %s", name, (unsigned long long)i, bad);
             free(r);

@@ -133,7 +133,8 @@ static void test_parse_refuses_untraceable_rays(void **state)
     const float tiny[8] = {0, 0, -5, 1e-45f, -1e-40f, 1e-39f, 0, INFINITY};
     memcpy(b + 16, tiny, sizeof tiny);
     assert_int_equal(rayfile_parse("mem", b, sizeof b, &r, &n, err, sizeof err), -1);
-    assert_string_equal(err, "mem: ray 0 has a direction too short to trace (no component of at least FLT_MIN, 2^-126)");
+    assert_string_equal(err,
+                        "mem: ray 0 has a direction too short to trace (no component of at least FLT_MIN, 2^-126)");
     const float least[8] = {0, 0, -5, 1e-45f, 0, FLT_MIN, 0, INFINITY};
     memcpy(b + 16, least, sizeof least);
     assert_int_equal(rayfile_parse("mem", b, sizeof b, &r, &n, err, sizeof err), 0);

@@ -146,7 +146,8 @@ int cli_check_output(const char *path)
  * other than ext's, else NULL. */
 static const char *other_image_ext(const char *path, const char *ext)
 {
-    static const char *const image[] = {".exr", ".png", ".jpg", ".jpeg", ".tif", ".tiff", ".ppm", ".bmp", ".hdr", ".tga"};
+    static const char *const image[] = {".exr",  ".png", ".jpg", ".jpeg", ".tif",
+                                        ".tiff", ".ppm", ".bmp", ".hdr",  ".tga"};
     const char *dot = strrchr(path, '.');
     if (!dot || strchr(dot, '/'))
         return NULL;

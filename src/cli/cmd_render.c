@@ -489,8 +489,10 @@ static int render_one(Args *a, const char *scene, const PlanOptions *po, int fra
     }
     /* Fail on an output that cannot or must not be written before spending
      * time on the render. */
-    const CliOutput outs[] = {{"-o", pp->exr, ".exr"}, {"--png", a->png ? pp->png : NULL, ".png"},
-                              {"--stats", a->stats ? pp->stats : NULL, NULL}, {"(partial)", pp->partial, NULL}};
+    const CliOutput outs[] = {{"-o", pp->exr, ".exr"},
+                              {"--png", a->png ? pp->png : NULL, ".png"},
+                              {"--stats", a->stats ? pp->stats : NULL, NULL},
+                              {"(partial)", pp->partial, NULL}};
     if (cli_check_outputs(outs, 4, (const char *const *)s.inputs, s.ninputs) != 0) {
         plan_free(&plan);
         scene_free(&s);
