@@ -995,8 +995,6 @@ static const BadCase bad_cases[] = {
         "t.obj:5:9: malformed vertex index '0x'"),
     BAD("obj column bom first line", MESH_OBJ, "\xef\xbb\xbf  f 1 2 3\n", "t.obj:1:5: vertex index 1 out of range (0 vertices)"),
     BAD("obj line column", MESH_OBJ, "v 0 0 0\n  vn 1 0\n", "t.obj:2:3: 'vn' takes 3 numbers, got 2"),
-    BAD("stl end column crlf", MESH_STL, "solid a\r\nfacet normal 0 0 1\r\n",
-        "t.stl:2:19: file ends where 'outer' should follow the facet normal"),
     BAD("obj v short", MESH_OBJ, "v 0 0 0\nv 1 0\n", "t.obj:2:1: 'v' takes 3 or 4 numbers (or 6 with a colour), got 2"),
     BAD("obj v 5 values", MESH_OBJ, "v 0 0 0 1 1\n", "t.obj:1:1: 'v' takes 3 or 4 numbers (or 6 with a colour), got 5"),
     BAD("obj vn short", MESH_OBJ, "vn 0 1\n", "t.obj:1:1: 'vn' takes 3 numbers, got 2"),
@@ -1034,6 +1032,9 @@ static const BadCase bad_cases[] = {
     BAD("obj NUL byte", MESH_OBJ, "v 0 0 0\n\0 1 2\n", "t.obj:2:1: unknown statement '?'"),
 
     /* ---- STL, ASCII ---- */
+    /* the end of the file: just past the last line's last byte, before its CR LF */
+    BAD("stl end column crlf", MESH_STL, "solid a\r\nfacet normal 0 0 1\r\n",
+        "t.stl:2:19: file ends where 'outer' should follow the facet normal"),
     BAD("stl empty", MESH_STL, "", "t.stl:1:1: not an STL file: 0 bytes, and no 'solid' for ASCII STL (binary STL "
                                    "takes at least 84 bytes)"),
     BAD("stl not stl", MESH_STL, "OFF\n3 1 0\n", "t.stl:1:1: not an STL file: 10 bytes, and no 'solid' for ASCII STL "
