@@ -32,8 +32,8 @@ static long column(const LexReader *R, const char *at)
     const char *s = at;
     while (s > R->data && s[-1] != '\n' && s[-1] != '\r')
         s--;
-    if (s == R->data && at - s >= 3 && memcmp(s, "\xef\xbb\xbf", 3) == 0)
-        s += 3;
+    if (s == R->data)
+        s += lex_bom_len(s, at);
     return (long)(at - s) + 1;
 }
 

@@ -78,6 +78,13 @@ int lex_next_tok(const char **q, const char *e, LexTok *t);
 /* Number of tokens in [s, e); the first `max` are stored in tk. */
 int lex_split(const char *s, const char *e, LexTok *tk, int max);
 
+/* The length of the UTF-8 byte-order mark that [s, end) starts with: 3,
+ * or 0 when it starts with none. It is not part of a scene or mesh. */
+static inline size_t lex_bom_len(const char *s, const char *end)
+{
+    return end - s >= 3 && memcmp(s, "\xef\xbb\xbf", 3) == 0 ? 3 : 0;
+}
+
 static inline int lex_is_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
 static inline int lex_is_digit(int c) { return c >= '0' && c <= '9'; }
 static inline int lex_tok_same(LexTok a, LexTok b) { return a.len == b.len && memcmp(a.s, b.s, a.len) == 0; }

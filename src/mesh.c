@@ -39,8 +39,7 @@ int mesh_parse(const char *name, const char *data, size_t len, MeshFormat fmt, M
     R.ls = R.lf_from = R.lf = R.cr_from = R.cr = NULL;
     R.err = err;
     R.errlen = errlen;
-    if (len >= 3 && memcmp(data, "\xef\xbb\xbf", 3) == 0) /* a UTF-8 byte-order mark */
-        R.p += 3;
+    R.p += lex_bom_len(R.p, R.end);
     int rc;
     switch (fmt) {
     case MESH_OFF:

@@ -1995,8 +1995,7 @@ int scene_parse(const char *name, const char *text, size_t len, Scene *s, char *
     P.name = name;
     P.p = text;
     P.end = text + len;
-    if (len >= 3 && memcmp(text, "\xef\xbb\xbf", 3) == 0)
-        P.p += 3; /* a UTF-8 byte-order mark is not part of the scene */
+    P.p += lex_bom_len(P.p, P.end);
     P.at.line = 1;
     P.at.col = 1;
     P.err = err;
