@@ -74,7 +74,21 @@ int prim_sphere_hit(const Sphere *s, const Ray *r, PrimHit *h)
     return 1;
 }
 
-
+/* The slab test's verdict (Kay and Kajiya): the entry tnear when it lies
+ * ahead, else the exit tfar when the origin is inside; the face is the
+ * axis of the slab crossed. */
+static int slab_hit(float tnear, float tfar, int near_axis, int far_axis, float tmax, PrimHit *h)
+{
+    if (tnear > 0.0f && tnear < tmax) {
+        *h = (PrimHit){tnear, 0.0f, 0.0f, 0.0f, near_axis};
+        return 1;
+    }
+    if (tnear <= 0.0f && tfar > 0.0f && tfar < tmax) { /* origin inside */
+        *h = (PrimHit){tfar, 0.0f, 0.0f, 0.0f, far_axis};
+        return 1;
+    }
+    return 0;
+}
 
 int prim_box_hit(const Box *b, const Ray *r, PrimHit *h)
 {
@@ -100,15 +114,7 @@ int prim_box_hit(const Box *b, const Ray *r, PrimHit *h)
             far_axis = i;
         }
     }
-    if (tnear > 0.0f && tnear < r->tmax) {
-        *h = (PrimHit){tnear, 0.0f, 0.0f, 0.0f, near_axis};
-        return 1;
-    }
-    if (tnear <= 0.0f && tfar > 0.0f && tfar < r->tmax) { /* origin inside */
-        *h = (PrimHit){tfar, 0.0f, 0.0f, 0.0f, far_axis};
-        return 1;
-    }
-    return 0;
+    return slab_hit(tnear, tfar, near_axis, far_axis, r->tmax, h);
 }
 
 int prim_obox_init(OBox *b)
@@ -156,15 +162,7 @@ int prim_obox_hit(const OBox *b, const Ray *r, PrimHit *h)
     }
     if (!(tnear < tfar))
         return 0;
-    if (tnear > 0.0f && tnear < r->tmax) {
-        *h = (PrimHit){tnear, 0.0f, 0.0f, 0.0f, near_axis};
-        return 1;
-    }
-    if (tnear <= 0.0f && tfar > 0.0f && tfar < r->tmax) {
-        *h = (PrimHit){tfar, 0.0f, 0.0f, 0.0f, far_axis};
-        return 1;
-    }
-    return 0;
+    return slab_hit(tnear, tfar, near_axis, far_axis, r->tmax, h);
 }
 
 /* ---- robust ---- */
