@@ -14,6 +14,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 #include "lancer/afile.h"
 #include "lancer/thread.h"
@@ -73,18 +74,13 @@ int mesh_format_from_path(const char *path, MeshFormat *fmt)
         MeshFormat fmt;
     } exts[] = {{"off", MESH_OFF}, {"obj", MESH_OBJ}, {"ply", MESH_PLY}, {"stl", MESH_STL}};
     const char *dot = strrchr(path, '.');
-    if (!dot || strchr(dot, '/') || strlen(dot + 1) != 3)
+    if (!dot || strchr(dot, '/'))
         return -1;
-    for (size_t i = 0; i < sizeof exts / sizeof exts[0]; i++) {
-        size_t k;
-        for (k = 0; k < 3; k++)
-            if ((dot[1 + k] | 0x20) != exts[i].ext[k])
-                break;
-        if (k == 3) {
+    for (size_t i = 0; i < sizeof exts / sizeof exts[0]; i++)
+        if (strcasecmp(dot + 1, exts[i].ext) == 0) {
             *fmt = exts[i].fmt;
             return 0;
         }
-    }
     return -1;
 }
 

@@ -3,13 +3,13 @@
  */
 #include "cli.h"
 
-#include <ctype.h>
 #include <errno.h>
 #include <limits.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -151,13 +151,9 @@ static const char *other_image_ext(const char *path, const char *ext)
     const char *dot = strrchr(path, '.');
     if (!dot || strchr(dot, '/'))
         return NULL;
-    for (size_t i = 0; i < sizeof image / sizeof image[0]; i++) {
-        size_t k = 0;
-        while (image[i][k] && tolower((unsigned char)dot[k]) == image[i][k])
-            k++;
-        if (!image[i][k] && !dot[k])
+    for (size_t i = 0; i < sizeof image / sizeof image[0]; i++)
+        if (strcasecmp(dot, image[i]) == 0)
             return strcmp(image[i], ext) != 0 ? dot : NULL;
-    }
     return NULL;
 }
 
