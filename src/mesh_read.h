@@ -9,6 +9,7 @@
 #define LANCER_MESH_READ_H
 
 #include <stddef.h>
+#include <stdint.h>
 
 #include "lancer/mesh.h"
 #include "bigmem.h"
@@ -60,6 +61,10 @@ void mesh_drop_normals(Mesh *m);
  * (one normal per vertex, as NOFF and PLY give them) makes ntri a copy of
  * tri. A mesh without triangles keeps no normals. */
 int mesh_finish(const LexReader *R, MeshBuild *B, int vertex_normals);
+
+/* The hash of a vertex's coordinates by which STL's vertices are welded
+ * (-0 as +0); any run of its low bits serves as a table's slot. */
+uint64_t mesh_weld_hash(Vec3 p);
 
 /* The readers: each returns 0, or -1 with the message in R's buffer. */
 int mesh_read_off(LexReader *R, MeshBuild *B);

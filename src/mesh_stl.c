@@ -54,12 +54,23 @@ static uint32_t bits(float x)
     return b;
 }
 
+uint64_t mesh_weld_hash(Vec3 p)
+{
+    /* Whole numbers and halves, as CAD and voxel exports write, have
+     * floats whose low mantissa bits are all 0, and a product by an odd
+     * constant keeps them 0: every bit must reach the low ones the table
+     * takes. Stafford's "Mix13" finaliser (as in SplitMix64) does that. */
+    uint64_t k = ((uint64_t)bits(p.x) << 32 | bits(p.y)) ^ (uint64_t)bits(p.z) * 0x9e3779b97f4a7c15u;
+    k = (k ^ k >> 30) * 0xbf58476d1ce4e5b9u;
+    k = (k ^ k >> 27) * 0x94d049bb133111ebu;
+    return k ^ k >> 31;
+}
+
 /* The index of vertex p, a new one when no vertex has its coordinates. */
 static int weld(Weld *W, Mesh *m, Vec3 p)
 {
     uint32_t x = bits(p.x), y = bits(p.y), z = bits(p.z);
-    size_t h = ((size_t)x * 73856093u) ^ ((size_t)y * 19349663u) ^ ((size_t)z * 83492791u);
-    for (h &= W->mask;; h = (h + 1) & W->mask) {
+    for (size_t h = (size_t)mesh_weld_hash(p) & W->mask;; h = (h + 1) & W->mask) {
         int i = W->slot[h];
         if (i < 0) {
             m->v[m->nv] = p;

@@ -26,6 +26,7 @@
 #include <unistd.h>
 
 #include "lancer/mesh.h"
+#include "../src/mesh_read.h"
 
 /* ---- helpers ---- */
 
@@ -595,6 +596,53 @@ static void test_stl(void **state)
              &m);
     assert_int_equal(m.nt, 2);
     assert_tri(m.tri[1], 0, 2, 3);
+    mesh_free(&m);
+}
+
+/* Welding probes a table of twice the vertices' slots from each vertex's
+ * hash. Coordinates on a grid of whole numbers or halves, as CAD and voxel
+ * exports write, once all hashed to a few slots, and a voxel solid of
+ * 135,000 triangles took seconds to load: the probes of such a grid's
+ * vertices, inserted as weld() inserts them, must stay a few a vertex. */
+static void test_stl_weld_grid(void **state)
+{
+    (void)state;
+    enum { SIDE = 40, SLOTS = 1 << 17 };
+    static int slot[SLOTS];
+    for (int step = 0; step < 2; step++) { /* whole numbers, then halves */
+        memset(slot, 0, sizeof slot);
+        long probes = 0;
+        for (int x = 0; x < SIDE; x++)
+            for (int y = 0; y < SIDE; y++)
+                for (int z = 0; z < SIDE; z++) {
+                    float f = step ? 0.5f : 1.0f;
+                    size_t h = (size_t)mesh_weld_hash(vec3(f * (float)x, f * (float)y, f * (float)z)) & (SLOTS - 1);
+                    for (probes++; slot[h]; probes++)
+                        h = (h + 1) & (SLOTS - 1);
+                    slot[h] = 1;
+                }
+        assert_true(probes < 3L * SIDE * SIDE * SIDE);
+    }
+    /* -0 and +0 are one vertex, and any slot they take is the same */
+    assert_true(mesh_weld_hash(vec3(-0.0f, 1, 2)) == mesh_weld_hash(vec3(0.0f, 1, 2)));
+
+    /* a binary STL of a 9 x 9 grid of unit squares (as many as a Buf
+     * holds) welds into its 10 x 10 vertices */
+    enum { N = 9 };
+    float t[2 * N * N][9];
+    for (int i = 0; i < N; i++)
+        for (int j = 0; j < N; j++)
+            for (int k = 0; k < 2; k++) {
+                const float *q = stl_square[k];
+                for (int c = 0; c < 9; c++)
+                    t[2 * (N * i + j) + k][c] = q[c] + (c % 3 == 0 ? (float)i : c % 3 == 1 ? (float)j : 0.0f);
+            }
+    Buf B;
+    binary_stl(&B, (const float(*)[9])t, 2 * N * N);
+    Mesh m;
+    parse_ok_n(MESH_STL, (const char *)B.b, B.n, &m);
+    assert_int_equal(m.nv, (N + 1) * (N + 1));
+    assert_int_equal(m.nt, 2 * N * N);
     mesh_free(&m);
 }
 
@@ -1572,6 +1620,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_ply_binary),
         cmocka_unit_test(test_ply_types),
         cmocka_unit_test(test_stl),
+        cmocka_unit_test(test_stl_weld_grid),
         cmocka_unit_test(test_stl_cgal),
         cmocka_unit_test(test_counts),
         cmocka_unit_test(test_degenerate),
