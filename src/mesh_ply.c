@@ -3,6 +3,7 @@
  * mesh.h).
  */
 #include "mesh_read.h"
+#include "lancer/limits.h"
 
 #include <limits.h>
 #include <stdlib.h>
@@ -44,6 +45,7 @@ typedef struct {
     int binary;
     PlyElem *el;
     int nel, cap;
+    int declared;       /* elements and properties so far */
     long end_line;      /* of "end_header" */
     int vertex, face;   /* indices into el, or -1 */
     int pos[3], nrm[3]; /* vertex properties x y z and nx ny nz, or -1 */
@@ -78,6 +80,8 @@ static int ply_declare(Ply *P, const LexTok *tk, int n)
 {
     LexReader *R = P->R;
     char q[LEX_QUOTE_LEN], q2[LEX_QUOTE_LEN];
+    if (++P->declared > LIMIT_PLY_DECLARATIONS)
+        return lex_fail(R, R->line, NULL, "more than %d elements and properties in the header", LIMIT_PLY_DECLARATIONS);
     if (lex_tok_is(tk[0], "element")) {
         long long count;
         if (n != 3)
@@ -146,7 +150,7 @@ static int ply_header(Ply *P)
     char q[LEX_QUOTE_LEN];
     LexTok tk[6];
     int have_format = 0;
-    if (!lex_next_line(R, &s, &e) || e - s != 3 || memcmp(s, "ply", 3) != 0)
+    if (!lex_next_line(R, &s, &e) || lex_split(s, e, tk, 2) != 1 || tk[0].s != s || !lex_tok_is(tk[0], "ply"))
         return lex_fail(R, 1, R->data, "not a PLY file (the first line must be 'ply')");
     for (;;) {
         if (!lex_next_line(R, &s, &e))

@@ -25,6 +25,7 @@
 #include <sys/types.h>
 #include <unistd.h>
 
+#include "lancer/limits.h"
 #include "lancer/mesh.h"
 #include "../src/mesh_read.h"
 
@@ -509,6 +510,40 @@ static void test_ply_types(void **state)
     mesh_free(&m);
 }
 
+/* A header of LIMIT_PLY_DECLARATIONS elements and properties is read; one
+ * more is refused at its line. Each name is checked against those before
+ * it, so a header of 100,000 once took seconds. */
+static void test_ply_declarations(void **state)
+{
+    (void)state;
+    static const char head[] = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                               "property float z\nelement face 1\nproperty list uchar int vertex_indices\n";
+    static const char tail[] = "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+    const int given = 6; /* in head */
+    const size_t cap = sizeof head + sizeof tail + 32 * (LIMIT_PLY_DECLARATIONS + 1);
+    char *text = malloc(cap);
+    assert_non_null(text);
+    for (int extra = 0; extra < 2; extra++) {
+        size_t n = (size_t)snprintf(text, cap, "%s", head);
+        int more = LIMIT_PLY_DECLARATIONS - given + extra;
+        for (int i = 0; i < more; i++) /* unused elements of 1 or 2 properties, no rows */
+            n += (size_t)snprintf(text + n, cap - n, i % 3 == 0 ? "element e%d 0\n" : "property int p%d\n", i);
+        n += (size_t)snprintf(text + n, cap - n, "%s", tail);
+        if (!extra) {
+            Mesh m;
+            parse_ok_n(MESH_PLY, text, n, &m);
+            assert_int_equal(m.nt, 1);
+            mesh_free(&m);
+        } else {
+            char want[128];
+            snprintf(want, sizeof want, "t.ply:%d:1: more than %d elements and properties in the header",
+                     8 + more, LIMIT_PLY_DECLARATIONS);
+            expect_error_n(MESH_PLY, text, n, want);
+        }
+    }
+    free(text);
+}
+
 /* An ASCII STL tetrahedron, as writers vary it: keywords in any case,
  * tokens split across lines, -0 beside 0, CRLF, and a second solid. */
 static const char stl_ascii[] = "solid tetra made by hand\n"
@@ -740,6 +775,10 @@ static const CountCase count_cases[] = {
     COUNTS("off with old Mac OS line endings", MESH_OFF, "OFF\r3 1 0\r0 0 0\r1 0 0\r0 1 0\r3 0 1 2", 3, 1, 0, 0),
     COUNTS("obj with lone CRs and a final LF, and a CR before a CRLF", MESH_OBJ,
            "v 0 0 0\rv 1 0 0\r\r\nv 0 1 0\rf 1 2 3\r\n", 3, 1, 0, 0),
+    COUNTS("ply with blanks after the first line's 'ply'", MESH_PLY,
+           "ply \t\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+           "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+           3, 1, 0, 0),
     COUNTS("ply point cloud", MESH_PLY,
            "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
            "end_header\n1 2 3\n",
@@ -1619,6 +1658,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_ply_ascii),
         cmocka_unit_test(test_ply_binary),
         cmocka_unit_test(test_ply_types),
+        cmocka_unit_test(test_ply_declarations),
         cmocka_unit_test(test_stl),
         cmocka_unit_test(test_stl_weld_grid),
         cmocka_unit_test(test_stl_cgal),

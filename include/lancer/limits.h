@@ -45,6 +45,10 @@
 #define LIMIT_INTERIORS 16
 #define LIMIT_SHADOW_CROSSINGS 256
 
+/* Elements and properties a PLY header declares, in all: real files have
+ * a few dozen, and each name is checked against those before it. */
+#define LIMIT_PLY_DECLARATIONS 4096
+
 /* `lancer export-pov --pn-segments`: a PN patch's segments per edge in
  * POV-Ray's twin (N^2 triangles a patch). */
 #define LIMIT_PN_SEGMENTS 256

@@ -66,6 +66,8 @@
  *   float64. In ASCII each element instance is one line (blank lines are
  *   skipped); an element without properties takes no bytes and no lines.
  *   Elements may come in any order; data after the last one is an error.
+ *   A header declares at most LIMIT_PLY_DECLARATIONS elements and
+ *   properties in all.
  * - STL: binary (80-byte header, uint32 count, 50-byte records, and a size
  *   of exactly 84 + 50 count) or ASCII ("solid", then "facet normal n n n",
  *   "outer loop", three or more "vertex x y z" (more are fanned), "endloop",
