@@ -1111,6 +1111,12 @@ int prim_near_edge(const Prim *p, const PrimHit *h, Surface *s)
     return 0;
 }
 
+/* A hit's u and v keep their signs, each within 3 ulps of e1 / det and
+ * e2 / det (prim_triangle_hit_watertight), but 1 - u - v carries their
+ * errors and its own: within this of 0, the point may lie on the edge
+ * b c, where the weight is 0 (a ray in the plane of a mesh's edge). */
+#define B0_ERR 0x1p-20f
+
 /* The signed distance of q from the plane through x0 of normal n (times
  * |n|), in double, and into *err a bound on its roundings, generously; mag
  * bounds the roundings of n's components (tri_normal_d). */
@@ -1149,16 +1155,17 @@ int prim_past_plane(const Prim *x, const Surface *s, Vec3 d)
          * vertices lie on opposite sides, its side is theirs, however
          * near the point lies to the plane (a face that shares the edge
          * or the vertex near the point). A vertex within the roundings
-         * of the plane (a shared one) is on it. */
+         * of the plane (a shared one) is on it, and one whose weight is
+         * within its roundings of 0 does not count (B0_ERR). */
         const Triangle *t = &s->tri->g.tri;
         const Vec3 v[3] = {t->a, t->b, t->c};
-        const float b[3] = {1.0f - s->tu - s->tv, s->tu, s->tv};
+        const float b[3] = {1.0f - s->tu - s->tv, s->tu, s->tv}, berr[3] = {B0_ERR, 0.0f, 0.0f};
         int pos = 0, neg = 0;
         for (int k = 0; k < 3; k++) {
             double err;
             const double q[3] = {v[k].x, v[k].y, v[k].z};
             const double f = plane_side(n, x0, mag, q, &err);
-            if (b[k] > 0.0f && fabs(f) > err) {
+            if (b[k] > berr[k] && fabs(f) > err) {
                 pos |= f > 0.0;
                 neg |= f < 0.0;
             }
@@ -1183,16 +1190,17 @@ int prim_line_crosses(const Prim *x, const Surface *s, Vec3 d)
     /* The point b0 a + b1 b + b2 c of s's triangle, with b0 = 1 - b1 - b2
      * in double: each product of floats is exact, so the point lies on
      * that triangle to within the sums' roundings. The hit's b1 + b2 may
-     * pass 1 by a rounding, which would put the point past the edge b c:
-     * it is brought back onto it. */
+     * pass 1 by a rounding, which would put the point past the edge b c,
+     * or fall short of it by one, which would put a point of that edge
+     * inside: within B0_ERR, it is brought onto the edge. */
     const Triangle *t = &s->tri->g.tri, *u = &x->g.tri;
-    double b1 = s->tu > 0.0f ? s->tu : 0.0, b2 = s->tv > 0.0f ? s->tv : 0.0;
-    if (b1 + b2 > 1.0) {
-        const double sum = b1 + b2;
-        b1 /= sum;
-        b2 /= sum;
+    double b1 = s->tu > 0.0f ? s->tu : 0.0, b2 = s->tv > 0.0f ? s->tv : 0.0, b0 = 1.0 - b1 - b2;
+    if (b0 < B0_ERR) {
+        b1 /= b1 + b2;
+        b2 = 1.0 - b1;
+        b0 = 0.0;
     }
-    const double b0 = 1.0 - b1 - b2, dd[3] = {d.x, d.y, d.z};
+    const double dd[3] = {d.x, d.y, d.z};
     double p[3], n[3], mag[3], x0[3], err;
     for (int i = 0; i < 3; i++) {
         p[i] = b0 * vec_comp(t->a, i) + b1 * vec_comp(t->b, i) + b2 * vec_comp(t->c, i);

@@ -704,6 +704,41 @@ static void test_line_crosses_triangle(void **state)
     assert_int_equal(prim_line_crosses(&c, &s, vec3(1, 1, -0.5f)), 1);
 }
 
+/* A hit exactly on a triangle's edge b c has weight 1 - u - v = 0 there,
+ * but u and v are each rounded: a camera ray in the plane of a smooth
+ * icosahedron's edge (POV-Ray parity, an odd image width) hit it with u
+ * and v below, whose 1 - u - v is 7.45e-9. Taken as it was, that weight
+ * put the point inside A, behind B, and the shadow ray across the ridge
+ * was blocked where it leaves the solid; within its roundings of 0, the
+ * point is on the edge, and on B's plane. */
+static void test_hit_on_edge_bc(void **state)
+{
+    (void)state;
+    /* A in z = 0 with its edge b c along the x axis, a on the +y side; B
+     * in y = 0 shares that edge, A's vertex a on B's negative side. */
+    const Prim a = {PRIM_TRIANGLE, 0, {.tri = {{0, 1, 0}, {0, 0, 0}, {1, 0, 0}, {0, 0, 1}, {0, 0, 1}, {0, 0, 1}}}};
+    const Prim b = {PRIM_TRIANGLE, 0, {.tri = {{0, 0, 0}, {1, 0, 0}, {0, 0, 1}, {0, -1, 0}, {0, -1, 0}, {0, -1, 0}}}};
+    Surface s;
+    memset(&s, 0, sizeof s);
+    s.edge = 1;
+    s.tri = &a;
+    s.tu = 0.904616654f;
+    s.tv = 0.0953833386f;
+    assert_true(1.0f - s.tu - s.tv > 0.0f); /* the rounding this is about */
+    s.p = vec3(s.tv, 0, 0);
+    s.perr = vec3(1e-7f, 1e-7f, 1e-7f);
+    /* on B's plane: past it, either way */
+    assert_int_equal(prim_past_plane(&b, &s, vec3(0, -1, 0)), 1);
+    assert_int_equal(prim_past_plane(&b, &s, vec3(0, 1, 0)), 1);
+    /* so the line from the point towards B's side does not cross B */
+    assert_int_equal(prim_line_crosses(&b, &s, vec3(0, -1, 1)), 0);
+    /* a point truly inside A, 1e-5 from the edge, is behind B still */
+    s.tu = 0.9f;
+    s.tv = 0.09999f;
+    assert_int_equal(prim_past_plane(&b, &s, vec3(0, -1, 0)), 0);
+    assert_int_equal(prim_line_crosses(&b, &s, vec3(0, -1, 1)), 1);
+}
+
 static double obox_coord(const OBox *b, Vec3 q, int i)
 {
     const Vec3 ax[3] = {b->u, b->v, b->w};
@@ -1784,6 +1819,7 @@ int main(void)
         cmocka_unit_test(test_past_plane),
         cmocka_unit_test(test_past_plane_of_triangle_hit),
         cmocka_unit_test(test_line_crosses_triangle),
+        cmocka_unit_test(test_hit_on_edge_bc),
         cmocka_unit_test(test_ellipsoid_spawn),
         cmocka_unit_test(test_ellipsoid_spawn_far_and_grazing),
     };
