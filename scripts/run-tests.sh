@@ -34,6 +34,7 @@ done
 run tests/install.sh sh tests/install.sh
 run scripts/check-links.sh sh scripts/check-links.sh
 run scripts/parity.sh sh scripts/parity.sh "$dir/lancer"
+run "scripts/parity.sh tests/parity" sh scripts/parity.sh "$dir/lancer" tests/parity/*.scn
 run "scripts/parity-random.sh (40 scenes)" sh scripts/parity-random.sh "$dir/lancer" 40
 run scripts/stability.sh sh scripts/stability.sh "$dir/lancer"
 if [ -n "$judge" ]; then
