@@ -102,13 +102,46 @@ static void image_exr_note(ImageExrErr *e, const char *msg)
         pthread_mutex_unlock(e->lock);
 }
 
-/* Replaces OpenEXRCore's default handler, which prints to stderr. The
- * context's user data is our ImageExrErr (exr_get_user_data returns the
- * initializer's pointer even when the library does the file I/O itself). */
+/* The ImageExrErr of each context being written. OpenEXRCore reports a
+ * write context's errors with its lock held (exr_add_part out of memory,
+ * say), and exr_get_user_data takes that lock again: the handler waited on
+ * itself, and the render hung. So a written context's handler finds its
+ * ImageExrErr here, under a lock of our own. */
+#define IMAGE_EXR_WRITERS 16
+static struct {
+    exr_const_context_t ctx;
+    ImageExrErr *e;
+} image_exr_writers[IMAGE_EXR_WRITERS];
+static pthread_mutex_t image_exr_writers_lock = PTHREAD_MUTEX_INITIALIZER;
+
+/* Enters ctx's e (from NULL), or removes it (e NULL, from ctx's). When the
+ * table is full, that context's messages fall back on the error codes'. */
+static void image_exr_writer(exr_const_context_t ctx, exr_const_context_t from, ImageExrErr *e)
+{
+    pthread_mutex_lock(&image_exr_writers_lock);
+    for (int i = 0; i < IMAGE_EXR_WRITERS; i++)
+        if (image_exr_writers[i].ctx == from) {
+            image_exr_writers[i].ctx = e ? ctx : NULL;
+            image_exr_writers[i].e = e;
+            break;
+        }
+    pthread_mutex_unlock(&image_exr_writers_lock);
+}
+
+/* Replaces OpenEXRCore's default handler, which prints to stderr. A
+ * context being read (which takes no lock) or started gives its user data,
+ * our ImageExrErr or a struct that begins with one (exr_get_user_data
+ * returns the initializer's pointer even when the library does the file
+ * I/O itself). */
 static void image_exr_on_error(exr_const_context_t ctxt, exr_result_t code, const char *msg)
 {
     void *ud = NULL;
-    if (exr_get_user_data(ctxt, &ud) != EXR_ERR_SUCCESS || ud == NULL)
+    pthread_mutex_lock(&image_exr_writers_lock);
+    for (int i = 0; i < IMAGE_EXR_WRITERS && !ud; i++)
+        if (image_exr_writers[i].ctx == ctxt)
+            ud = image_exr_writers[i].e;
+    pthread_mutex_unlock(&image_exr_writers_lock);
+    if (!ud && (exr_get_user_data(ctxt, &ud) != EXR_ERR_SUCCESS || ud == NULL))
         return;
     image_exr_note(ud, msg != NULL ? msg : exr_get_default_error_message(code));
 }
@@ -322,6 +355,8 @@ static exr_result_t image_exr_write_file(const Image *img, const char *file, Ima
             exr_finish(&ctx);
         return rv;
     }
+    const exr_const_context_t writer = ctx;
+    image_exr_writer(writer, NULL, e);
 
     int part = 0;
     exr_pixel_type_t type = prec == IMAGE_HALF ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT;
@@ -352,6 +387,7 @@ static exr_result_t image_exr_write_file(const Image *img, const char *file, Ima
     /* exr_finish writes the chunk offset table and closes the file, so its
      * result decides success too. */
     exr_result_t frv = exr_finish(&ctx);
+    image_exr_writer(NULL, writer, NULL);
     return rv != EXR_ERR_SUCCESS ? rv : frv;
 }
 
