@@ -68,8 +68,15 @@ static int run(void *args, const char **pos, int npos)
         FILE *f;
         if (cli_check_outputs(&o, 1, (const char *const *)s.inputs, s.ninputs) != 0) {
             rc = 1;
-        } else if (!(f = afile_fopen(out, tmp, sizeof tmp, err, sizeof err)) ||
-                   (pov_export(&s, w, h, a->pn_segments, f), afile_fclose(f, tmp, out, err, sizeof err)) != 0) {
+        } else if (!(f = afile_fopen(out, tmp, sizeof tmp, err, sizeof err))) {
+            fprintf(stderr, "lancer: %s\n", err);
+            rc = 1;
+        } else if (pov_export(&s, w, h, a->pn_segments, f) != 0) { /* out of memory, or a write failed */
+            fclose(f);
+            afile_abort(tmp);
+            fprintf(stderr, "lancer: %s: out of memory, or writing failed; the file is unchanged\n", out);
+            rc = 1;
+        } else if (afile_fclose(f, tmp, out, err, sizeof err) != 0) {
             fprintf(stderr, "lancer: %s\n", err);
             rc = 1;
         }
