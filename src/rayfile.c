@@ -54,12 +54,8 @@ int rayfile_ray_ok(const Ray *r)
            isfinite(r->d.z) && !dir_too_short(r->d) && !isnan(r->tmax);
 }
 
-int rayfile_write(const char *path, const Ray *rays, size_t n, char *err, size_t errlen)
+int rayfile_write_stream(FILE *f, const Ray *rays, size_t n)
 {
-    char tmp[AFILE_PATH_MAX];
-    FILE *f = afile_fopen(path, tmp, sizeof tmp, err, errlen);
-    if (!f)
-        return -1;
     unsigned char head[16];
     memcpy(head, RAYFILE_MAGIC, 8);
     put_u32(head + 8, (uint32_t)(n & 0xffffffffu));
@@ -73,6 +69,16 @@ int rayfile_write(const char *path, const Ray *rays, size_t n, char *err, size_t
             put_f32(rec + 4 * k, v[k]);
         fwrite(rec, 1, sizeof rec, f);
     }
+    return ferror(f) ? -1 : 0;
+}
+
+int rayfile_write(const char *path, const Ray *rays, size_t n, char *err, size_t errlen)
+{
+    char tmp[AFILE_PATH_MAX];
+    FILE *f = afile_fopen(path, tmp, sizeof tmp, err, errlen);
+    if (!f)
+        return -1;
+    rayfile_write_stream(f, rays, n); /* afile_fclose sees a failed write */
     return afile_fclose(f, tmp, path, err, errlen);
 }
 

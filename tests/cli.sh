@@ -306,6 +306,18 @@ if [ "$(sed -n 's/^primary=256 shadow=\([0-9]*\) .*/\1/p' "$T/out")" -ge 231 ]; 
 expect 2 "$LANCER" bench --mesh "$T/tet.off" --rays "$T/rays/primary.rays" --kind closest --tight
 expect 0 "$LANCER" bench --build-series "$T/tet.off" --max-mtris 1
 has "$T/out" "| 4 | "
+# a mesh without triangles, or with degenerate ones only: refused by every
+# form (the series once split its zero triangles without end)
+printf 'OFF\n0 0 0\n' >"$T/empty.off"
+printf 'OFF\n3 1 0\n0 0 0\n1 0 0\n2 0 0\n3 0 1 2\n' >"$T/degen.off"
+expect 1 timeout 20 "$LANCER" bench --build-series "$T/empty.off" --max-mtris 1
+has "$T/err" "$T/empty.off: no triangles"
+expect 1 timeout 20 "$LANCER" bench --build-series "$T/degen.off" --max-mtris 1
+has "$T/err" "$T/degen.off: no triangles but 1 of zero area"
+expect 1 "$LANCER" bench --mesh "$T/degen.off" --pn --rays "$T/rays/primary.rays" --kind closest
+has "$T/err" "$T/degen.off: no triangles"
+expect 1 "$LANCER" bench --gen-rays "$T/empty.off" "$T/rays-empty"
+has "$T/err" "$T/empty.off: no triangles"
 expect 2 "$LANCER" bench --mesh "$T/tet.off" --rays "$T/rays/primary.rays" --kind nearest
 expect 2 "$LANCER" bench --gen-rays "$T/tet.off"
 expect 2 "$LANCER" bench --gen-rays "$T/tet.off" "$T/rays" 16 x

@@ -64,6 +64,33 @@ static void test_round_trip_and_layout(void **state)
     free(out);
 }
 
+/* rayfile_write_stream writes the same bytes into a stream that
+ * rayfile_write puts in place, and says when a write failed. */
+static void test_write_stream(void **state)
+{
+    (void)state;
+    Ray in[3] = {ray_make(vec3(1, 2, 3), vec3(0, 0, 1), INFINITY), ray_make(vec3(-1, 0.5f, 0), vec3(1, 0, 0), 7),
+                 ray_make(vec3(0, 0, 0), vec3(0.6f, 0.8f, 0), 2)};
+    char err[256];
+    assert_int_equal(rayfile_write(path, in, 3, err, sizeof err), 0);
+    unsigned char want[16 + 3 * 32], got[sizeof want + 1];
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    assert_int_equal(fread(want, 1, sizeof want, f), sizeof want);
+    fclose(f);
+    f = tmpfile();
+    assert_non_null(f);
+    assert_int_equal(rayfile_write_stream(f, in, 3), 0);
+    rewind(f);
+    assert_int_equal(fread(got, 1, sizeof got, f), sizeof want);
+    fclose(f);
+    assert_memory_equal(got, want, sizeof want);
+    f = fopen(path, "rb"); /* a stream open for reading: every write fails */
+    assert_non_null(f);
+    assert_int_equal(rayfile_write_stream(f, in, 3), -1);
+    fclose(f);
+}
+
 static void test_tmin_moves_the_origin(void **state)
 {
     (void)state;
@@ -158,6 +185,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_round_trip_and_layout),
+        cmocka_unit_test(test_write_stream),
         cmocka_unit_test(test_tmin_moves_the_origin),
         cmocka_unit_test(test_bad_files),
         cmocka_unit_test(test_parse_refuses_untraceable_rays),

@@ -15,6 +15,7 @@
 #define LANCER_RAYFILE_H
 
 #include <stddef.h>
+#include <stdio.h>
 
 #include "lancer/ray.h"
 
@@ -25,6 +26,8 @@ int rayfile_ray_ok(const Ray *r);
 
 /* Writes n rays atomically (afile.h). Returns 0, or -1 with a message. */
 int rayfile_write(const char *path, const Ray *rays, size_t n, char *err, size_t errlen);
+/* Writes n rays to f, as a ray file. Returns 0, or -1 when a write failed. */
+int rayfile_write_stream(FILE *f, const Ray *rays, size_t n);
 
 /* Reads a whole ray file into a new array the caller frees; every ray
  * passes rayfile_ray_ok. Returns 0, or -1 with "path: message" (bad magic,

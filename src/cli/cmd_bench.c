@@ -80,6 +80,14 @@ static int mesh_scene(const char *path, int pn, Scene *s)
         fprintf(stderr, "%s\n", err);
         return -1;
     }
+    if (m.nt == 0) { /* nothing to build, trace or split */
+        if (m.degenerate)
+            fprintf(stderr, "lancer: %s: no triangles but %d of zero area\n", path, m.degenerate);
+        else
+            fprintf(stderr, "lancer: %s: no triangles\n", path);
+        mesh_free(&m);
+        return -1;
+    }
     if (pn && !m.n && mesh_vertex_normals(&m, err, sizeof err) != 0) {
         fprintf(stderr, "lancer: %s: %s\n", path, err);
         mesh_free(&m);
@@ -92,10 +100,31 @@ static int mesh_scene(const char *path, int pn, Scene *s)
     return rc;
 }
 
-static int write_rays(const char *path, const RaySet *set)
+/* The three ray files, put in place together or not at all, as render's
+ * outputs are. */
+static int write_rays(const char *const paths[3], const RaySet *const sets[3])
 {
-    char err[512];
-    if (rayfile_write(path, set->rays, set->n, err, sizeof err) != 0) {
+    char err[AFILE_PATH_MAX + 256];
+    AfileSet set;
+    afile_set_init(&set);
+    for (int i = 0; i < 3; i++) {
+        const char *tmp = afile_set_add(&set, paths[i], err, sizeof err);
+        FILE *f = tmp ? fopen(tmp, "wb") : NULL;
+        if (!f) {
+            if (tmp)
+                snprintf(err, sizeof err, "%s: cannot write: %s", paths[i], strerror(errno));
+            afile_set_abort(&set);
+            fprintf(stderr, "lancer: %s\n", err);
+            return -1;
+        }
+        int bad = rayfile_write_stream(f, sets[i]->rays, sets[i]->n) != 0;
+        if (fclose(f) != 0 || bad) {
+            fprintf(stderr, "lancer: %s: cannot write: %s\n", paths[i], strerror(errno));
+            afile_set_abort(&set);
+            return -1;
+        }
+    }
+    if (afile_set_commit(&set, err, sizeof err) != 0) {
         fprintf(stderr, "lancer: %s\n", err);
         return -1;
     }
@@ -156,7 +185,9 @@ static int gen_rays(const Scene *s, const Accel *acc, const char *mesh, const ch
         return 1;
     }
     int rc = 0;
-    if (write_rays(paths[0], &p) || write_rays(paths[1], &sh) || write_rays(paths[2], &d))
+    const char *const names_out[3] = {paths[0], paths[1], paths[2]};
+    const RaySet *const sets[3] = {&p, &sh, &d};
+    if (write_rays(names_out, sets) != 0)
         rc = 1;
     else
         printf("primary=%zu shadow=%zu diffuse=%zu\n", p.n, sh.n, d.n);
