@@ -53,7 +53,7 @@ TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/%)
 
 .PHONY: all run test tests deps-run deps-test clean exact exact-judge stress cgal-data bench install uninstall \
-        fuzz fuzz-build fuzzers frontier test-cluster
+        fuzz fuzz-build fuzzers frontier test-cluster test-oom
 .DEFAULT_GOAL := all
 
 all: $(BUILD)/lancer
@@ -183,6 +183,13 @@ test: deps-test
 	$(MAKE) exact-judge
 	EXACT_RAYS=$(EXACT_RAYS) sh scripts/run-tests.sh build/san $(EXACT_DIR)/judge
 	$(MAKE) test-cluster
+	$(MAKE) test-oom
+
+# Out of memory at each allocation of the commands that write files, on the
+# release build (a preloaded allocator, which sanitizers would displace).
+test-oom:
+	$(MAKE) all
+	sh tests/oom.sh $(BUILD)/lancer
 
 # lancer on a one-node Slurm cluster and GNU parallel, started and stopped
 # by the test (root only; skipped with a message otherwise), on the
