@@ -134,12 +134,33 @@ static int may_shadow(const Prim *q, const Prim *p, Vec3 l, double pad)
     return 1;
 }
 
+/* 1 when the inside of primitive p may be seen: a closed solid that lets
+ * light through (a refracted ray travels inside it), or around the eye
+ * (within pad of its box). There, its far wall faces a light outside, and
+ * the shadow ray leaves through its near wall: a solid shadows its own
+ * inside from every light. */
+static int inside_seen(const Scene *s, const Prim *p, double pad)
+{
+    if (p->kind != PRIM_SPHERE && p->kind != PRIM_BOX && p->kind != PRIM_OBOX && p->kind != PRIM_ELLIPSOID)
+        return 0;
+    const Material *m = &s->materials[p->material];
+    if (m->transmit > 0.0f || m->filter > 0.0f)
+        return 1;
+    float lo[3], hi[3];
+    bvh_prim_bounds(p, lo, hi);
+    for (int k = 0; k < 3; k++)
+        if (vec_comp(s->camera.eye, k) < lo[k] - pad || vec_comp(s->camera.eye, k) > hi[k] + pad)
+            return 0;
+    return 1;
+}
+
 /* 1 when no primitive of s can shadow any point of any primitive from
  * light l, so that its shadow rays would all find nothing: a point light
  * (a solid shadows itself from part of an area light), no PN patch (a
- * curved patch may shadow itself), and no pair of primitives that
- * may_shadow() cannot rule out. The pad covers spawned origins and the
- * shadow ray's rounding: a relative 2^-10 of the scene's extent. */
+ * curved patch may shadow itself), no solid whose inside may be seen
+ * (inside_seen()), and no pair of primitives that may_shadow() cannot
+ * rule out. The pad covers spawned origins and the shadow ray's rounding:
+ * a relative 2^-10 of the scene's extent. */
 static int light_is_clear(const Scene *s, const Light *l)
 {
     if (l->area_n1 * l->area_n2 != 1 || s->nprims > PLAN_CLEAR_PRIMS)
@@ -158,6 +179,9 @@ static int light_is_clear(const Scene *s, const Light *l)
     if (!isfinite(ext))
         return 0;
     double pad = ext * 0x1p-10 + 1e-30;
+    for (int i = 0; i < s->nprims; i++)
+        if (inside_seen(s, &s->prims[i], pad))
+            return 0;
     for (int i = 0; i < s->nprims; i++)
         for (int j = 0; j < s->nprims; j++)
             if (i != j && may_shadow(&s->prims[j], &s->prims[i], l->pos, pad))

@@ -509,6 +509,19 @@ static void test_skips(void **state)
         {SKY "light { position 1 5 -2 area_u 4 0 0 area_v 0 0 4 area_samples 3 3 }\nmaterial m { }\n"
              "sphere { center 0 1 0 radius 1 material m }\n",
          1, 0, 0, PLAN_SHADOW_OPAQUE},
+        /* a solid seen from inside shadows its own far wall, whose normal
+         * turns to the ray and faces the light: the camera inside an opaque
+         * sphere or box, and a lone glass ball (the plan once called these
+         * lights clear, and every pixel inside the sphere differed) */
+        {"camera { eye 0 0 0 target 0 0 1 fov 90 }\nlight { position 0 0 -5 }\nmaterial m { }\n"
+         "sphere { center 0 0 0 radius 2 material m }\n",
+         1, 0, 0, PLAN_SHADOW_OPAQUE},
+        {"camera { eye 0 0 0 target 0 0 1 fov 90 }\nlight { position 0.5 0.3 -5 }\nmaterial m { }\n"
+         "box { min -2 -2 -2 max 2 2 2 material m }\n",
+         1, 0, 0, PLAN_SHADOW_OPAQUE},
+        {SKY "light { position 3 4 -2 }\nmaterial g { diffuse 0.2 transmit 0.7 ior 1.5 }\n"
+             "sphere { center 0 1 0 radius 1 material g }\n",
+         1, 0, 1, PLAN_SHADOW_FILTERED},
         /* glass: refraction rays, and shadows filtered */
         {SKY "light { position 1 5 -2 }\nmaterial g { transmit 0.8 ior 1.5 }\nmaterial m { }\n"
              "plane { normal 0 1 0 material m }\nsphere { center 0 1 0 radius 1 material g }\n",
