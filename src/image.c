@@ -634,9 +634,28 @@ static exr_result_t image_exr_read_part(exr_const_context_t ctx, Image *img, Ima
         wanted = 1;
     }
 
+    if (!wanted) { /* nothing to read, and nothing to compare: other names, or layers */
+        image_exr_note(e, "no channel named R, G or B");
+        return EXR_ERR_FEATURE_NOT_IMPLEMENTED;
+    }
+    if (w * h > LIMIT_IMAGE_PIXELS) {
+        char msg[160];
+        snprintf(msg, sizeof msg, "data window of %lldx%lld pixels is more than the %ld an image may have",
+                 (long long)w, (long long)h, (long)LIMIT_IMAGE_PIXELS);
+        image_exr_note(e, msg);
+        return EXR_ERR_ARGUMENT_OUT_OF_RANGE;
+    }
     /* The header's size against the file's, before allocating it: no
      * compression of OpenEXR 3.1 packs more pixels into a byte than
-     * IMAGE_EXR_PACKING. */
+     * IMAGE_EXR_PACKING, and the chunks' offsets take 8 bytes each. */
+    int32_t nchunks = 0;
+    if (exr_get_chunk_count(ctx, 0, &nchunks) == EXR_ERR_SUCCESS && (unsigned long long)nchunks * 8 > rd->len) {
+        char msg[160];
+        snprintf(msg, sizeof msg, "corrupt file: %lldx%lld pixels in %d chunks announced, whose offsets alone are "
+                 "more than its %zu bytes", (long long)w, (long long)h, (int)nchunks, rd->len);
+        image_exr_note(e, msg);
+        return EXR_ERR_CORRUPT_CHUNK;
+    }
     if ((unsigned long long)(w * h) > (unsigned long long)rd->len * IMAGE_EXR_PACKING) {
         char msg[160];
         snprintf(msg, sizeof msg, "corrupt file: %lldx%lld pixels announced, more than its %zu bytes can hold",
@@ -659,8 +678,6 @@ static exr_result_t image_exr_read_part(exr_const_context_t ctx, Image *img, Ima
             img->full_height = (int)fh;
         }
     }
-    if (!wanted)
-        return EXR_ERR_SUCCESS; /* no R, G or B: all black */
 
     exr_decode_pipeline_t dec = EXR_DECODE_PIPELINE_INITIALIZER;
     int started = 0;

@@ -667,11 +667,18 @@ static void test_exr_read_layouts(void **state)
     write_core_exr(p, 0, 0, 0, 1, 70, EXR_COMPRESSION_PIZ, halfs, 3);
     check_core_exr(p, 1, 70, halfs, 3);
 
-    /* No R, G or B at all: a black image of the right size. */
+    /* No R, G or B at all: refused, where it once read as black, and
+     * `lancer diff` found any two such files the same. */
     const TestChan lum[] = {{"Y", EXR_PIXEL_HALF}};
     p = join(f, "luma.exr");
     write_core_exr(p, 0, 0, 0, 5, 4, EXR_COMPRESSION_ZIP, lum, 1);
-    check_core_exr(p, 5, 4, lum, 1);
+    Image img;
+    char err[512] = "";
+    quiet_begin(f);
+    assert_int_equal(image_read_exr(p, &img, err, sizeof err), -1);
+    quiet_end(f);
+    assert_non_null(strstr(err, "luma.exr: cannot read: no channel named R, G or B"));
+    assert_null(img.rgb);
 }
 
 static void test_exr_read_errors(void **state)
@@ -763,37 +770,63 @@ static void test_exr_read_foreign_channels(void **state)
     check_core_exr(p, 33, 20, tiled, 3);
 }
 
-/* A header that announces more pixels than its file can hold is refused
- * before they are allocated: a 1x1 file whose data window is patched to
- * 16384^2 (3 GiB of float RGB). */
-static void test_exr_read_claims_checked(void **state)
+/* A 1x1 file of compression comp whose data window is patched to w x h;
+ * its length into *len. */
+static void patched_exr(const Fixture *f, const char *p, exr_compression_t comp, int32_t w, int32_t h, size_t *len)
 {
-    Fixture *f = *state;
-    char err[512] = "";
-    Image img;
+    (void)f;
     const TestChan rgb[] = {{"B", EXR_PIXEL_HALF}, {"G", EXR_PIXEL_HALF}, {"R", EXR_PIXEL_HALF}};
-    const char *p = join(f, "claims.exr");
-    write_core_exr(p, 0, 0, 0, 1, 1, EXR_COMPRESSION_ZIP, rgb, 3);
-    size_t len;
-    unsigned char *b = slurp(p, &len);
+    write_core_exr(p, 0, 0, 0, 1, 1, comp, rgb, 3);
+    unsigned char *b = slurp(p, len);
     static const char key[] = "dataWindow\0box2i";
     unsigned char *at = NULL;
-    for (size_t i = 0; i + sizeof key < len && !at; i++)
+    for (size_t i = 0; i + sizeof key < *len && !at; i++)
         if (memcmp(b + i, key, sizeof key) == 0)
             at = b + i + sizeof key + 4; /* past the name, the type and the size */
     assert_non_null(at);
     if (!at)
         return; /* (assert_non_null has ended the test) */
-    const int32_t big = 16383;
-    memcpy(at + 8, &big, 4); /* xmax, ymax (little-endian, as this machine) */
-    memcpy(at + 12, &big, 4);
-    spill(p, b, len);
+    const int32_t xmax = w - 1, ymax = h - 1;
+    memcpy(at + 8, &xmax, 4); /* little-endian, as this machine */
+    memcpy(at + 12, &ymax, 4);
+    spill(p, b, *len);
     free(b);
+}
+
+/* image_read_exr of p fails with a message that holds want. */
+static void refused(Fixture *f, const char *p, const char *want)
+{
+    char err[512] = "";
+    Image img;
     quiet_begin(f);
     assert_int_equal(image_read_exr(p, &img, err, sizeof err), -1);
     quiet_end(f);
-    assert_non_null(strstr(err, "16384x16384 pixels announced, more than its"));
+    if (!strstr(err, want))
+        fail_msg("got '%s', want '%s'", err, want);
     assert_null(img.rgb);
+}
+
+/* A header that announces more pixels than its file can hold is refused
+ * before they are allocated (3 GiB of float RGB at 16384^2): by the
+ * chunks' offsets, 8 bytes each, which the file must hold; by the pixels a
+ * byte can pack, where the chunks are few (PIZ: 32 rows each); and past
+ * LIMIT_IMAGE_PIXELS, by that limit's name. A 6 KB file of 16384^2 pixels
+ * once passed the second check and was allocated. */
+static void test_exr_read_claims_checked(void **state)
+{
+    Fixture *f = *state;
+    size_t len;
+    const char *p = join(f, "claims.exr");
+    patched_exr(f, p, EXR_COMPRESSION_ZIP, 16384, 16384, &len);
+    refused(f, p, "16384x16384 pixels in 1024 chunks announced, whose offsets alone are more than its");
+    patched_exr(f, p, EXR_COMPRESSION_PIZ, 1, 1, &len);
+    const int32_t rows = 32 * (int32_t)(len / 8); /* as many PIZ chunks as the file could index */
+    patched_exr(f, p, EXR_COMPRESSION_PIZ, 32767, rows, &len);
+    char want[128];
+    snprintf(want, sizeof want, "32767x%d pixels announced, more than its", (int)rows);
+    refused(f, p, want);
+    patched_exr(f, p, EXR_COMPRESSION_ZIP, 32767, 16385, &len);
+    refused(f, p, "data window of 32767x16385 pixels is more than the 268435456 an image may have");
 }
 
 /* ---- sRGB and PNG ------------------------------------------------------- */

@@ -61,7 +61,8 @@ int image_write_exr_file(const Image *img, const char *file, const char *name, I
                          const ImageAttr *attrs, int nattrs, int threads, char *err, size_t errlen);
 
 /* Reads the R, G and B channels of a scanline or tiled EXR into a new image
- * (img must be uninitialised or freed); missing channels read as 0. The
+ * (img must be uninitialised or freed); missing channels read as 0, but
+ * a file with none of the three is an error (nothing to compare). The
  * image is the data window, placed in the display window (x, y,
  * full_width and full_height; a data window that is not inside the display
  * window makes a picture of its own); half, float and uint
