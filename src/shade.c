@@ -462,6 +462,16 @@ static Vec3 trace(const Ctx *c, const Ray *r, int level, int continued, const In
 static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, const PrimHit *h, int level,
                          const Interiors *const *in, const float *wt, Vec3 *out);
 
+/* A secondary ray's weight: its parent's times the coefficient that sends
+ * it. A weight is 0 only where a coefficient is (which the plan skips and
+ * --no-plan traces): a product that underflows stays at the least float,
+ * so that adc_bailout decides it, as POV-Ray's does. */
+static float weigh(float wt, float coef)
+{
+    const float w = wt * coef;
+    return w == 0.0f && wt > 0.0f && coef > 0.0f ? 0x1p-149f : w; /* the least float */
+}
+
 /* POV-Ray's adc_bailout (trace.cpp, Trace::TraceRay): a ray carries the
  * product of the coefficients on its path, its weight, and one whose
  * weight is below the bailout is not traced: it adds nothing. A weight of
@@ -689,7 +699,8 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
     Ray tr[ACCEL_PACKET], rr[ACCEL_PACKET];
     Interiors tin[ACCEL_PACKET];
     const Interiors *tinp[ACCEL_PACKET], *rin[ACCEL_PACKET];
-    Vec3 tf[ACCEL_PACKET];
+    /* (zeroed: GCC 12 at -O3 saw a read before the write) */
+    Vec3 tf[ACCEL_PACKET] = {{0, 0, 0}};
     float tw[ACCEL_PACKET], rw[ACCEL_PACKET], rmul[ACCEL_PACKET]; /* rmul: by hit, the others by ray */
     int twho[ACCEL_PACKET], rwho[ACCEL_PACKET], nt = 0, nr = 0;
     for (int k = 0; k < n; k++) {
@@ -701,14 +712,16 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
         float wf = 0.0f; /* a transmitted ray's weight */
         if (through || c->p->full) {
             if (through)
-                wf = wt[k] * max3(f);
+                wf = weigh(wt[k], max3(f));
             else /* --no-plan: traced all the same, and weighed 0 */
                 f = vec3(0, 0, 0);
             near_edge(c, best[k], &h[k], &sf[k]); /* refraction() reads it */
             int got = refraction(c, best[k], m[k], &sf[k], &r[k], in[k], wf, &tr[nt], &tin[nt]);
-            if (got == REFRACT_ON)
-                out[k] = vec_add(out[k], vec_mul(f, trace(c, &tr[nt], level, 1, &tin[nt], wf)));
-            else if (got == REFRACT_RAY) {
+            if (got == REFRACT_ON) {
+                const Vec3 t = trace(c, &tr[nt], level, 1, &tin[nt], wf);
+                if (through) /* as below */
+                    out[k] = vec_add(out[k], vec_mul(f, t));
+            } else if (got == REFRACT_RAY) {
                 tf[nt] = f;
                 tw[nt] = wf;
                 tinp[nt] = &tin[nt];
@@ -718,7 +731,7 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
         }
         /* total internal reflection: the mirror ray, its colour unfiltered
          * but its weight the transmitted ray's, as in POV-Ray */
-        float w = tir ? wf : wt[k] * m[k]->reflection;
+        float w = tir ? wf : weigh(wt[k], m[k]->reflection);
         rmul[k] = tir ? 1.0f : m[k]->reflection;
         if (worth(c, w)) {
             rw[nr] = w;
@@ -738,7 +751,8 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
             given(c, tr, nt, h2, best2);
         shade_packet(c, tr, nt, best2, h2, level + 1, tinp, tw, got);
         for (int j = 0; j < nt; j++)
-            out[twho[j]] = vec_add(out[twho[j]], vec_mul(tf[j], got[j]));
+            if (tw[j] != 0.0f) /* --no-plan's rays of weight 0 add nothing, not even 0 times an infinity */
+                out[twho[j]] = vec_add(out[twho[j]], vec_mul(tf[j], got[j]));
     }
     if (nr) {
         accel_closest_packet(c->a, rr, nr, h2, best2, c->st);
@@ -746,7 +760,8 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
             given(c, rr, nr, h2, best2);
         shade_packet(c, rr, nr, best2, h2, level + 1, rin, rw, got);
         for (int j = 0; j < nr; j++)
-            out[rwho[j]] = vec_madd(out[rwho[j]], got[j], rmul[rwho[j]]);
+            if (rw[j] != 0.0f)
+                out[rwho[j]] = vec_madd(out[rwho[j]], got[j], rmul[rwho[j]]);
     }
 }
 

@@ -522,6 +522,23 @@ static void test_skips(void **state)
         {SKY "light { position 3 4 -2 }\nmaterial g { diffuse 0.2 transmit 0.7 ior 1.5 }\n"
              "sphere { center 0 1 0 radius 1 material g }\n",
          1, 0, 1, PLAN_SHADOW_FILTERED},
+        /* two mirrors face each other at depth 256 and adc_bailout 0: the
+         * weight, 0.1 a bounce, underflows long before the last level, and
+         * every ray is traced all the same (the plan once took a weight of
+         * 0 for a coefficient of 0, skipped them, and lost the bright sky's
+         * last 1e-38s where --no-plan kept them) */
+        {"image { background 3e38 3e38 3e38 max_depth 256 adc_bailout 0 }\n"
+         "camera { eye 0 0 0 target 0.45 0 1 fov 20 }\nlight { position 0 5 0 shadowless }\n"
+         "material mir { ambient 0 diffuse 0 reflection 0.1 }\n"
+         "triangle { a 1 -50 -1 b 1 50 -1 c 1 0 400 material mir }\n"
+         "triangle { a -1 -50 -1 b -1 50 -1 c -1 0 400 material mir }\n",
+         0, 1, 0, PLAN_SHADOW_NONE},
+        /* a light so bright that its highlights are infinite: --no-plan's
+         * mirror rays of coefficient 0 add nothing, not 0 times infinity */
+        {SKY "light { position 2 5 -3 color 3e38 3e38 3e38 }\n"
+             "material m { ambient 0 diffuse 1 phong 1 phong_size 1 }\n"
+             "sphere { center 0 0 0 radius 1 material m }\nsphere { center 2.5 0 0 radius 1 material m }\n",
+         1, 0, 0, PLAN_SHADOW_OPAQUE},
         /* glass: refraction rays, and shadows filtered */
         {SKY "light { position 1 5 -2 }\nmaterial g { transmit 0.8 ior 1.5 }\nmaterial m { }\n"
              "plane { normal 0 1 0 material m }\nsphere { center 0 1 0 radius 1 material g }\n",
