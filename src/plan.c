@@ -433,7 +433,10 @@ int plan_build(RenderPlan *p, Scene *s, const PlanOptions *o, char *err, size_t 
         }
     }
     p->full = o->full;
-    p->loop = o->accel == 2 || (o->accel == 0 && !o->full && s->nprims <= PLAN_LOOP_PRIMS);
+    /* The classic routines are not exact: a far grazing ray can hit a
+     * sphere that the tree's boxes would have kept it from testing, so with
+     * them the loop's picture is not the tree's, and the tree stays. */
+    p->loop = o->accel == 2 || (o->accel == 0 && !o->full && p->variant == PRIM_ROBUST && s->nprims <= PLAN_LOOP_PRIMS);
     for (int i = 0; i < s->nlights; i++)
         p->shadow[i] = s->lights[i].shadowless                  ? PLAN_SHADOW_NONE
                        : !o->full && light_is_clear(s, &s->lights[i]) ? PLAN_SHADOW_CLEAR
@@ -473,7 +476,11 @@ int plan_notes(const RenderPlan *p, PlanNote *notes, int max)
         note(notes, max, &n, m <= PLAN_SHADOW_CLEAR, what, why);
     }
     snprintf(why, sizeof why,
-             p->loop ? "%d primitives: a plain loop over them is faster than a tree" : "%d primitives", s->nprims);
+             p->loop ? "%d primitives: a plain loop over them is faster than a tree"
+             : p->variant == PRIM_CLASSIC && s->nprims <= PLAN_LOOP_PRIMS
+                 ? "%d primitives, traced by the classic routines, whose answers a loop could change"
+                 : "%d primitives",
+             s->nprims);
     note(notes, max, &n, p->loop, "the BVH", why);
     note(notes, max, &n, !p->reflective && !p->full, "reflection rays",
          p->reflective ? "some material reflects"
