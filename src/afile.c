@@ -2,8 +2,8 @@
  * afile.c - whole files: replaced atomically, read in one piece (see afile.h
  * for the contract).
  *
- * A temporary file is named "<target>.lancer-tmp.<pid>.XXXXXX", beside the
- * target, so that rename(2) can put it in place atomically, and so that a
+ * A temporary file is named "<target>.lancer-tmp.<pid>.XXXXXX" (the
+ * target's name cut where it would not fit), beside the target, so that rename(2) can put it in place atomically, and so that a
  * later run can tell the leftovers of a killed one (their process is gone)
  * from the files of a run still going, and remove them.
  */
@@ -23,6 +23,19 @@
 #include "bigmem.h"
 
 #define AFILE_TMP_TAG ".lancer-tmp."
+/* The longest file name (NAME_MAX on Linux), and the room a temporary
+ * name takes beyond its target's: the tag, a pid (at most 10 digits),
+ * ".XXXXXX" and a set's ".bak". A longer target's name is cut in its
+ * temporary's (tmp_stem). */
+#define AFILE_NAME_MAX 255
+#define AFILE_TMP_EXTRA ((int)sizeof AFILE_TMP_TAG - 1 + 10 + 7 + 4)
+
+/* How much of a target's file name base its temporary names repeat. */
+static int tmp_stem(const char *base)
+{
+    const size_t n = strlen(base);
+    return n > AFILE_NAME_MAX - AFILE_TMP_EXTRA ? AFILE_NAME_MAX - AFILE_TMP_EXTRA : (int)n;
+}
 /* Symbolic links followed to their target, at most (as the kernel's
  * ELOOP limit). */
 #define AFILE_LINKS_MAX 40
@@ -83,7 +96,7 @@ void afile_clean_stale(const char *path)
 {
     char dir[AFILE_PATH_MAX], prefix[AFILE_PATH_MAX], full[AFILE_PATH_MAX];
     const char *base = split_path(path, dir, sizeof dir);
-    int np = snprintf(prefix, sizeof prefix, "%s" AFILE_TMP_TAG, base);
+    int np = snprintf(prefix, sizeof prefix, "%.*s" AFILE_TMP_TAG, tmp_stem(base), base);
     if (np < 0 || (size_t)np >= sizeof prefix)
         return;
     DIR *d = opendir(dir);
@@ -112,7 +125,10 @@ int afile_temp(const char *path, char *tmp, size_t tmplen, char *err, size_t err
     if (afile_resolve(path, target, sizeof target, err, errlen) != 0)
         return -1;
     afile_clean_stale(target);
-    int n = snprintf(tmp, tmplen, "%s" AFILE_TMP_TAG "%ld.XXXXXX", target, (long)getpid());
+    char dir[AFILE_PATH_MAX];
+    const char *base = split_path(target, dir, sizeof dir);
+    int n = snprintf(tmp, tmplen, "%.*s" AFILE_TMP_TAG "%ld.XXXXXX", (int)(base - target) + tmp_stem(base), target,
+                     (long)getpid());
     if (n < 0 || (size_t)n >= tmplen) {
         snprintf(err, errlen, "%s: path is too long", path);
         return -1;

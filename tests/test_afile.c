@@ -210,6 +210,54 @@ static void test_stale_temporaries_removed(void **state)
     assert_int_equal(entries(), 4);
 }
 
+/* A file name of the longest length the system takes, 255 bytes, is
+ * written: its temporary's name cuts it, where the tag and pid once made it
+ * too long to create; and a dead run's temporary of that cut name is
+ * removed as any other. */
+static void test_longest_name(void **state)
+{
+    (void)state;
+    pid_t child = fork();
+    if (child == 0)
+        _exit(0);
+    assert_true(child > 0);
+    assert_int_equal(waitpid(child, NULL, 0), child);
+    char name[256], path[AFILE_PATH_MAX], tmp[AFILE_PATH_MAX], err[AFILE_PATH_MAX + 128], dead[AFILE_PATH_MAX];
+    memset(name, 'n', 255);
+    name[255] = '\0';
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    FILE *f = afile_fopen(path, tmp, sizeof tmp, err, sizeof err);
+    if (!f)
+        fail_msg("%s", err);
+    assert_true(strlen(strrchr(tmp, '/') + 1) <= 255);
+    fputs("long", f);
+    assert_int_equal(afile_fclose(f, tmp, path, err, sizeof err), 0);
+    assert_int_equal(access(path, F_OK), 0);
+    /* the temporary's name as the dead run made it, the pid in its place */
+    const char *tag = strstr(strrchr(tmp, '/'), ".lancer-tmp.");
+    assert_non_null(tag);
+    snprintf(dead, sizeof dead, "%.*s.lancer-tmp.%ld.AbC123", (int)(tag - tmp), tmp, (long)child);
+    put(dead, "left");
+    assert_int_equal(entries(), 2);
+    put(path, "again");
+    assert_int_equal(access(dead, F_OK), -1);
+    assert_int_equal(entries(), 1);
+    /* a set keeps the old file aside while it commits: that name fits too */
+    AfileSet set;
+    afile_set_init(&set);
+    const char *t = afile_set_add(&set, path, err, sizeof err);
+    if (!t)
+        fail_msg("%s", err);
+    FILE *g = fopen(t, "w");
+    assert_non_null(g);
+    fputs("set", g);
+    fclose(g);
+    if (afile_set_commit(&set, err, sizeof err) != 0)
+        fail_msg("%s", err);
+    assert_holds(path, "set");
+    assert_int_equal(entries(), 1);
+}
+
 /* A set of outputs is committed whole: all new files, no leftovers; when
  * one cannot be put in place, the others are put back as they were. */
 static void test_set_all_or_none(void **state)
@@ -300,6 +348,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_devices_are_not_replaced, setup, teardown),
         cmocka_unit_test_setup_teardown(test_symlink_target_is_replaced, setup, teardown),
         cmocka_unit_test_setup_teardown(test_stale_temporaries_removed, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_longest_name, setup, teardown),
         cmocka_unit_test_setup_teardown(test_set_all_or_none, setup, teardown),
         cmocka_unit_test_setup_teardown(test_same_file, setup, teardown),
     };
