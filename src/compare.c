@@ -85,11 +85,13 @@ int compare_downsample(const Image *src, int k, Image *dst, char *err, size_t er
     return 0;
 }
 
-/* Colour ramp over log10 of the difference. */
+/* Colour ramp over log10 of the difference, its stops in step with the
+ * threshold (at the default 2e-3: 1e-5, 1e-4, 1e-3), so that they stay in
+ * order whatever the threshold is. */
 static void ramp(double d, double threshold, float *rgb)
 {
     static const float stops[5][3] = {{0, 0, 0}, {0, 0, 1}, {0, 1, 1}, {1, 1, 0}, {1, 0, 0}};
-    const double at[5] = {1e-5, 1e-4, 1e-3, threshold, 100.0 * threshold};
+    const double at[5] = {threshold / 200.0, threshold / 20.0, threshold / 2.0, threshold, 100.0 * threshold};
     double x = d;
     int s = 0;
     while (s < 4 && x > at[s + 1])

@@ -114,6 +114,17 @@ static void test_heatmap_colours(void **state)
     for (int i = 0; i < 4; i++)
         for (int c = 0; c < 3; c++)
             assert_float_equal(h.rgb[3 * i + c], want[i][c], 1e-4);
+    image_free(&h);
+    /* a threshold below the default's stops: the same colours at the same
+     * fractions of it (at 1e-6, the pixels over it were black) */
+    const double t = 1e-6;
+    b.rgb[3] = (float)(t / 20);
+    b.rgb[6] = (float)t;
+    b.rgb[9] = (float)(100 * t);
+    assert_int_equal(compare_heatmap(&a, &b, t, &h, err, sizeof err), 0);
+    for (int i = 0; i < 4; i++)
+        for (int c = 0; c < 3; c++)
+            assert_float_equal(h.rgb[3 * i + c], want[i][c], 1e-4);
     image_free(&a);
     image_free(&b);
     image_free(&h);

@@ -37,8 +37,8 @@ int compare_images(const Image *a, const Image *b, double threshold, CompareStat
 int compare_downsample(const Image *src, int k, Image *dst, char *err, size_t errlen);
 
 /* A false-colour map of the largest channel difference of each pixel, on a
- * log scale: black up to 1e-5, blue 1e-4, cyan 1e-3, yellow at the threshold
- * and red from 100 times the threshold up. dst is a new image. */
+ * log scale, T the threshold: black up to T/200, blue at T/20, cyan at T/2,
+ * yellow at T and red from 100 T up. dst is a new image. */
 int compare_heatmap(const Image *a, const Image *b, double threshold, Image *dst, char *err, size_t errlen);
 
 #endif
