@@ -162,6 +162,13 @@ expect 1 "$LANCER" diff "$T/t1.exr" "$T/cwd/out/tiny.exr"
 has "$T/err" "the images differ in size: 80x60 and 8x6"
 expect 1 "$LANCER" diff "$T/t1.exr" "$T/nothing.exr"
 has "$T/err" "$T/nothing.exr"
+# a path of 4,200 bytes: the message keeps its end, the reason (it was cut
+# at 512 bytes, inside the path)
+long=$(i=0; while [ $i -lt 2100 ]; do printf './'; i=$((i + 1)); done)
+expect 1 "$LANCER" diff "$T/t1.exr" "$T/t2.exr" --heatmap "$long$T/heat2.png"
+has "$T/err" "heat2.png: path is too long"
+expect 1 "$LANCER" diff "$T/t1.exr" "$long$T/t2.exr"
+has "$T/err" "t2.exr: cannot open: File name too long"
 expect 2 "$LANCER" diff "$T/t1.exr"
 expect 2 "$LANCER" diff "$T/t1.exr" "$T/t2.exr" --threshold -1
 

@@ -134,7 +134,7 @@ int cli_frame_path(const char *option, const char *path, int frame, char *buf, s
 
 int cli_check_output(const char *path)
 {
-    char err[512];
+    char err[CLI_ERR_LEN];
     if (path && afile_check_writable(path, err, sizeof err) != 0) {
         fprintf(stderr, "lancer: %s\n", err);
         return -1;

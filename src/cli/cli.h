@@ -17,6 +17,11 @@
 
 #include <stddef.h>
 
+#include "lancer/afile.h"
+
+/* Room for a message that names two paths of the longest length. */
+#define CLI_ERR_LEN (2 * AFILE_PATH_MAX + 512)
+
 #define LANCER_VERSION "0.1.0"
 
 typedef enum { OPT_FLAG, OPT_STRING, OPT_INT, OPT_DOUBLE } OptKind;

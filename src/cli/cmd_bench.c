@@ -74,7 +74,7 @@ static void defaults(void *args)
 static int mesh_scene(const char *path, int pn, Scene *s)
 {
     Mesh m;
-    char err[1024];
+    char err[CLI_ERR_LEN];
     memset(s, 0, sizeof *s);
     if (mesh_load(path, &m, err, sizeof err) != 0) {
         fprintf(stderr, "%s\n", err);
@@ -215,7 +215,7 @@ static int trace_rays(const Accel *acc, const Args *a, BenchKind kind, double bu
 {
     Ray *r;
     size_t n;
-    char err[512];
+    char err[CLI_ERR_LEN];
     if (rayfile_read(a->rays, &r, &n, err, sizeof err) != 0) {
         fprintf(stderr, "lancer: %s\n", err);
         return 1;

@@ -42,7 +42,7 @@ static void defaults(void *args)
 
 static int read_exr(const char *path, Image *img)
 {
-    char err[512];
+    char err[CLI_ERR_LEN];
     if (image_read_exr(path, img, err, sizeof err) != 0) {
         fprintf(stderr, "lancer: %s\n", err);
         return -1;
@@ -59,7 +59,7 @@ static int run(void *args, const char **pos, int npos)
     if (cli_check_outputs(&heat_out, 1, pos, 2) != 0)
         return 1;
     Image ia, ib, small, heat;
-    char err[512];
+    char err[CLI_ERR_LEN];
     if (read_exr(pos[0], &ia) != 0)
         return 1;
     if (read_exr(pos[1], &ib) != 0) {

@@ -42,7 +42,7 @@ static int run(void *args, const char **pos, int npos)
         return cli_usage_error("export-pov", "missing SCENE");
     const char *scene = pos[0], *out = a->out;
     Scene s;
-    char path[AFILE_PATH_MAX], tmp[AFILE_PATH_MAX], err[1024];
+    char path[AFILE_PATH_MAX], tmp[AFILE_PATH_MAX], err[CLI_ERR_LEN];
     if (scene_load(scene, &s, err, sizeof err) != 0) {
         fprintf(stderr, "%s\n", err);
         return 1;

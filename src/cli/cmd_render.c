@@ -460,7 +460,7 @@ static int resume(const Paths *pp, const Stamp *st, Image *img, unsigned char *d
  * Returns the exit status. */
 static int render_one(Args *a, const char *scene, const PlanOptions *po, int frame, const Paths *pp)
 {
-    char err[1024];
+    char err[CLI_ERR_LEN];
     double phase[4] = {0, 0, 0, 0}, t0 = clock_now();
     Scene s;
     if (scene_load(scene, &s, err, sizeof err) != 0) {

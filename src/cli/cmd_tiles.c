@@ -49,7 +49,7 @@ static int run(void *args, const char **pos, int npos)
                                LIMIT_IMAGE_SIDE, a->size);
     int tw = size[0], th = size[1];
     Scene s;
-    char err[1024];
+    char err[CLI_ERR_LEN];
     if (scene_load(pos[0], &s, err, sizeof err) != 0) {
         fprintf(stderr, "%s\n", err);
         return 1;
