@@ -8,10 +8,19 @@
 
 static int same_size(const Image *a, const Image *b, char *err, size_t errlen)
 {
-    if (a->width == b->width && a->height == b->height)
-        return 0;
-    snprintf(err, errlen, "the images differ in size: %dx%d and %dx%d", a->width, a->height, b->width, b->height);
-    return -1;
+    if (a->width != b->width || a->height != b->height) {
+        snprintf(err, errlen, "the images differ in size: %dx%d and %dx%d", a->width, a->height, b->width, b->height);
+        return -1;
+    }
+    /* two parts of a picture: as many pixels, but not the same ones */
+    if (a->x != b->x || a->y != b->y || a->full_width != b->full_width || a->full_height != b->full_height) {
+        snprintf(err, errlen,
+                 "the images are different parts of their pictures: %dx%d at %d,%d of %dx%d and at %d,%d of %dx%d",
+                 a->width, a->height, a->x, a->y, a->full_width, a->full_height, b->x, b->y, b->full_width,
+                 b->full_height);
+        return -1;
+    }
+    return 0;
 }
 
 static double absdiff(float x, float y)
@@ -69,10 +78,19 @@ int compare_downsample(const Image *src, int k, Image *dst, char *err, size_t er
         snprintf(err, errlen, "a %dx%d image cannot be averaged in %dx%d blocks", src->width, src->height, k, k);
         return -1;
     }
+    if (src->x % k || src->y % k || src->full_width % k || src->full_height % k) {
+        snprintf(err, errlen, "a %dx%d part at %d,%d of a %dx%d picture cannot be averaged in %dx%d blocks", src->width,
+                 src->height, src->x, src->y, src->full_width, src->full_height, k, k);
+        return -1;
+    }
     if (image_init(dst, src->width / k, src->height / k) != 0) {
         snprintf(err, errlen, "out of memory");
         return -1;
     }
+    dst->x = src->x / k; /* the same part of the picture, k times smaller */
+    dst->y = src->y / k;
+    dst->full_width = src->full_width / k;
+    dst->full_height = src->full_height / k;
     for (int y = 0; y < dst->height; y++)
         for (int x = 0; x < dst->width; x++)
             for (int c = 0; c < 3; c++) {

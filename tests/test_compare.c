@@ -130,12 +130,49 @@ static void test_heatmap_colours(void **state)
     image_free(&h);
 }
 
+/* Two parts of one picture, as many pixels each, are not compared as if
+ * they were the same pixels (lancer diff found two crops of a render the
+ * same); a render at 2x averaged down keeps its place in its picture. */
+static void test_parts_of_pictures(void **state)
+{
+    (void)state;
+    Image a, b, big, small;
+    CompareStats st;
+    char err[256];
+    fill(&a, 4, 3, 0.5f);
+    fill(&b, 4, 3, 0.5f);
+    a.full_width = b.full_width = 10;
+    a.full_height = b.full_height = 6;
+    b.x = 6;
+    assert_int_equal(compare_images(&a, &b, COMPARE_THRESHOLD, &st, err, sizeof err), -1);
+    assert_string_equal(err, "the images are different parts of their pictures: 4x3 at 0,0 of 10x6 and at 6,0 of 10x6");
+    assert_int_equal(compare_heatmap(&a, &b, COMPARE_THRESHOLD, &small, err, sizeof err), -1);
+    fill(&big, 8, 6, 0.5f);
+    big.x = 12;
+    big.y = 0;
+    big.full_width = 20;
+    big.full_height = 12;
+    assert_int_equal(compare_downsample(&big, 2, &small, err, sizeof err), 0);
+    a.x = 6; /* where the averaged part lies */
+    assert_int_equal(small.x, 6);
+    assert_int_equal(small.full_width, 10);
+    assert_int_equal(compare_images(&a, &small, COMPARE_THRESHOLD, &st, err, sizeof err), 0);
+    image_free(&small);
+    big.x = 3; /* not on the blocks' grid */
+    assert_int_equal(compare_downsample(&big, 2, &small, err, sizeof err), -1);
+    assert_string_equal(err, "a 8x6 part at 3,0 of a 20x12 picture cannot be averaged in 2x2 blocks");
+    image_free(&a);
+    image_free(&b);
+    image_free(&big);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_identical),      cmocka_unit_test(test_known_differences),
         cmocka_unit_test(test_nan_and_size_mismatch), cmocka_unit_test(test_downsample),
         cmocka_unit_test(test_heatmap_colours),
+        cmocka_unit_test(test_parts_of_pictures),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
