@@ -25,7 +25,7 @@ static int same_size(const Image *a, const Image *b, char *err, size_t errlen)
 
 static double absdiff(float x, float y)
 {
-    if (x == y)
+    if (x == y || (x != x && y != y)) /* two NaNs: the same, as a file against itself */
         return 0.0;
     double d = fabs((double)x - (double)y);
     return isnan(d) ? INFINITY : d;
