@@ -3,9 +3,10 @@
  * for the contract).
  *
  * A temporary file is named "<target>.lancer-tmp.<pid>.XXXXXX" (the
- * target's name cut where it would not fit), beside the target, so that rename(2) can put it in place atomically, and so that a
- * later run can tell the leftovers of a killed one (their process is gone)
- * from the files of a run still going, and remove them.
+ * target's name cut where it would not fit), beside the target, so that
+ * rename(2) can put it in place atomically, and so that a later run can
+ * tell the leftovers of a killed one (their process is gone) from the
+ * files of a run still going, and remove them.
  */
 #include "lancer/afile.h"
 
@@ -36,6 +37,7 @@ static int tmp_stem(const char *base)
     const size_t n = strlen(base);
     return n > AFILE_NAME_MAX - AFILE_TMP_EXTRA ? AFILE_NAME_MAX - AFILE_TMP_EXTRA : (int)n;
 }
+
 /* Symbolic links followed to their target, at most (as the kernel's
  * ELOOP limit). */
 #define AFILE_LINKS_MAX 40
