@@ -651,9 +651,10 @@ static exr_result_t image_exr_read_part(exr_const_context_t ctx, Image *img, Ima
     int32_t nchunks = 0;
     if (exr_get_chunk_count(ctx, 0, &nchunks) == EXR_ERR_SUCCESS && (unsigned long long)nchunks * 8 > rd->len) {
         char msg[160];
-        snprintf(msg, sizeof msg,
-                 "corrupt file: %lldx%lld pixels in %d chunks announced, whose offsets alone are more than its %zu bytes",
-                 (long long)w, (long long)h, (int)nchunks, rd->len);
+        snprintf(
+            msg, sizeof msg,
+            "corrupt file: %lldx%lld pixels in %d chunks announced, whose offsets alone are more than its %zu bytes",
+            (long long)w, (long long)h, (int)nchunks, rd->len);
         image_exr_note(e, msg);
         return EXR_ERR_CORRUPT_CHUNK;
     }
