@@ -182,17 +182,24 @@ static void test_symlink_target_is_replaced(void **state)
     assert_int_equal(entries(), 5); /* real, sub, two, dangling, made: no temporary left */
 }
 
+/* The pid of a process that has ended: a child, waited for. */
+static pid_t dead_pid(void)
+{
+    pid_t child = fork();
+    if (child == 0)
+        _exit(0);
+    assert_true(child > 0);
+    assert_int_equal(waitpid(child, NULL, 0), child);
+    return child;
+}
+
 /* The temporary files of a process that no longer runs are removed by the
  * next write to the same target; those of a running process, and files
  * that only look alike, are kept. */
 static void test_stale_temporaries_removed(void **state)
 {
     (void)state;
-    pid_t child = fork();
-    if (child == 0)
-        _exit(0);
-    assert_true(child > 0);
-    assert_int_equal(waitpid(child, NULL, 0), child);
+    const pid_t child = dead_pid();
     char dead[160], alive[160], other[160], odd[160], path[128];
     snprintf(path, sizeof path, "%s/out.exr", dir);
     snprintf(dead, sizeof dead, "%s/out.exr.lancer-tmp.%ld.AbC123", dir, (long)child);
@@ -217,11 +224,7 @@ static void test_stale_temporaries_removed(void **state)
 static void test_longest_name(void **state)
 {
     (void)state;
-    pid_t child = fork();
-    if (child == 0)
-        _exit(0);
-    assert_true(child > 0);
-    assert_int_equal(waitpid(child, NULL, 0), child);
+    const pid_t child = dead_pid();
     char name[256], path[AFILE_PATH_MAX], tmp[AFILE_PATH_MAX], err[AFILE_PATH_MAX + 128], dead[AFILE_PATH_MAX];
     memset(name, 'n', 255);
     name[255] = '\0';
