@@ -204,6 +204,41 @@ static int normals_one_side(const Place *q, const Triangle *t)
     return (s[0] > 0.0 && s[1] > 0.0 && s[2] > 0.0) || (s[0] < 0.0 && s[1] < 0.0 && s[2] < 0.0);
 }
 
+/* The normals n[0 .. 2] of a smooth triangle that goes out as a mesh2 (its
+ * normals not on one side of its face). POV-Ray's mesh shades a face flat,
+ * with its geometric normal, when its three normals lie within 10^-5 of
+ * each other (|N1 - N2|^2 <= 10^-10, "Check for equal normals" in
+ * parse.cpp), and lancer shades by them: three such normals, which lie in
+ * the face's plane, go out as one unit normal, and two of them moved apart
+ * by 4·10^-5 along the face's normal, past POV-Ray's test and far below a
+ * picture's tolerance. */
+static void part_normals(const Place *q, Vec3 n[3])
+{
+    double a[3], d1 = 0.0, d2 = 0.0;
+    for (int k = 0; k < 3; k++) {
+        a[k] = vec_comp(n[0], k);
+        d1 += (vec_comp(n[1], k) - a[k]) * (vec_comp(n[1], k) - a[k]);
+        d2 += (vec_comp(n[2], k) - a[k]) * (vec_comp(n[2], k) - a[k]);
+    }
+    const double len = sqrt(d3_dot(a, a));
+    if (d1 > 1e-10 || d2 > 1e-10 || !(len > 0.0))
+        return;
+    double u[3], w[3], g[3];
+    for (int k = 0; k < 3; k++) {
+        u[k] = q->p[1][k] - q->p[0][k];
+        w[k] = q->p[2][k] - q->p[0][k];
+    }
+    d3_cross(g, u, w);
+    const double glen = sqrt(d3_dot(g, g));
+    if (!(glen > 0.0))
+        return;
+    for (int i = 0; i < 3; i++) {
+        const double side = i == 0 ? 0.0 : i == 1 ? 4e-5 : -4e-5;
+        n[i] = vec3((float)(a[0] / len + side * g[0] / glen), (float)(a[1] / len + side * g[1] / glen),
+                    (float)(a[2] / len + side * g[2] / glen));
+    }
+}
+
 /* A PN patch as a mesh2 of n segments per edge: the patch's points on the
  * (u, v) grid of step 1/n, with its shading normals, in the triangles'
  * order of (P1, P2, P3). Its error falls as 1/n^2 (docs/parity.md). */
@@ -303,7 +338,9 @@ static void prim(FILE *f, const Scene *s, const Prim *p, const PnGrid *grid)
             dvec(f, v);
         }
         fprintf(f, " }\n  normal_vectors { 3, ");
-        vec3s(f, t->na, t->nb, t->nc);
+        Vec3 nv[3] = {t->na, t->nb, t->nc};
+        part_normals(&q, nv);
+        vec3s(f, nv[0], nv[1], nv[2]);
         fprintf(f, " }\n  face_indices { 1, <0, 1, 2> }\n  normal_indices { 1, <0, 1, 2> }\n  translate ");
         dvec(f, o);
         fputs("\n ", f);

@@ -24,6 +24,7 @@ static const char *scene_text =
     "obox { center 1 2 3 u 1 0 0 v 0 2 0 w 0 0 3 material red }\n"
     "smooth_triangle { a 0 0 0 b 1 0 0 c 0 1 0 na 0 0 1 nb 0 0 1 nc 0 0 1 material red }\n"
     "smooth_triangle { a 1000000 0 0 b 1000001 0 0 c 1000000 1 0 na 0 0 1 nb 0 0.6 -0.8 nc 0 0 1 material red }\n"
+    "smooth_triangle { a 0 0 5 b 1 0 5 c 0 1 5 na 2 0 0 nb 2 0 0 nc 2 0 0 material red }\n"
     "material glass { color 0.9 1 0.8 filter 0.5 transmit 0.25 ior 1.5 }\n"
     "sphere { center 0 1 0 radius 0.5 material glass }\n"
     "material room { ior 1.33 }\n"
@@ -108,6 +109,11 @@ static void test_lights_materials_objects(void **state)
               "  normal_vectors { 3, <0, 0, 1>, <0, 0.6, -0.8>, <0, 0, 1> }\n"
               "  face_indices { 1, <0, 1, 2> }\n  normal_indices { 1, <0, 1, 2> }\n"
               "  translate <1e+06, 0, 0>\n  texture { M_red } }");
+    /* three equal normals in the face's plane: a mesh2 would shade the face
+     * flat with its geometric normal (POV-Ray takes normals within 10^-5
+     * for one), so they go out as a unit normal, two of them moved apart
+     * along the face's normal (the face rendered flat, 2,638 pixels over) */
+    expect(t, "  normal_vectors { 3, <1, 0, 0>, <1, 0, 4e-05>, <1, 0, -4e-05> }\n");
     free(t);
 }
 
