@@ -325,8 +325,8 @@ static int parse_block(Parser *P, const char *what, const Field *f, int nf, Valu
                             f[i].key, tok_desc(&P->tok, buf, sizeof buf));
             size_t o = 0;
             for (size_t k = 1; k + 1 < P->tok.len; k++) {
-                if (P->tok.start[k] == '\\')
-                    k++;
+                if (P->tok.start[k] == '\\' && (P->tok.start[k + 1] == '"' || P->tok.start[k + 1] == '\\'))
+                    k++; /* \" and \\ escape; any other backslash is itself */
                 if (o + 1 >= sizeof v->str)
                     return fail(P, P->tok.loc, "%s: '%s' is longer than %d characters", what, f[i].key,
                                 SCENE_PATH_MAX - 1);
@@ -535,10 +535,13 @@ static int parse_image(Parser *P, Loc at)
     P->s->image.spp = (int)num_or(&v[SPP], (float)P->s->image.spp);
     if (v[ADC_BAILOUT].set && !(v[ADC_BAILOUT].v[0] >= 0.0 && (float)v[ADC_BAILOUT].v[0] < 1.0f))
         return fail(P, v[ADC_BAILOUT].value, "image: 'adc_bailout' must be a number from 0 up to 1, 1 excluded%s",
-                    v[ADC_BAILOUT].v[0] < 1.0 ? " (it rounds to 1 as a float)" : "");
+                    v[ADC_BAILOUT].v[0] >= 0.0 && v[ADC_BAILOUT].v[0] < 1.0 ? " (it rounds to 1 as a float)" : "");
     P->s->image.adc_bailout = num_or(&v[ADC_BAILOUT], P->s->image.adc_bailout);
-    if (v[AA_THRESHOLD].set && !(v[AA_THRESHOLD].v[0] > 0.0 && v[AA_THRESHOLD].v[0] <= 3.0))
-        return fail(P, v[AA_THRESHOLD].value, "image: 'aa_threshold' must be a number above 0, at most 3");
+    /* (in float too: a threshold that rounds to 0 would turn the adaptive
+     * anti-aliasing off, which 0 means) */
+    if (v[AA_THRESHOLD].set && !((float)v[AA_THRESHOLD].v[0] > 0.0f && v[AA_THRESHOLD].v[0] <= 3.0))
+        return fail(P, v[AA_THRESHOLD].value, "image: 'aa_threshold' must be a number above 0, at most 3%s",
+                    v[AA_THRESHOLD].v[0] > 0.0 && v[AA_THRESHOLD].v[0] <= 3.0 ? " (it rounds to 0 as a float)" : "");
     P->s->image.aa_threshold = num_or(&v[AA_THRESHOLD], 0.0f);
     if (v[INTERSECT].set) {
         if (strcmp(v[INTERSECT].name, "classic") != 0 && strcmp(v[INTERSECT].name, "robust") != 0)
@@ -625,8 +628,9 @@ static int parse_keyframe(Parser *P, Loc at)
                     frame, s->keys[s->nkeys - 1].frame);
     if (v[EYE].v[0] == v[TARGET].v[0] && v[EYE].v[1] == v[TARGET].v[1] && v[EYE].v[2] == v[TARGET].v[2])
         return fail(P, v[TARGET].value, "keyframe: 'target' must differ from 'eye'");
-    if (v[FOV].set && !(v[FOV].v[0] > 0.0 && v[FOV].v[0] < 180.0))
-        return fail(P, v[FOV].value, "keyframe: 'fov' must be between 0 and 180 degrees");
+    if (v[FOV].set && !((float)v[FOV].v[0] > 0.0f && (float)v[FOV].v[0] < 180.0f)) /* as the camera's */
+        return fail(P, v[FOV].value, "keyframe: 'fov' must be between 0 and 180 degrees%s",
+                    v[FOV].v[0] > 0.0 && v[FOV].v[0] < 180.0 ? " (not in single precision)" : "");
     if (s->nkeys == P->cap_keys) {
         int cap = P->cap_keys ? 2 * P->cap_keys : 8;
         CameraKey *k = realloc(s->keys, sizeof *k * (size_t)cap);
@@ -1346,15 +1350,19 @@ static int parse_mesh(Parser *P, Loc at)
     OBJECT_XF("mesh");
     if (!v[FILE_].str[0])
         return fail(P, v[FILE_].value, "mesh: 'file' is empty");
-    /* A relative path is relative to the scene file's folder. */
-    char path[2 * SCENE_PATH_MAX];
+    /* A relative path is relative to the scene file's folder, whose own
+     * path may be as long as a path can be. */
+    char path[AFILE_PATH_MAX + SCENE_PATH_MAX];
     const char *slash = strrchr(P->name, '/');
+    int len;
     if (v[FILE_].str[0] != '/' && slash)
-        snprintf(path, sizeof path, "%.*s/%s", (int)(slash - P->name), P->name, v[FILE_].str);
+        len = snprintf(path, sizeof path, "%.*s/%s", (int)(slash - P->name), P->name, v[FILE_].str);
     else
-        snprintf(path, sizeof path, "%s", v[FILE_].str);
+        len = snprintf(path, sizeof path, "%s", v[FILE_].str);
+    if (len < 0 || (size_t)len >= sizeof path)
+        return fail(P, v[FILE_].value, "mesh: the path from the scene's folder to the file is too long");
     Mesh m;
-    char err[512];
+    char err[sizeof path + 512]; /* the path, and what is wrong */
     if (add_input(P->s, path) != 0)
         return fail(P, at, "out of memory");
     if (mesh_load(path, &m, err, sizeof err) != 0)

@@ -337,6 +337,20 @@ has "$T/err" "not a ray file"
 expect 1 "$LANCER" bench --gen-rays "$T/none.off" "$T/rays"
 has "$T/err" "$T/none.off: cannot open"
 
+# a scene in a folder whose path is 2,200 bytes long finds its mesh beside
+# it (the joined path was cut at 2,048 bytes, and the message with it)
+deep="$T"
+for i in 1 2 3 4 5 6 7 8 9 10 11; do
+    deep="$deep/$(printf '%0200d' "$i")"
+done
+mkdir -p "$deep"
+cp "$T/tet.off" "$deep/tet.off"
+printf 'image { width 16 height 12 }\ncamera { eye 0.3 0.4 -3 target 0.3 0.3 0.3 fov 50 }\nlight { position 2 4 -3 }\nmaterial m { }\nmesh { file "tet.off" material m }\n' >"$deep/deep.scn"
+expect 0 "$LANCER" render "$deep/deep.scn" -o "$T/deep.exr" -q
+printf 'camera { eye 0 0 -3 target 0 0 0 fov 50 }\nmaterial m { }\nmesh { file "none.off" material m }\n' >"$deep/none.scn"
+expect 1 "$LANCER" render "$deep/none.scn" -o "$T/deep.exr" -q
+has "$T/err" "/none.off: cannot open"
+
 # PN triangles: a PN mesh and a lone patch, their modes (the robust variant
 # traces every patch exact, the classic one fast), the override, the
 # POV-Ray twin's tessellation, and bench --pn

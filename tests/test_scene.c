@@ -550,6 +550,27 @@ static const BadCase bad_cases[] = {
     BAD("a keyframe fov of 180",
         PRE "keyframe { frame 0 eye 0 0 -5 target 0 0 0 fov 180 }",
         "t.scn:3:48: keyframe: 'fov' must be between 0 and 180 degrees"),
+    /* a keyframe's fov is checked as the camera's, in single precision, at
+     * its place (it once passed, and failed later with no position) */
+    BAD("a keyframe fov that rounds to 180",
+        PRE "keyframe { frame 0 eye 0 0 -5 target 0 0 0 fov 179.99999999 }",
+        "t.scn:3:48: keyframe: 'fov' must be between 0 and 180 degrees (not in single precision)"),
+    BAD("a keyframe fov that rounds to 0",
+        PRE "keyframe { frame 0 eye 0 0 -5 target 0 0 0 fov 1e-50 }",
+        "t.scn:3:48: keyframe: 'fov' must be between 0 and 180 degrees (not in single precision)"),
+    /* a negative bailout does not "round to 1" */
+    BAD("a negative adc_bailout",
+        PRE "image { adc_bailout -0.1 }",
+        "t.scn:3:21: image: 'adc_bailout' must be a number from 0 up to 1, 1 excluded"),
+    /* an aa_threshold that rounds to 0 would mean no adaptive anti-aliasing */
+    BAD("an aa_threshold that rounds to 0",
+        PRE "image { spp 4 aa_threshold 1e-50 }",
+        "t.scn:3:28: image: 'aa_threshold' must be a number above 0, at most 3 (it rounds to 0 as a float)"),
+    /* \" and \\ escape in a string, and any other backslash is itself (a\b
+     * once named ab.off) */
+    BAD("a backslash in a mesh's path",
+        PRE "mesh { file \"no\\dir\\\\x\\\"y.off\" material m }",
+        "t.scn:3:13: mesh: no\\dir\\x\"y.off: cannot open: No such file or directory"),
     BAD("error after many objects",
         PRE "sphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nbogus\n",
         "t.scn:23:1: unknown keyword 'bogus'"),
