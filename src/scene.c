@@ -16,6 +16,7 @@
  */
 #include "lancer/scene.h"
 
+#include <ctype.h>
 #include <errno.h>
 #include <stdint.h>
 #include <stdarg.h>
@@ -213,6 +214,33 @@ static int is_keyword(const Token *t)
     return 0;
 }
 
+/* 1 when the text after the current token opens a block: '{', or a name
+ * and '{' (a material's), blanks and comments between. A statement's
+ * keyword met inside a block is then the next statement, its block not
+ * closed; else a property the block does not have. */
+static int opens_block(const Parser *P)
+{
+    const char *q = P->p;
+    for (int name = 0; name < 2; name++) {
+        for (;;) { /* blanks and comments */
+            while (q < P->end && (*q == ' ' || *q == '\t' || *q == '\n' || *q == '\r'))
+                q++;
+            if (q < P->end && *q == '#')
+                while (q < P->end && *q != '\n')
+                    q++;
+            else
+                break;
+        }
+        if (q < P->end && *q == '{')
+            return 1;
+        if (name || q >= P->end || !(isalpha((unsigned char)*q) || *q == '_'))
+            return 0;
+        while (q < P->end && (isalnum((unsigned char)*q) || *q == '_'))
+            q++;
+    }
+    return 0;
+}
+
 /* ---- block parsing driven by field tables ---- */
 
 /* F_SCALE: one number or three; F_MAT: twelve; F_STRING: a quoted string. */
@@ -299,7 +327,7 @@ static int parse_block(Parser *P, const char *what, const Field *f, int nf, Valu
             return fail(P, P->tok.loc, "%s: expected a property name, found %s", what,
                         tok_desc(&P->tok, buf, sizeof buf));
         int i = find_field(f, nf, &P->tok);
-        if (i < 0 && is_keyword(&P->tok))
+        if (i < 0 && is_keyword(&P->tok) && opens_block(P))
             return fail(P, P->tok.loc, "%s: missing '}' before '%.*s' (to close the '{' at %d:%d)", what,
                         (int)P->tok.len, P->tok.start, open.line, open.col);
         if (i < 0)

@@ -259,6 +259,14 @@ static const BadCase bad_cases[] = {
     BAD("missing } before a material",
         PRE "light { position 0 0 0\nmaterial n { }\n",
         "t.scn:4:1: light: missing '}' before 'material' (to close the '{' at 3:7)"),
+    /* a statement's keyword as a property of a block without it: no '}'
+     * is missing (it once said one was) */
+    BAD("a material in a light",
+        PRE "light { position 0 0 0 material m }\n",
+        "t.scn:3:24: light: unknown property 'material'"),
+    BAD("a material in the image, a comment after it",
+        PRE "image { material # here\n m }\n",
+        "t.scn:3:9: image: unknown property 'material'"),
     BAD("missing } in the camera",
         "camera { eye 0 0 -5 target 0 0 0 fov 40\nmaterial m { }\n",
         "t.scn:2:1: camera: missing '}' before 'material' (to close the '{' at 1:8)"),
