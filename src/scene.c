@@ -218,19 +218,24 @@ static int is_keyword(const Token *t)
  * and '{' (a material's), blanks and comments between. A statement's
  * keyword met inside a block is then the next statement, its block not
  * closed; else a property the block does not have. */
+static const char *past_blanks(const Parser *P, const char *q)
+{
+    for (;;) { /* blanks and comments */
+        while (q < P->end && (*q == ' ' || *q == '\t' || *q == '\n' || *q == '\r'))
+            q++;
+        if (q < P->end && *q == '#')
+            while (q < P->end && *q != '\n')
+                q++;
+        else
+            return q;
+    }
+}
+
 static int opens_block(const Parser *P)
 {
     const char *q = P->p;
     for (int name = 0; name < 2; name++) {
-        for (;;) { /* blanks and comments */
-            while (q < P->end && (*q == ' ' || *q == '\t' || *q == '\n' || *q == '\r'))
-                q++;
-            if (q < P->end && *q == '#')
-                while (q < P->end && *q != '\n')
-                    q++;
-            else
-                break;
-        }
+        q = past_blanks(P, q);
         if (q < P->end && *q == '{')
             return 1;
         if (name || q >= P->end || !(isalpha((unsigned char)*q) || *q == '_'))
@@ -239,6 +244,15 @@ static int opens_block(const Parser *P)
             q++;
     }
     return 0;
+}
+
+/* 1 when the text after the current token begins a number or a string:
+ * a value, where a name's key (material, pn_mode) is followed by another
+ * key and its value, the name left out. */
+static int value_follows(const Parser *P)
+{
+    const char *q = past_blanks(P, P->p);
+    return q < P->end && (isdigit((unsigned char)*q) || *q == '-' || *q == '+' || *q == '.' || *q == '"');
 }
 
 /* ---- block parsing driven by field tables ---- */
@@ -365,7 +379,8 @@ static int parse_block(Parser *P, const char *what, const Field *f, int nf, Valu
                 return -1;
         }
         if (kind == F_NAME) {
-            if (P->tok.kind == TOK_RBRACE || P->tok.kind == TOK_EOF)
+            if (P->tok.kind == TOK_RBRACE || P->tok.kind == TOK_EOF ||
+                (P->tok.kind == TOK_IDENT && find_field(f, nf, &P->tok) >= 0 && value_follows(P)))
                 return fail(P, P->tok.loc, "%s: missing value for '%s' (expects a name)", what, f[i].key);
             if (P->tok.kind != TOK_IDENT)
                 return fail(P, P->tok.loc, "%s: wrong type for '%s': expected a name, found %s", what, f[i].key,
@@ -1466,8 +1481,19 @@ static int dispatch_statement(Parser *P, Token kw)
     char buf[64];
     if (kw.kind != TOK_IDENT)
         return fail(P, kw.loc, "expected a keyword, found %s", tok_desc(&kw, buf, sizeof buf));
-    if (!is_keyword(&kw))
+    if (!is_keyword(&kw)) {
+        /* A word with bytes past ASCII ends the token at the first; the
+         * message quotes the whole word, as written. */
+        size_t n = kw.len;
+        int wide = 0;
+        while (n < 40 && kw.start + n < P->end &&
+               ((unsigned char)kw.start[n] >= 0x80 || isalnum((unsigned char)kw.start[n]) || kw.start[n] == '_'))
+            wide |= (unsigned char)kw.start[n++] >= 0x80;
+        if (wide)
+            return fail(P, kw.loc, "unknown keyword '%.*s' (keywords and names are ASCII letters, digits and '_')",
+                        (int)n, kw.start);
         return fail(P, kw.loc, "unknown keyword %s", tok_desc(&kw, buf, sizeof buf));
+    }
     if (next(P))
         return -1;
     if (tok_is(&kw, "image"))

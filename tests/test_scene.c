@@ -579,6 +579,19 @@ static const BadCase bad_cases[] = {
     BAD("a backslash in a mesh's path",
         PRE "mesh { file \"no\\dir\\\\x\\\"y.off\" material m }",
         "t.scn:3:13: mesh: no\\dir\\x\"y.off: cannot open: No such file or directory"),
+    /* a name's key followed by another key and its value: the name is
+     * missing (it once read the key as the name, and the value as extra) */
+    BAD("a material's name left out",
+        PRE "sphere { material center 0 0 0 radius 1 }",
+        "t.scn:3:19: sphere: missing value for 'material' (expects a name)"),
+    BAD("a pn_mode left out",
+        PRE "mesh { pn pn_mode file \"x.off\" }",
+        "t.scn:3:19: mesh: missing value for 'pn_mode' (expects a name)"),
+    /* a word with bytes past ASCII is quoted whole (it was cut at the
+     * first: 'sph') */
+    BAD("a keyword with an accent",
+        PRE "sph\xc3\xa8re { center 0 0 0 radius 1 material m }",
+        "t.scn:3:1: unknown keyword 'sph\xc3\xa8re' (keywords and names are ASCII letters, digits and '_')"),
     BAD("error after many objects",
         PRE "sphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nsphere { center 0 0 0 radius 1 material m }\nbogus\n",
         "t.scn:23:1: unknown keyword 'bogus'"),
@@ -1283,7 +1296,7 @@ static void test_names(void **state)
              "material radius { }\n"
              "material %s { }\n"
              "sphere { center 0 0 0 radius 1 material radius }\n"
-             "sphere { material sphere center 0 0 0 radius 1 }\n"
+             "sphere { material radius center 0 0 0 radius 1 }\n"
              "sphere { center 0 0 0 radius 1 material %s }\n"
              "sphere { center 0 0 0 radius 1 material _Mat_2 }\n",
              name63, name63);
@@ -1293,7 +1306,7 @@ static void test_names(void **state)
     assert_string_equal(s.materials[3].name, name63);
     assert_int_equal(s.nprims, 4);
     assert_int_equal(s.prims[0].material, 2);
-    assert_int_equal(s.prims[1].material, 1);
+    assert_int_equal(s.prims[1].material, 2); /* "radius", a key's name, before another key */
     assert_int_equal(s.prims[2].material, 3);
     assert_int_equal(s.prims[3].material, 0);
     scene_free(&s);
