@@ -6,7 +6,8 @@
 #include <math.h>
 #include <stdio.h>
 
-static int same_size(const Image *a, const Image *b, char *err, size_t errlen)
+/* 0 when a and b are the same pixels of a picture: one size, one place. */
+static int same_part(const Image *a, const Image *b, char *err, size_t errlen)
 {
     if (a->width != b->width || a->height != b->height) {
         snprintf(err, errlen, "the images differ in size: %dx%d and %dx%d", a->width, a->height, b->width, b->height);
@@ -47,7 +48,7 @@ static double pixel_diff(const Image *a, const Image *b, size_t i, double *sum, 
 
 int compare_images(const Image *a, const Image *b, double threshold, CompareStats *st, char *err, size_t errlen)
 {
-    if (same_size(a, b, err, errlen))
+    if (same_part(a, b, err, errlen))
         return -1;
     size_t n = (size_t)a->width * (size_t)a->height;
     double sum = 0.0, sum2 = 0.0;
@@ -126,7 +127,7 @@ static void ramp(double d, double threshold, float *rgb)
 
 int compare_heatmap(const Image *a, const Image *b, double threshold, Image *dst, char *err, size_t errlen)
 {
-    if (same_size(a, b, err, errlen))
+    if (same_part(a, b, err, errlen))
         return -1;
     if (image_init(dst, a->width, a->height) != 0) {
         snprintf(err, errlen, "out of memory");

@@ -188,16 +188,23 @@ typedef struct {
     int (*faces)[3];
 } PnGrid;
 
-/* 1 when the vertex normals of triangle q all lie on one side of its
- * face, computed in double. */
-static int normals_one_side(const Place *q, const Triangle *t)
+/* The face normal (p1 - p0) x (p2 - p0) of triangle q, in double. */
+static void face_normal(const Place *q, double n[3])
 {
-    double u[3], w[3], n[3], s[3];
+    double u[3], w[3];
     for (int k = 0; k < 3; k++) {
         u[k] = q->p[1][k] - q->p[0][k];
         w[k] = q->p[2][k] - q->p[0][k];
     }
     d3_cross(n, u, w);
+}
+
+/* 1 when the vertex normals of triangle q all lie on one side of its
+ * face, computed in double. */
+static int normals_one_side(const Place *q, const Triangle *t)
+{
+    double n[3], s[3];
+    face_normal(q, n);
     const Vec3 v[3] = {t->na, t->nb, t->nc};
     for (int k = 0; k < 3; k++)
         s[k] = n[0] * v[k].x + n[1] * v[k].y + n[2] * v[k].z;
@@ -223,12 +230,8 @@ static void part_normals(const Place *q, Vec3 n[3])
     const double len = sqrt(d3_dot(a, a));
     if (d1 > 1e-10 || d2 > 1e-10 || !(len > 0.0))
         return;
-    double u[3], w[3], g[3];
-    for (int k = 0; k < 3; k++) {
-        u[k] = q->p[1][k] - q->p[0][k];
-        w[k] = q->p[2][k] - q->p[0][k];
-    }
-    d3_cross(g, u, w);
+    double g[3];
+    face_normal(q, g);
     const double glen = sqrt(d3_dot(g, g));
     if (!(glen > 0.0))
         return;

@@ -214,13 +214,10 @@ static int is_keyword(const Token *t)
     return 0;
 }
 
-/* 1 when the text after the current token opens a block: '{', or a name
- * and '{' (a material's), blanks and comments between. A statement's
- * keyword met inside a block is then the next statement, its block not
- * closed; else a property the block does not have. */
+/* q moved past blanks and comments, without reading tokens: a look ahead. */
 static const char *past_blanks(const Parser *P, const char *q)
 {
-    for (;;) { /* blanks and comments */
+    for (;;) {
         while (q < P->end && (*q == ' ' || *q == '\t' || *q == '\n' || *q == '\r'))
             q++;
         if (q < P->end && *q == '#')
@@ -231,6 +228,10 @@ static const char *past_blanks(const Parser *P, const char *q)
     }
 }
 
+/* 1 when the text after the current token opens a block: '{', or a name
+ * and '{' (a material's), blanks and comments between. A statement's
+ * keyword met inside a block is then the next statement, its block not
+ * closed; else a property the block does not have. */
 static int opens_block(const Parser *P)
 {
     const char *q = P->p;
