@@ -7,11 +7,7 @@ LANCER=$(cd "$(dirname "$1")" && pwd)/$(basename "$1")
 ROOT=$(pwd)
 T=$(mktemp -d)
 trap 'rm -rf "$T"' EXIT
-pass=0
-fail=0
-
-ok() { pass=$((pass + 1)); }
-bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
+. "$(dirname "$0")/tally.sh"
 
 # expect CODE CMD...: runs CMD, stdout to $T/out, stderr to $T/err.
 expect() {
@@ -477,5 +473,4 @@ for scn in scenes/*.scn scenes/parity/*.scn scenes/stability/*.scn; do
     if cmp -s "$T/planned.exr" "$T/full.exr"; then ok; else bad "$scn: --no-plan changed the picture"; fi
 done
 
-echo "cli: $pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+tally cli

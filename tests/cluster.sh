@@ -11,10 +11,7 @@
 set -u
 LANCER=$(cd "$(dirname "${1:-build/lancer}")" && pwd)/$(basename "${1:-build/lancer}")
 ROOT=$(pwd)
-pass=0
-fail=0
-ok() { pass=$((pass + 1)); }
-bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
+. "$(dirname "$0")/tally.sh"
 same() { if cmp -s "$1" "$2"; then ok; else bad "$3: $1 differs from $2: $("$LANCER" diff "$1" "$2" 2>&1)"; fi; }
 now() { date +%s.%N; }
 secs() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.1f", b - a }'; }
@@ -165,5 +162,4 @@ slurm_stop "$T/slurm"
 left=""
 for p in $pids; do kill -0 "$p" 2>/dev/null && left="$left $p"; done
 if [ -z "$left" ]; then ok; else bad "daemons still running: $left"; fi
-echo "cluster: $pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+tally cluster

@@ -8,10 +8,7 @@
 set -u
 T=$(mktemp -d)
 trap 'rm -rf "$T"' EXIT
-pass=0
-fail=0
-ok() { pass=$((pass + 1)); }
-bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
+. "$(dirname "$0")/tally.sh"
 
 dest="$T/stage"
 bin="$dest/opt/lancer/bin/lancer"
@@ -43,5 +40,4 @@ done
 
 if make -s uninstall DESTDIR="$dest" PREFIX=/opt/lancer >"$T/log" 2>&1; then ok; else bad "make uninstall"; fi
 [ ! -e "$bin" ] && [ ! -e "$page" ] && ok || bad "uninstall left files behind"
-echo "install: $pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+tally install

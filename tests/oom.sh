@@ -14,10 +14,7 @@ LANCER=$(cd "$(dirname "$1")" && pwd)/$(basename "$1")
 ROOT=$(pwd)
 T=$(mktemp -d)
 trap 'rm -rf "$T"' EXIT
-pass=0
-fail=0
-ok() { pass=$((pass + 1)); }
-bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
+. "$(dirname "$0")/tally.sh"
 
 ${CC:-cc} -O2 -shared -fPIC "$ROOT/tests/oom/failat.c" -o "$T/failat.so" || { echo "oom: cannot build the preload"; exit 1; }
 if ldd "$LANCER" 2>/dev/null | grep -q 'libasan\|libtsan\|libmsan'; then
@@ -82,5 +79,4 @@ sweep "merge" "m.exr" -- "$LANCER" merge top.exr bottom.exr -o m.exr
 mkdir rays
 sweep "bench --gen-rays" "rays/primary.rays rays/shadow.rays rays/diffuse.rays" -- "$LANCER" bench --gen-rays tet.off rays 16 16
 
-echo "oom: $pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+tally oom

@@ -18,10 +18,7 @@ cleanup() {
     rm -rf "$T"
 }
 trap cleanup EXIT
-pass=0
-fail=0
-ok() { pass=$((pass + 1)); }
-bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
+. "$(dirname "$0")/tally.sh"
 . "$(dirname "$0")/finish.sh"
 
 # A background job of sh starts with SIGINT ignored, which lancer then
@@ -200,5 +197,4 @@ else
     echo "signals: skipped the full-disk checks (mounting a tmpfs needs root)"
 fi
 
-echo "signals: $pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+tally signals

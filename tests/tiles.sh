@@ -10,10 +10,7 @@ LANCER=$(cd "$(dirname "$1")" && pwd)/$(basename "$1")
 ROOT=$(pwd)
 T=$(mktemp -d)
 trap 'rm -rf "$T"' EXIT
-pass=0
-fail=0
-ok() { pass=$((pass + 1)); }
-bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
+. "$(dirname "$0")/tally.sh"
 . "$(dirname "$0")/finish.sh"
 expect() {
     want=$1
@@ -229,5 +226,4 @@ else
     bad "the second render to resume was not stopped midway: $(cat "$T/err")"
 fi
 
-echo "tiles: $pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+tally tiles
