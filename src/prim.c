@@ -1054,7 +1054,7 @@ static void ell_surface(const Ellipsoid *e, const Ray *r, const PrimHit *h, Surf
  * p's own error is far smaller where the triangle lies close to a
  * coordinate plane through the origin (a CAD model standing on z = 0), so
  * perr grows to this margin (a2: twice the area). */
-static void tri_spawn_margin(const Triangle *t, Surface *s, float a2)
+static float tri_spawn_margin(const Triangle *t, Surface *s, float a2)
 {
     /* (comparisons, not float_max: no operand here can be a NaN) */
     float e = vec_max_abs(vec_sub(t->a, s->p)), eb = vec_max_abs(vec_sub(t->b, s->p));
@@ -1066,6 +1066,7 @@ static void tri_spawn_margin(const Triangle *t, Surface *s, float a2)
         margin = e;
     s->perr = vec3(s->perr.x > margin ? s->perr.x : margin, s->perr.y > margin ? s->perr.y : margin,
                    s->perr.z > margin ? s->perr.z : margin);
+    return margin;
 }
 
 /* Triangle t's unnormalised normal (b - a) x (c - a) in double, from the
@@ -1082,6 +1083,27 @@ static void tri_normal_d(const Triangle *t, double n[3], double mag[3])
         int j = (i + 1) % 3, k = (i + 2) % 3;
         mag[i] = fabs(e1[j] * e2[k]) + fabs(e1[k] * e2[j]);
     }
+}
+
+/* A hit on a huge triangle (Surface.edge 2): its margin may pass over a
+ * surface standing on it, which shade.c's edge_clear finds along the line
+ * from the point, as next to an edge. That line must start on the ray:
+ * the point from the barycentrics, each within its rounding, lies off it
+ * by those roundings times the triangle's size, so it is the ray's
+ * meeting with the triangle's plane instead, in double, then rounded. */
+static void tri_wide_hit(const Prim *p, const Ray *r, const PrimHit *h, Surface *s)
+{
+    double n[3], ao[3];
+    const double d[3] = {r->d.x, r->d.y, r->d.z};
+    tri_normal_d(&p->g.tri, n, NULL);
+    d3_sub(ao, p->g.tri.a, r->o);
+    const double t = d3_dot(n, ao) / d3_dot(n, d);
+    if (isfinite(t))
+        s->p = vec3((float)(r->o.x + t * d[0]), (float)(r->o.y + t * d[1]), (float)(r->o.z + t * d[2]));
+    s->edge = 2;
+    s->tri = p;
+    s->tu = h->u;
+    s->tv = h->v;
 }
 
 int prim_near_edge(const Prim *p, const PrimHit *h, Surface *s)
@@ -1149,7 +1171,7 @@ int prim_past_plane(const Prim *x, const Surface *s, Vec3 d)
         return 0;
     const double dd[3] = {d.x, d.y, d.z};
     const double nd = d3_dot(n, dd);
-    if (s->edge > 0) {
+    if (s->edge == 1) {
         /* The exact point is b0 a + b1 b + b2 c, so its signed distance
          * from x's plane is b0 f(a) + b1 f(b) + b2 f(c): where no two
          * vertices lie on opposite sides, its side is theirs, however
@@ -1178,9 +1200,17 @@ int prim_past_plane(const Prim *x, const Surface *s, Vec3 d)
     double err;
     const double p[3] = {s->p.x, s->p.y, s->p.z};
     const double sp = plane_side(n, x0, mag, p, &err);
+    const float wide = s->edge == 2 ? prim_wide_err(s) : 0.0f; /* p's own, not the margin */
     for (int i = 0; i < 3; i++) /* and p's error bound */
-        err += fabs(n[i]) * vec_comp(s->perr, i);
+        err += fabs(n[i]) * (s->edge == 2 ? wide : vec_comp(s->perr, i));
     return nd > 0.0 ? sp >= -err : nd < 0.0 ? sp <= err : 1;
+}
+
+float prim_wide_err(const Surface *s)
+{
+    /* each coordinate within a rounding to float of the double, itself
+     * within a few parts in 2^53 of the exact meeting: 2^-22 covers both */
+    return float_up(0x1p-22f * (fabsf(s->p.x) + fabsf(s->p.y) + fabsf(s->p.z)) + FLT_MIN);
 }
 
 int prim_line_crosses(const Prim *x, const Surface *s, Vec3 d)
@@ -1203,11 +1233,15 @@ int prim_line_crosses(const Prim *x, const Surface *s, Vec3 d)
     const double dd[3] = {d.x, d.y, d.z};
     double p[3], n[3], mag[3], x0[3], err;
     for (int i = 0; i < 3; i++) {
-        p[i] = b0 * vec_comp(t->a, i) + b1 * vec_comp(t->b, i) + b2 * vec_comp(t->c, i);
+        /* a huge triangle's point: s->p, on the ray (tri_wide_hit) */
+        p[i] =
+            s->edge == 2 ? vec_comp(s->p, i) : b0 * vec_comp(t->a, i) + b1 * vec_comp(t->b, i) + b2 * vec_comp(t->c, i);
         x0[i] = vec_comp(u->a, i);
     }
     tri_normal_d(u, n, mag);
     const double f = plane_side(n, x0, mag, p, &err);
+    if (s->edge == 2) /* and that point's own error */
+        err += (fabs(n[0]) + fabs(n[1]) + fabs(n[2])) * prim_wide_err(s);
     const double tt = -f / d3_dot(n, dd); /* where the line meets x's plane */
     if (!(fabs(f) > err) || !(tt > 0.0) || !isfinite(tt))
         return 0; /* on the plane (a face through the point), or behind */
@@ -1295,8 +1329,10 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
             Vec3 m = vec_add(vec_add(vec3(fabsf(pa.x), fabsf(pa.y), fabsf(pa.z)), vec3(fabsf(pb.x), fabsf(pb.y), fabsf(pb.z))),
                              vec3(fabsf(pc.x), fabsf(pc.y), fabsf(pc.z)));
             s->perr = vec_scale(m, gamma_f(7));
-            tri_spawn_margin(t, s, vec_length(ng));
             s->edge = -1; /* prim_near_edge tells, if asked */
+            const float margin = tri_spawn_margin(t, s, vec_length(ng));
+            if (margin > PRIM_WIDE_MARGIN * vec_max_abs(s->p) && margin > PRIM_WIDE_MARGIN * h->t * vec_max_abs(r->d))
+                tri_wide_hit(p, r, h, s);
         }
         break;
     }

@@ -4,7 +4,9 @@
  * Every secondary ray starts at prim_spawn_origin(), never at the raw hit
  * point, and accepts any t > 0: the offset, derived from the hit's own
  * error bound, not a t_min epsilon, keeps it off its own surface (and,
- * next to a mesh's edge, edge_clear() off the faces beyond it). POV-Ray
+ * next to a mesh's edge, edge_clear() off the faces beyond it; off a huge
+ * triangle, whose offset may pass a surface standing on it, edge_clear()
+ * takes the first surface on the line from the point). POV-Ray
  * itself ignores hits closer than 1e-4 (and shadow occluders within 1e-3 of
  * either end); the two differ only on surfaces that touch, a line of pixels
  * at most. At the light's end a shadow ray stops short (light_reach).
@@ -95,11 +97,17 @@ static float toward(Vec3 p, Vec3 q, Vec3 *dir)
  * behind the point meets every surface around it; those that the line
  * from the point does not cross ahead are passed over (prim_line_crosses,
  * prim_past_plane; a curved one, or a box, by its t), and the next is the
- * answer, into g, unless r hits it: then 1. */
+ * answer, into g, unless r hits it: then 1, else 0, and -1 when more than
+ * EDGE_STEPS lie behind.
+ * Off a huge triangle (sf->edge 2) the offset may take r's origin into a
+ * solid standing on it, where r meets its far side: the line, searched
+ * to r's end, is the answer, 1 when it meets a surface, 0 when none. */
 EDGE_COLD static int edge_behind(const Ctx *c, const Surface *sf, const Ray *r, float near, Given *g)
 {
+    const int wide = sf->edge == 2;
     const float end = vec_dot(vec_sub(r->o, sf->p), r->d) + r->tmax; /* r's end, from the point */
-    g->r = ray_make(vec_madd(sf->p, r->d, -near), r->d, near + (end < near ? end : near));
+    g->r = ray_make(vec_madd(sf->p, r->d, -near), r->d, near + (wide || end < near ? end : near));
+    const float err = wide ? prim_wide_err(sf) : 0.0f;
     int skip[EDGE_STEPS];
     for (int ns = 0; ns < EDGE_STEPS; ns++) {
         const int i = accel_closest_except(c->a, &g->r, skip, ns, &g->h, c->st);
@@ -107,18 +115,39 @@ EDGE_COLD static int edge_behind(const Ctx *c, const Surface *sf, const Ray *r, 
             return 0;
         const Prim *x = &c->s->prims[i];
         const int tri = x->kind == PRIM_TRIANGLE || x->kind == PRIM_SMOOTH_TRIANGLE;
-        const int behind = tri ? !prim_line_crosses(x, sf, r->d)
-                                 : x->kind == PRIM_PLANE ? prim_past_plane(x, sf, r->d) : g->h.t <= near;
+        /* ahead of the point by more than the two errors: the hit's, and
+         * the point's, along the line, off the triangle's plane */
+        const int ahead = wide && x != sf->tri && g->h.t - g->h.terr > near + 2.0f * err / fabsf(vec_dot(sf->ng, r->d));
+        const int behind = tri                     ? !ahead && !prim_line_crosses(x, sf, r->d)
+                           : x->kind == PRIM_PLANE ? prim_past_plane(x, sf, r->d)
+                                                   : g->h.t <= near;
+        PrimHit h;
+        g->prim = i;
+        if (behind && wide && !tri && x->kind != PRIM_PLANE) {
+            /* a solid met at or behind the point: the point may lie on it
+             * (a box standing on the triangle) or in it, and the line
+             * from the point then meets it ahead */
+            const Ray from = ray_make(sf->p, r->d, end);
+            if (prim_intersect(x, &from, c->p->variant, &h)) {
+                g->r = from;
+                g->h = h;
+                return 1;
+            }
+        }
         if (behind) {
             skip[ns] = i;
             continue;
         }
-        PrimHit h;
-        g->prim = i;
-        return !prim_intersect(x, r, c->p->variant, &h);
+        return wide || !prim_intersect(x, r, c->p->variant, &h);
     }
-    return 0;
+    return -1;
 }
+
+/* How far from a ray's origin edge_skip() looks for the faces it moves the
+ * ray past: such a face lies within a few offsets of the origin, unless
+ * the ray runs almost along it; the search stops there, which keeps it to
+ * the BVH nodes around the point. */
+static float edge_near(const Surface *sf) { return EDGE_PROBE * (sf->perr.x + sf->perr.y + sf->perr.z); }
 
 /* A ray *r spawned off a triangle near its edge (sf->edge). The faces
  * beyond the edge pass through or close to sf's point, and the spawn
@@ -131,10 +160,7 @@ EDGE_COLD static int edge_behind(const Ctx *c, const Surface *sf, const Ray *r, 
  * for them, which is where edge_behind() starts. */
 EDGE_COLD static float edge_skip(const Ctx *c, const Surface *sf, Ray *r)
 {
-    /* Such a hit lies within a few offsets of the origin, unless the ray
-     * runs almost along that face: the search stops there, which keeps
-     * it to the BVH nodes around the point. */
-    const float near = EDGE_PROBE * (sf->perr.x + sf->perr.y + sf->perr.z);
+    const float near = edge_near(sf);
     for (int step = 0; step < EDGE_STEPS; step++) {
         PrimHit h;
         Ray probe = *r;
@@ -164,11 +190,13 @@ EDGE_COLD static void edge_clear(const Ctx *c, const Surface *sf, Ray *r)
 {
     Givens *w = c->given;
     Given g;
-    const float near = edge_skip(c, sf, r);
-    if (r->tmax > 0.0f && edge_behind(c, sf, r, near, &g) && w->n < EDGE_GIVEN) {
+    const float near = sf->edge == 2 ? edge_near(sf) : edge_skip(c, sf, r);
+    const int got = r->tmax > 0.0f ? edge_behind(c, sf, r, near, &g) : -1;
+    if (got == 1 && w->n < EDGE_GIVEN) {
         w->ray[w->n] = r;
         w->g[w->n++] = g;
-    }
+    } else if (got == 0 && sf->edge == 2)
+        r->tmax = 0.0f; /* the line from the point meets nothing */
 }
 
 /* The first hit edge_clear() found for the ray at r, into g, and no longer
@@ -209,14 +237,23 @@ static int near_edge(const Ctx *c, int prim, const PrimHit *h, Surface *sf)
     return sf->edge;
 }
 
-/* Is the shadow ray r off sf (sf->edge), found blocked, still blocked once
- * it starts past the faces beyond sf's edge? A ray found clear needs no
- * look: a face edge_clear() would move it past would have blocked it. */
-static int blocked_past_edge(const Ctx *c, const Surface *sf, Ray r)
+/* Is the opaque shadow ray r off sf (sf->edge), found blocked when dark,
+ * blocked once it starts past the faces beyond sf's edge, or by a surface
+ * that its origin has passed? Next to an edge, a ray found clear needs no
+ * look: a face edge_clear() would move it past would have blocked it, and
+ * the offset, a few times the point's error, passes over nothing else. A
+ * huge triangle's (edge 2) may pass over a surface standing on it. */
+static int blocked_past_edge(const Ctx *c, const Surface *sf, Ray r, int dark)
 {
     Given g;
+    if (sf->edge == 2) { /* the line from the point tells, as far as it can */
+        const int got = edge_behind(c, sf, &r, edge_near(sf), &g);
+        return got < 0 ? dark : got;
+    }
+    if (!dark)
+        return 0;
     const float near = edge_skip(c, sf, &r);
-    return r.tmax > 0.0f && (accel_occluded(c->a, &r, c->st) || edge_behind(c, sf, &r, near, &g));
+    return r.tmax > 0.0f && (accel_occluded(c->a, &r, c->st) || edge_behind(c, sf, &r, near, &g) == 1);
 }
 
 /* The light that filtered shadows let through along the shadow rays r[k]
@@ -307,8 +344,7 @@ static inline void area_packet(const Ctx *c, PlanShadow mode, const Surface *sf,
     if (mode == PLAN_SHADOW_OPAQUE) {
         unsigned dark = accel_occluded_packet(c->a, sr, n, c->st);
         for (int k = 0; k < n && sf->edge > 0; k++)
-            if (dark >> k & 1 && !blocked_past_edge(c, sf, sr[k]))
-                dark &= ~(1u << k);
+            dark = (dark & ~(1u << k)) | (unsigned)blocked_past_edge(c, sf, sr[k], dark >> k & 1) << k;
         for (int k = 0; k < n; k++)
             t[k] = dark >> k & 1 ? vec3(0, 0, 0) : vec3(1, 1, 1);
     } else {
@@ -654,6 +690,7 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
         Vec3 term[ACCEL_PACKET], lc[ACCEL_PACKET];
         Ray sr[ACCEL_PACKET];
         int lit[ACCEL_PACKET], who[ACCEL_PACKET], ns = 0;
+        unsigned wide = 0; /* the shadow rays off huge triangles (Surface.edge 2) */
         for (int k = 0; k < n; k++) {
             Vec3 L;
             float dist;
@@ -663,6 +700,7 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
             if (together) { /* a point light: one shadow ray, in a packet below */
                 sr[ns] = ray_make(spawn_front(&sf[k], front[k], L), L, light_reach(dist));
                 c->st->shadow++;
+                wide |= (unsigned)(sf[k].edge == 2) << ns;
                 who[ns++] = k;
             } else {
                 near_edge(c, best[k], &h[k], &sf[k]); /* known, for every sample */
@@ -682,10 +720,19 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
             ns = 0;
         }
         unsigned dark = ns ? accel_occluded_packet(c->a, sr, ns, c->st) : 0;
-        for (int j = 0; j < ns; j++)
-            if (dark >> j & 1 &&
-                (!near_edge(c, best[who[j]], &h[who[j]], &sf[who[j]]) || blocked_past_edge(c, &sf[who[j]], sr[j])))
-                lc[who[j]] = vec_mul(lc[who[j]], vec3(0, 0, 0)); /* times a visibility of 0, as light_visibility's */
+        /* the rays found blocked, near an edge looked at again, and every
+         * ray off a huge triangle (blocked_past_edge) */
+        const unsigned look = dark | wide;
+        for (int j = 0; look >> j; j++) {
+            const int k = who[j];
+            int blocked = dark >> j & 1;
+            if (!(look >> j & 1))
+                continue;
+            if (wide >> j & 1 || (blocked && near_edge(c, best[k], &h[k], &sf[k])))
+                blocked = blocked_past_edge(c, &sf[k], sr[j], blocked);
+            if (blocked)
+                lc[k] = vec_mul(lc[k], vec3(0, 0, 0)); /* times a visibility of 0, as light_visibility's */
+        }
         for (int k = 0; k < n; k++)
             if (lit[k])
                 out[k] = vec_add(out[k], vec_mul(lc[k], term[k]));

@@ -587,6 +587,58 @@ static void test_triangle_near_edge(void **state)
     assert_int_equal(prim_near_edge(&sp, &h, &sf), 0);
 }
 
+/* A hit on a triangle 80,000 across, tilted, seen from 10 away: its spawn
+ * margin is wide against the point's distance, so the hit is marked (edge
+ * 2) and its point is the ray's meeting with the plane, within
+ * prim_wide_err of it; from the barycentrics it was up to 0.02 off the
+ * ray. The same triangle a million times smaller, from as far, is not
+ * marked. */
+static void test_huge_triangle_hit(void **state)
+{
+    (void)state;
+    for (int small = 0; small < 2; small++) {
+        const float k = small ? 1e-6f : 1.0f;
+        const Vec3 a = vec3(-40000 * k, -40000 * k, 3 * k), b = vec3(40000 * k, -40000 * k, 7 * k);
+        const Vec3 c = vec3(0, 40000 * k, 5 * k);
+        const Prim p = {PRIM_TRIANGLE, 0, {.tri = {a, b, c, {0, 0, 1}, {0, 0, 1}, {0, 0, 1}}}};
+        for (int i = 0; i < 50; i++) {
+            const Vec3 d = vec3(k * (0.013f * (float)i - 0.3f), k * (0.3f - 0.011f * (float)i), -1.0f);
+            Ray r = ray_make(vec3(0.1f * k, 0.2f * k, 10), d, INFINITY);
+            PrimHit h;
+            Surface sf;
+            assert_true(prim_intersect(&p, &r, PRIM_ROBUST, &h));
+            prim_surface(&p, &r, &h, PRIM_ROBUST, &sf);
+            if (small) {
+                assert_int_equal(sf.edge, -1);
+                continue;
+            }
+            assert_int_equal(sf.edge, 2);
+            assert_true(sf.tri == &p);
+            /* the meeting, in long double from the float data */
+            long double n[3], e1[3], e2[3], ao[3], dd[3] = {d.x, d.y, d.z}, nd = 0, nao = 0;
+            for (int j = 0; j < 3; j++) {
+                e1[j] = (long double)vec_comp(b, j) - vec_comp(a, j);
+                e2[j] = (long double)vec_comp(c, j) - vec_comp(a, j);
+                ao[j] = (long double)vec_comp(a, j) - vec_comp(r.o, j);
+            }
+            for (int j = 0; j < 3; j++) {
+                n[j] = e1[(j + 1) % 3] * e2[(j + 2) % 3] - e1[(j + 2) % 3] * e2[(j + 1) % 3];
+                nd += n[j] * dd[j];
+                nao += n[j] * ao[j];
+            }
+            const long double t = nao / nd;
+            const float err = prim_wide_err(&sf);
+            assert_true(err < 1e-5f);
+            float off = 0.0f;
+            for (int j = 0; j < 3; j++)
+                off += (float)fabsl(vec_comp(sf.p, j) - (vec_comp(r.o, j) + t * dd[j]));
+            if (!(off <= err))
+                print_error("ray %d: point %g off the ray, bound %g\n", i, (double)off, (double)err);
+            assert_true(off <= err);
+        }
+    }
+}
+
 /* prim_past_plane: 1 when the point lies on a flat primitive's plane
  * (within its error bound) or past it along d, 0 when d heads for the
  * plane from in front of it, and 0 for primitives that are not flat. */
@@ -1816,6 +1868,7 @@ int main(void)
         cmocka_unit_test(test_obox_grazing_slab),
         cmocka_unit_test(test_obox_spawn_inside_near_edge),
         cmocka_unit_test(test_triangle_near_edge),
+        cmocka_unit_test(test_huge_triangle_hit),
         cmocka_unit_test(test_past_plane),
         cmocka_unit_test(test_past_plane_of_triangle_hit),
         cmocka_unit_test(test_line_crosses_triangle),

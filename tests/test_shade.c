@@ -593,6 +593,60 @@ static void test_no_self_shadow_in_mesh_groove(void **state)
     }
 }
 
+/* A floor of one triangle 80,000 across: a ray leaving it starts past the
+ * triangle test's error band, which grows with the triangle (0.2 here),
+ * over a box 0.02 high standing on it. The line from the point itself
+ * decides (edge_clear, Surface.edge 2): the floor point at the box's foot,
+ * lit at a low angle across the box, is in its shadow, for a point light
+ * and an area light, opaque and filtered; and a mirror floor there shows
+ * the box's face, not the sky above it. */
+#define HUGE_FLOOR(mat) "triangle { a -40000 0 -40000 b 40000 0 -40000 c 0 0 40000 material " mat " }\n"
+#define LOW_BOX(mat) "box { min 0.01 0 -1 max 1 0.02 1 material " mat " }\n"
+
+static void test_shadow_of_low_box_on_huge_floor(void **state)
+{
+    (void)state;
+    const char *light[2] = {"light { position 10 1 0 }\n",
+                            "light { position 10 1 0 area_u 0 0 0.01 area_v 0 0.01 0 area_samples 2 2 }\n"};
+    const char *glass[2] = {"",
+                            "material g { color 1 1 1 transmit 0.5 }\nsphere { center 0 9 9 radius 1 material g }\n"};
+    for (int l = 0; l < 2; l++)
+        for (int f = 0; f < 2; f++) { /* f 1: a glass ball elsewhere, so shadows are filtered */
+            char extra[1024];
+            snprintf(extra, sizeof extra, "%s%s" HUGE_FLOOR("m") LOW_BOX("m"), light[l], glass[f]);
+            Scene s;
+            load_floorless(&s, extra);
+            assert_vec(trace(&s, vec3(0, 5, 0), vec3(0, -1, 0)), 0.05f, 0.04f, 0.03f, 1e-6); /* ambient alone */
+            scene_free(&s);
+        }
+}
+
+static void test_mirror_of_low_box_on_huge_floor(void **state)
+{
+    (void)state;
+    Scene s;
+    load_floorless(&s, "material mir { color 0 0 0 ambient 0 diffuse 0 reflection 1 }\n"
+                       "material red { color 0.9 0.1 0.1 ambient 1 diffuse 0 }\n" HUGE_FLOOR("mir") LOW_BOX("red"));
+    assert_vec(trace(&s, vec3(-10, 1, 0), vec3(10, -1, 0)), 0.9f, 0.1f, 0.1f, 1e-6);
+    scene_free(&s);
+}
+
+static void test_shadow_of_box_standing_on_huge_pane(void **state)
+{
+    (void)state;
+    /* The box stands on a clear pane of the same size, over a floor 1
+     * below, lit from straight above: the shadow ray from the floor under
+     * the box crosses the pane at the box's foot, where the line from the
+     * pane's point lies on the box. */
+    Scene s;
+    load_floorless(&s, "light { position 0 10 0 }\n"
+                       "material g { color 1 1 1 ambient 0 diffuse 0 transmit 0.5 }\n"
+                       "plane { normal 0 1 0 offset -1 material m }\n" HUGE_FLOOR("g") LOW_BOX("m"));
+    const Vec3 c = trace(&s, vec3(-5, 0.5f, 0.2f), vec3(5.5f, -1.5f, 0)); /* in at x = -3.2, on to (0.5, -1, 0.2) */
+    assert_vec(c, 0.025f, 0.02f, 0.015f, 1e-6);                           /* the floor's ambient, through the pane */
+    scene_free(&s);
+}
+
 static void test_total_internal_reflection(void **state)
 {
     (void)state;
@@ -936,6 +990,8 @@ int main(void)
         cmocka_unit_test(test_shadow_through_thin_apex),
         cmocka_unit_test(test_mesh_box_edge_crossed_once),
         cmocka_unit_test(test_shadow_through_mesh_apex), cmocka_unit_test(test_no_self_shadow_in_mesh_groove),
+        cmocka_unit_test(test_shadow_of_low_box_on_huge_floor), cmocka_unit_test(test_mirror_of_low_box_on_huge_floor),
+        cmocka_unit_test(test_shadow_of_box_standing_on_huge_pane),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

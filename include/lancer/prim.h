@@ -151,10 +151,12 @@ typedef struct {
     int pin_side;
     /* Whether the hit is near a triangle's edge (prim_near_edge): 0 or 1
      * once known, and -1, for a robust triangle's hit, until the caller
-     * asks; 0 for every other hit. */
+     * asks; 2 for a hit on a triangle whose spawn margin is wide against
+     * the point's distance (PRIM_WIDE_MARGIN; a huge triangle), which needs
+     * the same care; 0 for every other hit. */
     int edge;
-    /* Where edge is 1: the triangle, and the hit's barycentrics of its b
-     * and c (prim_near_edge keeps them for prim_past_plane). */
+    /* Where edge is 1 or 2: the triangle, and the hit's barycentrics of
+     * its b and c (prim_near_edge keeps them for prim_past_plane). */
     const Prim *tri;
     float tu, tv;
 } Surface;
@@ -163,6 +165,15 @@ typedef struct {
  * offsets: enough for faces that meet the triangle at an angle down to a
  * few degrees. */
 #define PRIM_EDGE_REACH 16.0
+
+/* A triangle's spawn margin past this fraction of the hit point's largest
+ * coordinate, or of the ray's length to it, sets Surface.edge to 2. The
+ * margin grows with the triangle, not with the coordinates: a floor of two
+ * triangles thousands of units across has one of a tenth of a unit, past
+ * a surface standing on it. The render's coordinates are the camera's
+ * (plan.h), so this is a fraction of the point's distance from the eye, a
+ * few hundredths of a pixel's width at common fields of view. */
+#define PRIM_WIDE_MARGIN 0x1p-12f
 
 typedef enum { PRIM_ROBUST, PRIM_CLASSIC } PrimVariant;
 
@@ -345,13 +356,18 @@ int prim_near_edge(const Prim *p, const PrimHit *h, Surface *s);
  * a triangle's edge (s->edge 1, prim_near_edge) the side is the exact
  * point's, from the triangle's vertices, when none of them lies on the far
  * side of x's plane from another; otherwise, and for other hits, s's
- * point within its error bound counts as on the plane. 0 for the other
- * kinds of x. */
+ * point within its error bound (off a huge triangle, s->edge 2, its own:
+ * prim_wide_err) counts as on the plane. 0 for the other kinds of x. */
 int prim_past_plane(const Prim *x, const Surface *s, Vec3 d);
+/* For a hit on a huge triangle (s->edge 2), a bound on how far s->p lies
+ * from the ray's exact meeting with the triangle's plane, summed over the
+ * coordinates: its own error, short of the spawn margin that perr holds. */
+float prim_wide_err(const Surface *s);
 /* Does the line from the point of a hit near a triangle's edge (s->edge 1,
- * prim_near_edge: b0 a + b1 b + b2 c of s's triangle, in double) along d
- * cross triangle x at a t > 0? Where x's plane is met inside x, to within
- * the roundings of double. The point lies on s's triangle, so a face
+ * prim_near_edge: b0 a + b1 b + b2 c of s's triangle, in double; off a
+ * huge triangle, s->edge 2, s->p within prim_wide_err) along d cross
+ * triangle x at a t > 0? Where x's plane is met inside x, to within the
+ * roundings of double. The point lies on s's triangle, so a face
  * beyond a convex edge, which the line leaves behind, is not crossed,
  * where the offset triangle test, within its error band of the edge, may
  * report it (shade.c, edge_behind). 0 for the other kinds of x. */
