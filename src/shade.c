@@ -718,6 +718,7 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
             for (int j = 0; j < ns; j++)
                 lc[who[j]] = vec_mul(lc[who[j]], vis[j]);
             ns = 0;
+            wide = 0;
         }
         unsigned dark = ns ? accel_occluded_packet(c->a, sr, ns, c->st) : 0;
         /* the rays found blocked, near an edge looked at again, and every

@@ -621,6 +621,20 @@ static void test_shadow_of_low_box_on_huge_floor(void **state)
         }
 }
 
+static void test_filtered_shadow_on_huge_floor(void **state)
+{
+    (void)state;
+    /* a glass ball between the floor point and the light: each of its two
+     * surfaces lets half the light through, on the filtered shadow ray off
+     * a huge triangle */
+    Scene s;
+    load_floorless(&s, "light { position 0 10 0 }\n"
+                       "material g { color 1 1 1 ambient 0 diffuse 0 transmit 0.5 }\n"
+                       "sphere { center 0 5 0 radius 1 material g }\n" HUGE_FLOOR("m"));
+    assert_vec(trace(&s, EYE, DIR), 0.125f, 0.1f, 0.075f, 1e-6); /* ambient 0.1, diffuse 0.6 times 0.25 */
+    scene_free(&s);
+}
+
 static void test_mirror_of_low_box_on_huge_floor(void **state)
 {
     (void)state;
@@ -991,7 +1005,7 @@ int main(void)
         cmocka_unit_test(test_mesh_box_edge_crossed_once),
         cmocka_unit_test(test_shadow_through_mesh_apex), cmocka_unit_test(test_no_self_shadow_in_mesh_groove),
         cmocka_unit_test(test_shadow_of_low_box_on_huge_floor), cmocka_unit_test(test_mirror_of_low_box_on_huge_floor),
-        cmocka_unit_test(test_shadow_of_box_standing_on_huge_pane),
+        cmocka_unit_test(test_shadow_of_box_standing_on_huge_pane), cmocka_unit_test(test_filtered_shadow_on_huge_floor),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
