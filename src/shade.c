@@ -22,7 +22,10 @@
 #define EDGE_STEPS 8
 #define EDGE_PROBE (4.0f * (float)PRIM_EDGE_REACH)
 /* The first hits edge_clear() finds that wait for their rays' traces, at
- * most: a packet's refracted and mirror rays at each level of a path. */
+ * most. A packet's refracted rays wait together, then its mirror rays: a
+ * packet's worth, and room for the bent rays still waiting where others
+ * went straight through, each traced at once, a level deeper. Past it, a
+ * ray is traced as it starts. */
 #define EDGE_GIVEN 16
 /* Out of line and away from the shading's loops: the work for rays next
  * to a mesh's edge, which few rays do. */
@@ -784,8 +787,6 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
         if (worth(c, w)) {
             rw[nr] = w;
             mirror_ray(c, &r[k], &sf[k], front[k], &rr[nr]);
-            if (near_edge(c, best[k], &h[k], &sf[k]))
-                edge_clear(c, &sf[k], &rr[nr]);
             rin[nr] = in[k];
             rwho[nr++] = k;
         }
@@ -803,6 +804,11 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
                 out[twho[j]] = vec_add(out[twho[j]], vec_mul(tf[j], got[j]));
     }
     if (nr) {
+        /* past a mesh's edge only now, once the refracted rays' hits that
+         * edge_clear() found are taken: at most a packet's wait at once */
+        for (int j = 0; j < nr; j++)
+            if (near_edge(c, best[rwho[j]], &h[rwho[j]], &sf[rwho[j]]))
+                edge_clear(c, &sf[rwho[j]], &rr[j]);
         accel_closest_packet(c->a, rr, nr, h2, best2, c->st);
         if (c->given->n)
             given(c, rr, nr, h2, best2);
