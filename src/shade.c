@@ -152,6 +152,12 @@ EDGE_COLD static int edge_behind(const Ctx *c, const Surface *sf, const Ray *r, 
  * the BVH nodes around the point. */
 static float edge_near(const Surface *sf) { return EDGE_PROBE * (sf->perr.x + sf->perr.y + sf->perr.z); }
 
+/* Where edge_behind() starts, behind the point of a hit on a huge triangle
+ * (sf->edge 2): that point lies within its own error bound of the ray's
+ * meeting with the plane, far less than the margin, so the line need start
+ * only a few of those behind it, past fewer surfaces. */
+static float wide_near(const Surface *sf) { return EDGE_PROBE * prim_wide_err(sf); }
+
 /* A ray *r spawned off a triangle near its edge (sf->edge). The faces
  * beyond the edge pass through or close to sf's point, and the spawn
  * offset, which clears the plane of the triangle hit alone, may take the
@@ -193,7 +199,7 @@ EDGE_COLD static void edge_clear(const Ctx *c, const Surface *sf, Ray *r)
 {
     Givens *w = c->given;
     Given g;
-    const float near = sf->edge == 2 ? edge_near(sf) : edge_skip(c, sf, r);
+    const float near = sf->edge == 2 ? wide_near(sf) : edge_skip(c, sf, r);
     const int got = r->tmax > 0.0f ? edge_behind(c, sf, r, near, &g) : -1;
     if (got == 1 && w->n < EDGE_GIVEN) {
         w->ray[w->n] = r;
@@ -250,7 +256,7 @@ static int blocked_past_edge(const Ctx *c, const Surface *sf, Ray r, int dark)
 {
     Given g;
     if (sf->edge == 2) { /* the line from the point tells, as far as it can */
-        const int got = edge_behind(c, sf, &r, edge_near(sf), &g);
+        const int got = edge_behind(c, sf, &r, wide_near(sf), &g);
         return got < 0 ? dark : got;
     }
     if (!dark)

@@ -635,6 +635,23 @@ static void test_filtered_shadow_on_huge_floor(void **state)
     scene_free(&s);
 }
 
+static void test_shadow_on_huge_floor_over_slabs(void **state)
+{
+    (void)state;
+    /* the same shadow with twelve slabs under the floor: the line's search
+     * passes at most EDGE_STEPS surfaces behind the point, and it starts
+     * only a few of the point's own errors behind it, not past the slabs */
+    char extra[4096];
+    int at = snprintf(extra, sizeof extra, "light { position 10 1 0 }\n" HUGE_FLOOR("m") LOW_BOX("m"));
+    for (int i = 1; i <= 12; i++)
+        at += snprintf(extra + at, sizeof extra - (size_t)at, "box { min -50 %g -50 max 50 %g 50 material m }\n",
+                       -0.3 * i, 0.1 - 0.3 * i);
+    Scene s;
+    load_floorless(&s, extra);
+    assert_vec(trace(&s, vec3(0, 5, 0), vec3(0, -1, 0)), 0.05f, 0.04f, 0.03f, 1e-6);
+    scene_free(&s);
+}
+
 static void test_mirror_of_low_box_on_huge_floor(void **state)
 {
     (void)state;
@@ -1006,6 +1023,7 @@ int main(void)
         cmocka_unit_test(test_shadow_through_mesh_apex), cmocka_unit_test(test_no_self_shadow_in_mesh_groove),
         cmocka_unit_test(test_shadow_of_low_box_on_huge_floor), cmocka_unit_test(test_mirror_of_low_box_on_huge_floor),
         cmocka_unit_test(test_shadow_of_box_standing_on_huge_pane), cmocka_unit_test(test_filtered_shadow_on_huge_floor),
+        cmocka_unit_test(test_shadow_on_huge_floor_over_slabs),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
