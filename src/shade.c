@@ -104,7 +104,8 @@ static float toward(Vec3 p, Vec3 q, Vec3 *dir)
  * EDGE_STEPS lie behind.
  * Off a huge triangle (sf->edge 2) the offset may take r's origin into a
  * solid standing on it, where r meets its far side: the line, searched
- * to r's end, is the answer, 1 when it meets a surface, 0 when none. */
+ * to r's end, is the answer, 1 when it meets a surface, 0 when none; a
+ * solid that the point lies on or in counts by its hit from the point. */
 EDGE_COLD static int edge_behind(const Ctx *c, const Surface *sf, const Ray *r, float near, Given *g)
 {
     const int wide = sf->edge == 2;
@@ -112,10 +113,15 @@ EDGE_COLD static int edge_behind(const Ctx *c, const Surface *sf, const Ray *r, 
     g->r = ray_make(vec_madd(sf->p, r->d, -near), r->d, near + (wide || end < near ? end : near));
     const float err = wide ? prim_wide_err(sf) : 0.0f;
     int skip[EDGE_STEPS];
+    int solid = -1; /* a solid met behind that the line from the point meets ahead, at ht */
+    PrimHit ht;
+    int past = 0; /* 1 once the line has nothing more to meet */
     for (int ns = 0; ns < EDGE_STEPS; ns++) {
         const int i = accel_closest_except(c->a, &g->r, skip, ns, &g->h, c->st);
-        if (i < 0)
-            return 0;
+        if (i < 0) {
+            past = 1;
+            break;
+        }
         const Prim *x = &c->s->prims[i];
         const int tri = x->kind == PRIM_TRIANGLE || x->kind == PRIM_SMOOTH_TRIANGLE;
         /* ahead of the point by more than the two errors: the hit's, and
@@ -125,25 +131,33 @@ EDGE_COLD static int edge_behind(const Ctx *c, const Surface *sf, const Ray *r, 
                            : x->kind == PRIM_PLANE ? prim_past_plane(x, sf, r->d)
                                                    : g->h.t <= near;
         PrimHit h;
-        g->prim = i;
         if (behind && wide && !tri && x->kind != PRIM_PLANE) {
             /* a solid met at or behind the point: the point may lie on it
-             * (a box standing on the triangle) or in it, and the line
-             * from the point then meets it ahead */
+             * (a box standing on the triangle) or in it, and the line from
+             * the point then meets it ahead, unless another surface comes
+             * first */
             const Ray from = ray_make(sf->p, r->d, end);
-            if (prim_intersect(x, &from, c->p->variant, &h)) {
-                g->r = from;
-                g->h = h;
-                return 1;
+            if (prim_intersect(x, &from, c->p->variant, &h) && (solid < 0 || h.t < ht.t)) {
+                solid = i;
+                ht = h;
             }
         }
         if (behind) {
             skip[ns] = i;
             continue;
         }
+        if (solid >= 0 && ht.t < g->h.t - near)
+            break;
+        g->prim = i;
         return wide || !prim_intersect(x, r, c->p->variant, &h);
     }
-    return -1;
+    if (solid >= 0) {
+        g->r = ray_make(sf->p, r->d, end);
+        g->h = ht;
+        g->prim = solid;
+        return 1;
+    }
+    return past ? 0 : -1;
 }
 
 /* How far from a ray's origin edge_skip() looks for the faces it moves the

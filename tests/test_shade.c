@@ -652,6 +652,21 @@ static void test_shadow_on_huge_floor_over_slabs(void **state)
     scene_free(&s);
 }
 
+static void test_ball_in_glass_box_on_huge_pane(void **state)
+{
+    (void)state;
+    /* Seen from below through a clear pane, a clear box sunk 10^-6 into
+     * it holds a red ball: the line from the pane's point starts inside
+     * the box and meets it again at its top, but the ball first. */
+    Scene s;
+    load_floorless(&s, "material g { color 1 1 1 ambient 0 diffuse 0 transmit 1 }\n"
+                       "material red { color 0.9 0.1 0.1 ambient 1 diffuse 0 }\n"
+                       "box { min -1 -1e-6 -1 max 1 1 1 material g }\n"
+                       "sphere { center 0.3 0.5 0.2 radius 0.3 material red }\n" HUGE_FLOOR("g"));
+    assert_vec(trace(&s, vec3(0.3f, -5, 0.2f), vec3(0, 1, 0)), 0.9f, 0.1f, 0.1f, 1e-6);
+    scene_free(&s);
+}
+
 static void test_mirror_of_low_box_on_huge_floor(void **state)
 {
     (void)state;
@@ -1023,7 +1038,7 @@ int main(void)
         cmocka_unit_test(test_shadow_through_mesh_apex), cmocka_unit_test(test_no_self_shadow_in_mesh_groove),
         cmocka_unit_test(test_shadow_of_low_box_on_huge_floor), cmocka_unit_test(test_mirror_of_low_box_on_huge_floor),
         cmocka_unit_test(test_shadow_of_box_standing_on_huge_pane), cmocka_unit_test(test_filtered_shadow_on_huge_floor),
-        cmocka_unit_test(test_shadow_on_huge_floor_over_slabs),
+        cmocka_unit_test(test_shadow_on_huge_floor_over_slabs), cmocka_unit_test(test_ball_in_glass_box_on_huge_pane),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
