@@ -112,11 +112,13 @@ EDGE_COLD static int edge_behind(const Ctx *c, const Surface *sf, const Ray *r, 
     const float end = vec_dot(vec_sub(r->o, sf->p), r->d) + r->tmax; /* r's end, from the point */
     g->r = ray_make(vec_madd(sf->p, r->d, -near), r->d, near + (wide || end < near ? end : near));
     const float err = wide ? prim_wide_err(sf) : 0.0f;
-    int skip[EDGE_STEPS];
+    int skip[EDGE_STEPS + 1], ns = 0;
+    if (wide) /* the triangle itself, which the line crosses at the point */
+        skip[ns++] = (int)(sf->tri - c->s->prims);
     int solid = -1; /* a solid met behind that the line from the point meets ahead, at ht */
     PrimHit ht;
     int past = 0; /* 1 once the line has nothing more to meet */
-    for (int ns = 0; ns < EDGE_STEPS; ns++) {
+    for (int step = 0; step < EDGE_STEPS; step++) {
         const int i = accel_closest_except(c->a, &g->r, skip, ns, &g->h, c->st);
         if (i < 0) {
             past = 1;
@@ -143,7 +145,7 @@ EDGE_COLD static int edge_behind(const Ctx *c, const Surface *sf, const Ray *r, 
             }
         }
         if (behind) {
-            skip[ns] = i;
+            skip[ns++] = i;
             continue;
         }
         if (solid >= 0 && ht.t < g->h.t - near)
