@@ -1098,8 +1098,9 @@ static void tri_wide_hit(const Prim *p, const Ray *r, const PrimHit *h, Surface 
     tri_normal_d(&p->g.tri, n, NULL);
     d3_sub(ao, p->g.tri.a, r->o);
     const double t = d3_dot(n, ao) / d3_dot(n, d);
-    if (isfinite(t))
-        s->p = vec3((float)(r->o.x + t * d[0]), (float)(r->o.y + t * d[1]), (float)(r->o.z + t * d[2]));
+    if (!(t > 0.0) || !isfinite(t))
+        return; /* a ray that leaves the plane, hit within the test's band of t = 0: it keeps its margin */
+    s->p = vec3((float)(r->o.x + t * d[0]), (float)(r->o.y + t * d[1]), (float)(r->o.z + t * d[2]));
     s->edge = 2;
     s->tri = p;
     s->tu = h->u;

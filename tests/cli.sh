@@ -466,7 +466,7 @@ has "$T/err" "adc1.scn:1:40: image: 'adc_bailout' must be a number from 0 up to 
 printf 'camera { eye 0 2 -6 target 0 0 0 fov 40 }\nlight { position 0 5 0 area_adaptive 1 }\n' >"$T/ad.scn"
 expect 1 "$LANCER" render "$T/ad.scn" -o "$T/ad.exr"
 has "$T/err" "ad.scn:2:24: light: 'area_adaptive' is for an area light"
-for scn in scenes/*.scn scenes/parity/*.scn scenes/stability/*.scn; do
+for scn in scenes/*.scn scenes/parity/*.scn scenes/stability/*.scn tests/parity/*.scn; do
     case $scn in *bunny*) [ -e build/cgal-data/meshes/bunny00.off ] || continue ;; esac
     expect 0 "$LANCER" render "$scn" -o "$T/planned.exr" --float --width 96 --height 72 -q
     expect 0 "$LANCER" render "$scn" -o "$T/full.exr" --float --width 96 --height 72 --no-plan -q

@@ -639,6 +639,32 @@ static void test_huge_triangle_hit(void **state)
     }
 }
 
+/* Rays leaving a point within 0.01 above a triangle 80,000 across: the
+ * test keeps a t within its error band of 0, so some of them hit it just
+ * behind their origins. Such a hit is not marked huge: its point, the
+ * ray's meeting with the plane, would lie behind the ray, and a ray off it
+ * would go back (a loop without end through a glass ball standing there). */
+static void test_huge_triangle_hit_behind(void **state)
+{
+    (void)state;
+    const Prim p = {PRIM_TRIANGLE,
+                    0,
+                    {.tri = {{-40000, 0, -40000}, {40000, 0, -40000}, {0, 0, 40000}, {0, 0, 1}, {0, 0, 1}, {0, 0, 1}}}};
+    int hits = 0;
+    for (int i = 0; i < 2000; i++) {
+        const Vec3 d = vec_normalize(vec3(0.1f * (float)(i / 100) - 1.0f, 0.3f, 0.7f));
+        Ray r = ray_make(vec3(0.3f, 1e-4f * (float)(i % 100 + 1), 0.2f), d, INFINITY);
+        PrimHit h;
+        Surface sf;
+        if (!prim_intersect(&p, &r, PRIM_ROBUST, &h))
+            continue;
+        hits++;
+        prim_surface(&p, &r, &h, PRIM_ROBUST, &sf);
+        assert_int_not_equal(sf.edge, 2);
+    }
+    assert_true(hits > 0); /* the band's hits are there to be looked at */
+}
+
 /* prim_past_plane: 1 when the point lies on a flat primitive's plane
  * (within its error bound) or past it along d, 0 when d heads for the
  * plane from in front of it, and 0 for primitives that are not flat. */
@@ -1869,6 +1895,7 @@ int main(void)
         cmocka_unit_test(test_obox_spawn_inside_near_edge),
         cmocka_unit_test(test_triangle_near_edge),
         cmocka_unit_test(test_huge_triangle_hit),
+        cmocka_unit_test(test_huge_triangle_hit_behind),
         cmocka_unit_test(test_past_plane),
         cmocka_unit_test(test_past_plane_of_triangle_hit),
         cmocka_unit_test(test_line_crosses_triangle),
