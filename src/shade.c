@@ -56,6 +56,7 @@ typedef struct {
     const Accel *a;
     RayStats *st;
     Givens *given;
+    int *continued; /* continued rays in the recursion now (LIMIT_CONTINUED) */
 } Ctx;
 
 /* Light attenuation: 2 / (1 + (d/fade_distance)^fade_power), or 1. */
@@ -619,7 +620,7 @@ static Vec3 trace(const Ctx *c, const Ray *r, int level, int continued, const In
 {
     Given g;
     const int got = c->given->n && take(c, r, &g); /* edge_clear() found its first hit */
-    if (level >= c->p->max_depth)
+    if (level >= c->p->max_depth || (continued && *c->continued >= LIMIT_CONTINUED))
         return vec3(0, 0, 0);
     if (!continued)
         level++;
@@ -632,7 +633,9 @@ static Vec3 trace(const Ctx *c, const Ray *r, int level, int continued, const In
     } else
         i = accel_closest(c->a, r, &h, c->st);
     Vec3 col;
+    *c->continued += continued;
     shade_packet(c, r, 1, &i, &h, level, &in, &wt, &col);
+    *c->continued -= continued;
     return col;
 }
 
@@ -668,7 +671,8 @@ Vec3 shade_trace(const RenderPlan *p, const Accel *a, const Ray *r, RayStats *st
 {
     Givens given;
     given.n = 0;
-    Ctx c = {p, p->scene, a, st, &given};
+    int continued = 0;
+    Ctx c = {p, p->scene, a, st, &given, &continued};
     return trace(&c, r, 0, 0, &p->camera_in, 1.0f);
 }
 
@@ -850,7 +854,8 @@ void shade_traced_packet(const RenderPlan *p, const Accel *a, const Ray *r, int 
         in[k] = &p->camera_in;
     Givens given;
     given.n = 0;
-    Ctx c = {p, p->scene, a, st, &given};
+    int continued = 0;
+    Ctx c = {p, p->scene, a, st, &given, &continued};
     for (int k = 0; k < n; k += ACCEL_PACKET) {
         int m = n - k < ACCEL_PACKET ? n - k : ACCEL_PACKET;
         if (p->max_depth < 1) /* as trace() at level 0 */

@@ -693,6 +693,31 @@ static void test_shadow_of_box_standing_on_huge_pane(void **state)
     scene_free(&s);
 }
 
+static void test_continued_rays_cut(void **state)
+{
+    (void)state;
+    /* A ray through clear planes goes straight through each, at its level
+     * (a continued ray): through 200 it reaches the background, and past
+     * LIMIT_CONTINUED in a row it is cut, black, as past max_depth. */
+    const int count[2] = {200, LIMIT_CONTINUED + 44};
+    for (int t = 0; t < 2; t++) {
+        static char text[64 * 400];
+        char err[512];
+        int at = snprintf(text, sizeof text, "%smaterial g { color 1 1 1 ambient 0 diffuse 0 transmit 1 }\n",
+                          floor_scene);
+        for (int k = 1; k <= count[t]; k++)
+            at += snprintf(text + at, sizeof text - (size_t)at, "plane { normal 0 0 1 offset %d material g }\n", k);
+        Scene s;
+        assert_int_equal(scene_parse("t.scn", text, strlen(text), &s, err, sizeof err), 0);
+        const Vec3 c = trace(&s, vec3(0, 1, 0), vec3(0, 0, 1));
+        if (t == 0)
+            assert_vec(c, 0.2f, 0.4f, 0.6f, 1e-6);
+        else
+            assert_vec(c, 0.0f, 0.0f, 0.0f, 0.0);
+        scene_free(&s);
+    }
+}
+
 static void test_total_internal_reflection(void **state)
 {
     (void)state;
@@ -1039,6 +1064,7 @@ int main(void)
         cmocka_unit_test(test_shadow_of_low_box_on_huge_floor), cmocka_unit_test(test_mirror_of_low_box_on_huge_floor),
         cmocka_unit_test(test_shadow_of_box_standing_on_huge_pane), cmocka_unit_test(test_filtered_shadow_on_huge_floor),
         cmocka_unit_test(test_shadow_on_huge_floor_over_slabs), cmocka_unit_test(test_ball_in_glass_box_on_huge_pane),
+        cmocka_unit_test(test_continued_rays_cut),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

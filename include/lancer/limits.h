@@ -41,9 +41,13 @@
 #define LIMIT_NUMBER_CHARS 255
 
 /* Transparent solids a ray is tracked inside at once (deeper nesting is
- * not tracked), and transparent surfaces a shadow ray crosses. */
+ * not tracked), transparent surfaces a shadow ray crosses, and surfaces a
+ * path passes straight through in a row (POV-Ray's continued rays, which
+ * keep their trace level; past it, black, as past max_depth: each one is a
+ * level of the recursion). */
 #define LIMIT_INTERIORS 16
 #define LIMIT_SHADOW_CROSSINGS 256
+#define LIMIT_CONTINUED 256
 
 /* Elements and properties a PLY header declares, in all: real files have
  * a few dozen, and each name is checked against those before it. */
