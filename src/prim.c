@@ -1201,9 +1201,10 @@ int prim_past_plane(const Prim *x, const Surface *s, Vec3 d)
     double err;
     const double p[3] = {s->p.x, s->p.y, s->p.z};
     const double sp = plane_side(n, x0, mag, p, &err);
-    const float wide = s->edge == 2 ? prim_wide_err(s) : 0.0f; /* p's own, not the margin */
+    const float w = s->edge == 2 ? prim_wide_err(s) : 0.0f;
+    const Vec3 pe = s->edge == 2 ? vec3(w, w, w) : s->perr; /* off a huge triangle, p's own, not the margin */
     for (int i = 0; i < 3; i++) /* and p's error bound */
-        err += fabs(n[i]) * (s->edge == 2 ? wide : vec_comp(s->perr, i));
+        err += fabs(n[i]) * vec_comp(pe, i);
     return nd > 0.0 ? sp >= -err : nd < 0.0 ? sp <= err : 1;
 }
 

@@ -163,12 +163,6 @@ EDGE_COLD static int edge_behind(const Ctx *c, const Surface *sf, const Ray *r, 
     return past ? 0 : -1;
 }
 
-/* How far from a ray's origin edge_skip() looks for the faces it moves the
- * ray past: such a face lies within a few offsets of the origin, unless
- * the ray runs almost along it; the search stops there, which keeps it to
- * the BVH nodes around the point. */
-static float edge_near(const Surface *sf) { return EDGE_PROBE * (sf->perr.x + sf->perr.y + sf->perr.z); }
-
 /* Where edge_behind() starts, behind the point of a hit on a huge triangle
  * (sf->edge 2): that point lies within its own error bound of the ray's
  * meeting with the plane, far less than the margin, so the line need start
@@ -186,7 +180,10 @@ static float wide_near(const Surface *sf) { return EDGE_PROBE * prim_wide_err(sf
  * for them, which is where edge_behind() starts. */
 EDGE_COLD static float edge_skip(const Ctx *c, const Surface *sf, Ray *r)
 {
-    const float near = edge_near(sf);
+    /* Such a hit lies within a few offsets of the origin, unless the ray
+     * runs almost along that face: the search stops there, which keeps
+     * it to the BVH nodes around the point. */
+    const float near = EDGE_PROBE * (sf->perr.x + sf->perr.y + sf->perr.z);
     for (int step = 0; step < EDGE_STEPS; step++) {
         PrimHit h;
         Ray probe = *r;
