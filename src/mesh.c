@@ -182,11 +182,11 @@ int mesh_vertex_normals(Mesh *m, char *err, size_t errlen)
         mesh_drop_normals(m);
         return 0;
     }
-    size_t nv = (size_t)m->nv, nt = (size_t)m->nt;
+    size_t nv = (size_t)m->nv, nt = (size_t)m->nt, all = nt + (size_t)m->nline;
     double *acc = mesh_array(NULL, 0, nv, 3 * sizeof *acc);
     unsigned char *state = mesh_array(NULL, 0, nv, 1); /* 0 unused, 1 used, 2 waiting for a fallback */
     Vec3 *n = mesh_array(NULL, 0, nv, sizeof *n);
-    int(*ntri)[3] = mesh_array(NULL, 0, nt, sizeof *ntri);
+    int(*ntri)[3] = mesh_array(NULL, 0, all, sizeof *ntri);
     if (!acc || !state || !n || !ntri) {
         MESH_FREE(acc), MESH_FREE(state), MESH_FREE(n), MESH_FREE(ntri);
         snprintf(err, errlen, "out of memory for the normals of %d vertices", m->nv);
@@ -234,7 +234,7 @@ int mesh_vertex_normals(Mesh *m, char *err, size_t errlen)
             }
         }
     }
-    memcpy(ntri, m->tri, nt * sizeof *ntri);
+    memcpy(ntri, m->tri, all * sizeof *ntri); /* (the collinear ones' corners too: no area, no weight) */
     MESH_FREE(acc);
     MESH_FREE(state);
     mesh_drop_normals(m);
@@ -247,8 +247,10 @@ int mesh_vertex_normals(Mesh *m, char *err, size_t errlen)
 int mesh_validate(const Mesh *m, char *err, size_t errlen)
 {
 #define BAD(...) return snprintf(err, errlen, __VA_ARGS__), -1
-    if (m->nv < 0 || m->nn < 0 || m->nt < 0 || m->degenerate < 0)
+    if (m->nv < 0 || m->nn < 0 || m->nt < 0 || m->nline < 0 || m->degenerate < 0)
         BAD("negative count");
+    if (m->nt == 0 && m->nline > 0)
+        BAD("%d collinear triangles without triangles", m->nline);
     if ((m->nv > 0) != (m->v != NULL))
         BAD("nv is %d but v is %s", m->nv, m->v ? "set" : "NULL");
     if ((m->nt > 0) != (m->tri != NULL))
@@ -263,15 +265,17 @@ int mesh_validate(const Mesh *m, char *err, size_t errlen)
     for (int i = 0; i < m->nn; i++)
         if (!vec_is_finite(m->n[i]))
             BAD("normal %d is not finite", i);
-    for (int i = 0; i < m->nt; i++) {
+    for (int i = 0; i < m->nt + m->nline; i++) {
         for (int k = 0; k < 3; k++) {
             if (m->tri[i][k] < 0 || m->tri[i][k] >= m->nv)
                 BAD("triangle %d: vertex index %d out of range (%d vertices)", i, m->tri[i][k], m->nv);
             if (m->ntri && (m->ntri[i][k] < 0 || m->ntri[i][k] >= m->nn))
                 BAD("triangle %d: normal index %d out of range (%d normals)", i, m->ntri[i][k], m->nn);
         }
-        if (mesh_tri_degenerate(m->v, m->tri[i]))
+        if (i < m->nt && mesh_tri_degenerate(m->v, m->tri[i]))
             BAD("triangle %d has zero area", i);
+        if (i >= m->nt && !mesh_tri_line(m->v, m->tri[i]))
+            BAD("triangle %d is not collinear with three distinct corners", i);
     }
 #undef BAD
     return 0;

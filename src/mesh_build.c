@@ -11,7 +11,8 @@
  * so the triangle array grows as it fills; its length is checked against
  * INT_MAX.
  *
- * mesh_finish() drops triangles of zero area. The test is exact: the cross
+ * mesh_finish() drops triangles of zero area, but for the collinear ones
+ * of distinct corners, which it keeps after the others (mesh.h). The test is exact: the cross
  * product (b-a) x (c-a) equals a x b + b x c + c x a, and each component of
  * that is a sum of six products of two floats. A product of two floats is
  * exact in double (24 + 24 bits < 53, and its exponent is in range), and
@@ -186,6 +187,17 @@ int mesh_tri_degenerate(const Vec3 *v, const int c[3])
     return c[0] == c[1] || c[1] == c[2] || c[0] == c[2] || collinear(v[c[0]], v[c[1]], v[c[2]]);
 }
 
+/* A degenerate triangle (mesh_tri_degenerate) that mesh_finish keeps:
+ * three distinct corners, not all at one point (so collinear). */
+static int line_corners(const Vec3 *v, const int c[3])
+{
+    const Vec3 a = v[c[0]], b = v[c[1]], d = v[c[2]];
+    const int one_point = a.x == b.x && a.y == b.y && a.z == b.z && a.x == d.x && a.y == d.y && a.z == d.z;
+    return c[0] != c[1] && c[1] != c[2] && c[0] != c[2] && !one_point;
+}
+
+int mesh_tri_line(const Vec3 *v, const int c[3]) { return line_corners(v, c) && mesh_tri_degenerate(v, c); }
+
 void mesh_drop_normals(Mesh *m)
 {
     MESH_FREE(m->n);
@@ -198,10 +210,28 @@ void mesh_drop_normals(Mesh *m)
 int mesh_finish(const LexReader *R, MeshBuild *B, int vertex_normals)
 {
     Mesh *m = &B->m;
-    int k = 0;
+    /* The triangles with area first, in the file's order, then the
+     * collinear ones of distinct corners (mesh.h), set aside meanwhile. */
+    int(*line)[3] = NULL, (*line_n)[3] = NULL, cap = 0, cap_n = 0, nline = 0, k = 0;
     for (int i = 0; i < m->nt; i++) {
         if (mesh_tri_degenerate(m->v, m->tri[i])) {
-            m->degenerate++;
+            if (!line_corners(m->v, m->tri[i])) {
+                m->degenerate++;
+                continue;
+            }
+            int(*g)[3] = mesh_grow(line, &cap, nline, 16, sizeof *line);
+            int(*gn)[3] = g && m->ntri ? mesh_grow(line_n, &cap_n, nline, 16, sizeof *line_n) : line_n;
+            line = g ? g : line;
+            line_n = gn ? gn : line_n;
+            if (!g || (m->ntri && !gn)) {
+                MESH_FREE(line);
+                MESH_FREE(line_n);
+                return lex_fail_eof(R, "out of memory for %d triangles", nline + 1);
+            }
+            memcpy(line[nline], m->tri[i], sizeof line[0]);
+            if (m->ntri)
+                memcpy(line_n[nline], m->ntri[i], sizeof line_n[0]);
+            nline++;
             continue;
         }
         if (k != i) {
@@ -211,25 +241,36 @@ int mesh_finish(const LexReader *R, MeshBuild *B, int vertex_normals)
         }
         k++;
     }
+    if (k == 0) /* no triangle with area: none at all (mesh.h) */
+        m->degenerate += nline, nline = 0;
+    if (nline) { /* (into the room the dropped and set-aside ones left) */
+        memcpy(m->tri + k, line, (size_t)nline * sizeof *line);
+        if (m->ntri)
+            memcpy(m->ntri + k, line_n, (size_t)nline * sizeof *line_n);
+    }
+    MESH_FREE(line);
+    MESH_FREE(line_n);
     m->nt = k;
+    m->nline = nline;
     if (k == 0) {
         MESH_FREE(m->tri);
         m->tri = NULL;
         mesh_drop_normals(m);
         return 0;
     }
-    if ((size_t)k < B->cap_t) { /* shrinking: failure only means the memory stays */
-        void *t = mesh_array(m->tri, (size_t)k, (size_t)k, sizeof *m->tri);
+    const int all = k + nline;
+    if ((size_t)all < B->cap_t) { /* shrinking: failure only means the memory stays */
+        void *t = mesh_array(m->tri, (size_t)all, (size_t)all, sizeof *m->tri);
         if (t)
             m->tri = t;
-        if (m->ntri && (t = mesh_array(m->ntri, (size_t)k, (size_t)k, sizeof *m->ntri)) != NULL)
+        if (m->ntri && (t = mesh_array(m->ntri, (size_t)all, (size_t)all, sizeof *m->ntri)) != NULL)
             m->ntri = t;
     }
     if (vertex_normals && m->n) {
-        m->ntri = mesh_array(NULL, 0, (size_t)k, sizeof *m->ntri);
+        m->ntri = mesh_array(NULL, 0, (size_t)all, sizeof *m->ntri);
         if (!m->ntri)
-            return lex_fail_eof(R, "out of memory for %d triangles", k);
-        memcpy(m->ntri, m->tri, (size_t)k * sizeof *m->tri);
+            return lex_fail_eof(R, "out of memory for %d triangles", all);
+        memcpy(m->ntri, m->tri, (size_t)all * sizeof *m->tri);
     }
     return 0;
 }

@@ -55,6 +55,9 @@ int mesh_fan_corner(const LexReader *R, MeshBuild *B, long long j, int v, int n,
 /* 1 when triangle c of vertices v has zero area: two corners repeated, or
  * all three collinear, decided exactly on the float coordinates. */
 int mesh_tri_degenerate(const Vec3 *v, const int c[3]);
+/* 1 when it is degenerate with three distinct corners not all at one
+ * point: the collinear triangles a mesh keeps apart (mesh.h). */
+int mesh_tri_line(const Vec3 *v, const int c[3]);
 /* Frees the normals: the mesh has none. */
 void mesh_drop_normals(Mesh *m);
 /* Drops degenerate triangles, trims the arrays, and with vertex_normals

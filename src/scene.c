@@ -1438,7 +1438,7 @@ static int parse_mesh(Parser *P, Loc at)
                        : scene_add_mesh(P->s, &m, mat, smooth, xf, &dropped);
     P->cap_prims = P->cap_place = P->s->nprims; /* the arrays hold at least this many */
     P->cap_patches = P->s->npatches;
-    P->s->degenerate += m.degenerate + dropped;
+    P->s->degenerate += m.degenerate + dropped + (v[PN].set ? 0 : m.nline);
     mesh_free(&m);
     if (rc != 0)
         return fail(P, at, "mesh: out of memory");
@@ -1526,9 +1526,13 @@ static int dispatch_statement(Parser *P, Token kw)
     return fail(P, kw.loc, "unknown keyword %s", tok_desc(&kw, buf, sizeof buf)); /* not reached */
 }
 
+static int has_length(Vec3 v);
+
 /* Triangle i of m mapped by xf into p (double) and, with normals (n not
  * NULL), its vertex normals too. Returns 0 for a triangle to drop: no area,
- * or a point out of float range. */
+ * or a point out of float range. One of m's collinear triangles (i >= nt,
+ * for a PN patch) needs no area, but its corners not all at one point
+ * once rounded, and normals of some length to bend its edges by. */
 static int placed_triangle(const Mesh *m, int i, const double *xf, double p[3][3], Vec3 *n)
 {
     int ok = 1;
@@ -1544,6 +1548,11 @@ static int placed_triangle(const Mesh *m, int i, const double *xf, double p[3][3
             n[k] = round3(d);
             ok = ok && vec_is_finite(n[k]);
         }
+    }
+    if (i >= m->nt) {
+        const Vec3 a = round3(p[0]), b = round3(p[1]), c = round3(p[2]);
+        const int one_point = a.x == b.x && a.y == b.y && a.z == b.z && b.x == c.x && b.y == c.y && b.z == c.z;
+        return ok && !one_point && has_length(n[0]) && has_length(n[1]) && has_length(n[2]);
     }
     return ok && tri_has_area_d(p[0], p[1], p[2]);
 }
@@ -1605,15 +1614,16 @@ static void link_patches(Scene *s)
 
 int scene_add_pn_mesh(Scene *s, const Mesh *m, int material, int mode, const double *xf, int *dropped)
 {
-    size_t needp = (size_t)s->npatches + (size_t)m->nt;
-    if (needp > (size_t)INT32_MAX || !m->n || reserve_prims(s, (size_t)s->nprims + (size_t)m->nt) != 0)
+    const int all = m->nt + m->nline; /* the collinear ones too: their patches have area */
+    size_t needp = (size_t)s->npatches + (size_t)all;
+    if (needp > (size_t)INT32_MAX || !m->n || reserve_prims(s, (size_t)s->nprims + (size_t)all) != 0)
         return -1;
     PnPatch *pa = big_realloc(s->patches, sizeof(PnPatch) * (size_t)s->npatches, sizeof(PnPatch) * (needp ? needp : 1));
     if (!pa)
         return -1;
     s->patches = pa;
     *dropped = 0;
-    for (int i = 0; i < m->nt; i++) {
+    for (int i = 0; i < all; i++) {
         Place *pl = &s->place[s->nprims];
         Vec3 n[3];
         if (!placed_triangle(m, i, xf, pl->p, n)) {

@@ -90,6 +90,12 @@ static void assert_tri(const int t[3], int a, int b, int c)
         fail_msg("triangle (%d %d %d), expected (%d %d %d)", t[0], t[1], t[2], a, b, c);
 }
 
+static void assert_vec_near(Vec3 v, float x, float y, float z)
+{
+    if (fabsf(v.x - x) > 1e-6f || fabsf(v.y - y) > 1e-6f || fabsf(v.z - z) > 1e-6f)
+        fail_msg("(%g %g %g), expected (%g %g %g)", v.x, v.y, v.z, x, y, z);
+}
+
 /* ---- binary PLY building ---- */
 
 typedef struct {
@@ -704,7 +710,7 @@ static void test_stl_cgal(void **state)
         if (mesh_load(files[f], &m, err, sizeof err) != 0)
             fail_msg("%s", err);
         assert_int_equal(mesh_validate(&m, err, sizeof err), 0);
-        assert_int_equal(m.nt + m.degenerate, (int)n);
+        assert_int_equal(m.nt + m.nline + m.degenerate, (int)n);
         assert_true(m.nv < 3 * m.nt / 2); /* shared: about half as many vertices as triangles */
         if (f == 1) { /* each directed edge once, and its reverse once */
             int ne = 3 * m.nt, *key = malloc(sizeof(int) * 2 * (size_t)ne);
@@ -755,10 +761,10 @@ static const CountCase count_cases[] = {
     COUNTS("off with nothing", MESH_OFF, "OFF\n0 0 0\n", 0, 0, 0, 0),
     COUNTS("off all degenerate: no triangles, no normals", MESH_OFF,
            "NOFF\n3 1 0\n0 0 0 0 0 1\n1 1 1 0 0 1\n2 2 2 0 0 1\n3 0 1 2\n", 3, 0, 0, 1),
-    COUNTS("off huge and tiny coordinates", MESH_OFF,
+    COUNTS("off huge and tiny coordinates (the collinear one kept apart: nline)", MESH_OFF,
            "OFF\n6 2 0\n-3e38 -3e38 0\n3e38 3e38 0\n1e38 1e38 0\n1e-45 0 0\n0 1e-45 0\n1e-45 1e-45 1e-45\n"
            "3 0 1 2\n3 3 4 5\n",
-           6, 1, 0, 1),
+           6, 1, 0, 0),
     COUNTS("obj sample", MESH_OBJ, obj_sample, 5, 3, 0, 0),
     COUNTS("obj normals", MESH_OBJ, obj_normals, 4, 3, 4, 0),
     COUNTS("obj one face without normals: the file's normals are dropped for all", MESH_OBJ,
@@ -816,40 +822,75 @@ static void test_degenerate(void **state)
     /* 0: fine; 1: repeated index; 2: collinear; 3: two vertices at the same
      * place; 4: collinear along a skew line (multiples of (1,2,3)/16, exact
      * in float); 5: a sliver one float ulp off the line through the origin
-     * and (1,1,1), which has area and is kept. */
+     * and (1,1,1), which has area and is kept; 6: three distinct vertices
+     * at one place. 2, 3 and 4 have distinct corners not at one point:
+     * kept after the others (nline), in order; 1 and 6 are dropped. */
     parse_ok(MESH_OFF,
-             "OFF\n10 6 0\n"
+             "OFF\n12 7 0\n"
              "0 0 0\n1 0 0\n0 1 0\n2 0 0\n0 1 0\n"
              "0.0625 0.125 0.1875\n0.125 0.25 0.375\n0.25 0.5 0.75\n"
-             "1 1 1\n2 2 2.0000002\n"
+             "1 1 1\n2 2 2.0000002\n1 0 0\n1 0 0\n"
              "3 0 1 2\n"
              "3 0 0 1\n"
              "3 0 1 3\n"
              "3 0 2 4\n"
              "3 5 6 7\n"
-             "3 0 8 9\n",
+             "3 0 8 9\n"
+             "3 1 10 11\n",
              &m);
-    assert_int_equal(m.degenerate, 4);
-    assert_int_equal(m.nt, 2);
-    assert_tri(m.tri[0], 0, 1, 2);
-    assert_tri(m.tri[1], 0, 8, 9);
-    mesh_free(&m);
-
-    /* a fan whose middle triangle is degenerate: the others stay, in order */
-    parse_ok(MESH_OBJ, "v 0 0 0\nv 1 -1 0\nv 1 0 0\nv 2 0 0\nv 1 1 0\nf 1 2 3 4 5\nf 1 3 4\n", &m);
     assert_int_equal(m.degenerate, 2);
     assert_int_equal(m.nt, 2);
+    assert_int_equal(m.nline, 3);
     assert_tri(m.tri[0], 0, 1, 2);
-    assert_tri(m.tri[1], 0, 3, 4);
+    assert_tri(m.tri[1], 0, 8, 9);
+    assert_tri(m.tri[2], 0, 1, 3);
+    assert_tri(m.tri[3], 0, 2, 4);
+    assert_tri(m.tri[4], 5, 6, 7);
+    char err[256];
+    assert_int_equal(mesh_validate(&m, err, sizeof err), 0);
     mesh_free(&m);
 
-    /* normals follow their triangles when some are dropped */
+    /* a fan whose middle triangle is degenerate: the others stay, in order,
+     * the collinear ones after them */
+    parse_ok(MESH_OBJ, "v 0 0 0\nv 1 -1 0\nv 1 0 0\nv 2 0 0\nv 1 1 0\nf 1 2 3 4 5\nf 1 3 4\n", &m);
+    assert_int_equal(m.degenerate, 0);
+    assert_int_equal(m.nt, 2);
+    assert_int_equal(m.nline, 2);
+    assert_tri(m.tri[0], 0, 1, 2);
+    assert_tri(m.tri[1], 0, 3, 4);
+    assert_tri(m.tri[2], 0, 2, 3);
+    assert_tri(m.tri[3], 0, 2, 3);
+    mesh_free(&m);
+
+    /* normals follow their triangles when some are set apart or dropped */
     parse_ok(MESH_OBJ, "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nvn 0 0 1\nvn 1 0 0\n"
-                       "f 1//1 2//1 3//1\nf 1//2 2//2 4//2\n",
+                       "f 1//1 2//1 3//1\nf 1//2 2//2 4//2\nf 1//1 1//2 2//1\n",
              &m);
     assert_int_equal(m.degenerate, 1);
     assert_int_equal(m.nt, 1);
+    assert_int_equal(m.nline, 1);
     assert_tri(m.ntri[0], 1, 1, 1);
+    assert_tri(m.tri[1], 0, 1, 2);
+    assert_tri(m.ntri[1], 0, 0, 0);
+    assert_int_equal(mesh_validate(&m, err, sizeof err), 0);
+    /* the angle-weighted normals leave the collinear one's corners alone,
+     * and give it its corners' normals */
+    Mesh w;
+    parse_ok(MESH_OFF, "OFF\n4 2 0\n0 0 0\n1 0 0\n2 0 0\n0 1 0\n3 0 1 3\n3 0 1 2\n", &w);
+    assert_int_equal(w.nline, 1);
+    assert_int_equal(mesh_vertex_normals(&w, err, sizeof err), 0);
+    assert_tri(w.ntri[1], 0, 1, 2);
+    assert_vec_near(w.n[0], 0, 0, 1);
+    assert_vec_near(w.n[1], 0, 0, 1);
+    assert_int_equal(mesh_validate(&w, err, sizeof err), 0);
+    mesh_free(&w);
+    mesh_free(&m);
+
+    /* a mesh of collinear triangles alone has no triangles: all dropped */
+    parse_ok(MESH_OFF, "OFF\n3 1 0\n0 0 0\n1 0 0\n2 0 0\n3 0 1 2\n", &m);
+    assert_int_equal(m.nt, 0);
+    assert_int_equal(m.nline, 0);
+    assert_int_equal(m.degenerate, 1);
     mesh_free(&m);
 
     /* huge and tiny coordinates: exact, no overflow or underflow verdicts */

@@ -18,6 +18,7 @@
 
 #include <stdio.h>
 #include <stdlib.h>
+#include <unistd.h> /* rmdir */
 
 #include "lancer/accel.h"
 #include "lancer/pntri.h"
@@ -527,6 +528,62 @@ static void test_closed_surface_does_not_leak(void **state)
                     }
                 }
         }
+}
+
+/* A unit cube whose edge (0,0,0)-(1,0,0) is split at its midpoint on the
+ * face y = 0, and closed on the face z = 0 by the collinear triangle of
+ * the edge's three vertices, as exporters close a T-junction: that
+ * triangle has no area, but its PN patch has curved edges and fills the
+ * gap between its neighbours'. Rays from inside, at the split edge and
+ * beside it, all hit; with the collinear triangle dropped, the background
+ * showed through (a mesh once dropped it). */
+static void test_t_junction_does_not_leak(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/lancer-pntri-XXXXXX", path[256], text[512], err[512];
+    assert_non_null(mkdtemp(dir));
+    snprintf(path, sizeof path, "%s/cube.off", dir);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs("OFF\n9 14 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n0 0 1\n1 0 1\n1 1 1\n0 1 1\n0.5 0 0\n"
+          "3 0 3 2\n3 0 2 1\n3 4 5 6\n3 4 6 7\n3 0 5 4\n3 2 3 7\n3 2 7 6\n3 1 2 6\n3 1 6 5\n3 0 4 7\n"
+          "3 0 7 3\n3 0 8 5\n3 8 1 5\n3 0 1 8\n",
+          f);
+    fclose(f);
+    static const char *const kinds[2] = {"flat", "pn"};
+    for (int k = 0; k < 2; k++) {
+        Scene s;
+        snprintf(text, sizeof text, "camera { eye 0 0 -5 target 0 0 0 fov 40 }\nmaterial m { }\n"
+                                    "mesh { file \"%s\" material m %s }\n", path, kinds[k]);
+        if (scene_parse("t.scn", text, strlen(text), &s, err, sizeof err) != 0)
+            fail_msg("%s", err);
+        /* flat: 13 triangles and the collinear one dropped; pn: 14 patches */
+        assert_int_equal(s.nprims, k ? 14 : 13);
+        assert_int_equal(s.degenerate, k ? 0 : 1);
+        if (k) {
+            Accel *acc = accel_build(&s, PRIM_ROBUST, 1);
+            assert_non_null(acc);
+            static const Vec3 from[3] = {{0.25f, 0.5f, 0.02f}, {0.5f, 0.3f, 0.3f}, {0.8f, 0.1f, 0.05f}};
+            int escaped = 0;
+            for (int o = 0; o < 3; o++)
+                for (int i = 0; i <= 200; i++)
+                    for (int j = -2; j <= 2; j++) {
+                        /* along the edge, and up to 0.02 off it on both faces */
+                        const float x = (float)i / 200.0f, off = 0.01f * (float)j;
+                        const Vec3 at = vec3(x, off > 0 ? off : 0, off < 0 ? -off : 0);
+                        Ray r = ray_make(from[o], vec_sub(at, from[o]), INFINITY);
+                        PrimHit h;
+                        RayStats st;
+                        memset(&st, 0, sizeof st);
+                        escaped += accel_closest(acc, &r, &h, &st) < 0;
+                    }
+            assert_int_equal(escaped, 0);
+            accel_free(acc);
+        }
+        scene_free(&s);
+    }
+    remove(path);
+    rmdir(dir);
 }
 
 /* The tessellation: its points are the patch's at the grid, its faces
@@ -1249,6 +1306,7 @@ int main(void)
         cmocka_unit_test(test_flat_patch_is_the_triangle),
         cmocka_unit_test(test_sphere_approximation),
         cmocka_unit_test(test_closed_surface_does_not_leak),
+        cmocka_unit_test(test_t_junction_does_not_leak),
         cmocka_unit_test(test_tessellation),
         cmocka_unit_test(test_exact_hits_within_their_bound),
         cmocka_unit_test(test_grazing_rays),

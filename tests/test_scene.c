@@ -1473,7 +1473,7 @@ static void test_scene_from_mesh(void **state)
     (void)state;
     Vec3 v[4] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
     int tri[2][3] = {{0, 1, 2}, {0, 1, 3}};
-    Mesh m = {v, 4, NULL, 0, tri, 2, NULL, 0, {0}};
+    Mesh m = {.v = v, .nv = 4, .tri = tri, .nt = 2};
     Scene s;
     assert_int_equal(scene_from_mesh(&s, &m), 0);
     assert_int_equal(s.nmaterials, 1);

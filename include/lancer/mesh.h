@@ -23,7 +23,11 @@
  *   triangles has no normals;
  * - no triangle has zero area: triangles whose three corners are collinear
  *   or repeated, decided exactly on the float coordinates, are dropped and
- *   counted in `degenerate`;
+ *   counted in `degenerate`, but for those of three distinct corners (by
+ *   index) not all at one point, which are kept apart after the others
+ *   (`nline`): a PN patch of such a triangle has curved edges and fills
+ *   the gap between its neighbours' patches (a T-junction closed by a
+ *   sliver);
  * - polygons are fanned from their first corner: (c0 c1 c2), (c0 c2 c3) ...
  *   so the winding (and with it the facing) of the file is kept.
  *
@@ -111,6 +115,7 @@ typedef struct {
     int (*tri)[3];     /* triangles: indices into v */
     int nt;
     int (*ntri)[3];    /* per-corner indices into n (NULL when there are no normals) */
+    int nline;         /* tri[nt .. nt + nline - 1] (and ntri's): collinear, of three distinct corners */
     int degenerate;    /* triangles dropped because they have zero area */
     unsigned char sha256[SHA256_BYTES]; /* the file's bytes' digest (mesh_load; else zero) */
 } Mesh;
