@@ -220,8 +220,8 @@ static const char *past_blanks(const Parser *P, const char *q)
     for (;;) {
         while (q < P->end && (*q == ' ' || *q == '\t' || *q == '\n' || *q == '\r'))
             q++;
-        if (q < P->end && *q == '#')
-            while (q < P->end && *q != '\n')
+        if (q < P->end && *q == '#') /* to the line's end, a lone CR's too (lex.c) */
+            while (q < P->end && *q != '\n' && *q != '\r')
                 q++;
         else
             return q;

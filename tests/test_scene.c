@@ -507,6 +507,10 @@ static const BadCase bad_cases[] = {
     BAD("old Mac OS line endings, a lone CR each",
         "camera { eye 0 0 -5 target 0 0 0 fov 40 }\r# a comment\rmaterial m { }\rsphere { center 0 0 0 radius -1 material m }\r",
         "t.scn:4:30: sphere: 'radius' must be positive"),
+    BAD("a comment that a lone CR ends, before the keyword of the next block (it once ran to the file's end)",
+        "camera { eye 0 0 5 target 0 0 0 fov 40 }\rmaterial m { }\rsphere { center 0 0 0 radius 1 material m\r"
+        "plane # c\r{ normal 0 1 0 material m }\r",
+        "t.scn:4:1: sphere: missing '}' before 'plane' (to close the '{' at 3:8)"),
     BAD("tabs count one column",
         PRE "\tsphere {\tcenter 0 0 0\tradius\t-1 material m }\n",
         "t.scn:3:31: sphere: 'radius' must be positive"),
