@@ -73,7 +73,7 @@ stem=${out%.exr}
 outdir=$(abspath "${outdir:-$stem.tiles}")
 mkdir -p "$outdir"
 
-par=(parallel --will-cite --halt never --joblog "$outdir/jobs.log" --tag)
+par=(parallel --will-cite --quote --halt never --joblog "$outdir/jobs.log" --tag)
 [ -n "$jobs" ] && par+=(--jobs "$jobs")
 [ -n "$sshlogin" ] && par+=(--sshlogin "$sshlogin")
 render=("$lancer" render "$scene" --threads "$threads" --resume -q "$@")

@@ -135,20 +135,27 @@ echo "cluster: Slurm, 4 tiles of 1280x960 (spp 8): task ${first_array}_1 cancell
     "$first_merge cancelled by Slurm (--kill-on-invalid-dep); resubmitted as $array and $merge: 3 tiles skipped, 1" \
     "resumed, $(secs "$t0" "$(now)") s; merged = single: $(cmp -s "$W/big.exr" "$W/big-single.exr" && echo bit-identical || echo DIFFERENT)"
 
-# 4. GNU parallel, two local workers: tiles, then frames
+# 4. GNU parallel, two local workers: tiles, then frames, in a folder whose
+# name has a blank and a shell's metacharacters (parallel once split the
+# paths at the blank and would have run the rest)
+P="$W/a b;\$(false)"
+mkdir -p "$P"
+cp "$W/orbit.scn" "$P/orbit.scn"
+"$LANCER" render "$P/orbit.scn" $R --threads 1 -q -o "$P/single.exr" # (the stamp names the scene's path)
+"$LANCER" render "$P/orbit.scn" --width 160 --height 120 --frame 23 -q -o "$P/one.exr"
 t0=$(now)
-if "$PR" --lancer "$LANCER" --jobs 2 --tiles 6 "$W/orbit.scn" "$W/par.exr" -- $R >"$W/out" 2>&1; then ok; else
+if "$PR" --lancer "$LANCER" --jobs 2 --tiles 6 "$P/orbit.scn" "$P/par.exr" -- $R >"$W/out" 2>&1; then ok; else
     bad "parallel-render: $(cat "$W/out")"
 fi
-same "$W/par.exr" "$W/single.exr" "GNU parallel tiles"
+same "$P/par.exr" "$P/single.exr" "GNU parallel tiles"
 echo "cluster: GNU parallel, 6 tiles of 480x360 on 2 workers: $(secs "$t0" "$(now)") s; merged = single:" \
-    "$(cmp -s "$W/par.exr" "$W/single.exr" && echo bit-identical || echo DIFFERENT)"
-if "$PR" --lancer "$LANCER" --jobs 2 --frames 20:26 "$W/orbit.scn" "$W/p.%04d.exr" -- --width 160 --height 120 >"$W/out" 2>&1; then
+    "$(cmp -s "$P/par.exr" "$P/single.exr" && echo bit-identical || echo DIFFERENT)"
+if "$PR" --lancer "$LANCER" --jobs 2 --frames 20:26 "$P/orbit.scn" "$P/p.%04d.exr" -- --width 160 --height 120 >"$W/out" 2>&1; then
     ok
 else
     bad "parallel-render --frames: $(cat "$W/out")"
 fi
-same "$W/p.0023.exr" "$W/f.0023.exr" "GNU parallel frame 23"
+same "$P/p.0023.exr" "$P/one.exr" "GNU parallel frame 23"
 # a failing tile is named, and the exit status says so
 if "$PR" --lancer "$LANCER" --jobs 2 --tiles 2 "$W/orbit.scn" "$W/fail.exr" -- --spp 99 >"$W/out" 2>&1; then
     bad "parallel-render succeeded with a bad option"
