@@ -15,7 +15,10 @@ void stamp_make(Stamp *st, const char *scene, const Scene *s, const RenderPlan *
     scene_content_hash(s, st->hash);
     /* %.17g gives back the double exactly, %.9g the float. The move is the
      * options' (the plan's own camera-relative move follows from it); the
-     * threads, the acceleration structure and --no-plan change no pixel. */
+     * threads and --no-plan change no pixel, nor does the acceleration
+     * structure with the robust routines. The classic ones can hit, without
+     * the tree's boxes, what the tree would not have tested: there it is
+     * part of the routines' name. */
     char area[16] = "scene", adaptive[16] = "scene", pn[16] = "scene";
     if (o->area_samples)
         snprintf(area, sizeof area, "%d", o->area_samples);
@@ -26,7 +29,7 @@ void stamp_make(Stamp *st, const char *scene, const Scene *s, const RenderPlan *
     snprintf(st->settings, sizeof st->settings,
              "size=%dx%d spp=%d max_depth=%d intersect=%s adc_bailout=%.9g aa_threshold=%.9g area_samples=%s "
              "area_adaptive=%s pn_mode=%s scale=%.17g translate=%.17g,%.17g,%.17g channels=%s",
-             p->width, p->height, p->spp, p->max_depth, p->variant == PRIM_CLASSIC ? "classic" : "robust",
+             p->width, p->height, p->spp, p->max_depth, p->variant != PRIM_CLASSIC ? "robust" : p->loop ? "classic-loop" : "classic-bvh",
              (double)p->adc_bailout, (double)p->aa_threshold, area, adaptive, pn, o->move ? o->scale : 1.0,
              o->move ? o->translate[0] : 0.0, o->move ? o->translate[1] : 0.0, o->move ? o->translate[2] : 0.0,
              use_float ? "float" : "half");
