@@ -225,16 +225,17 @@ static void worker(void *arg)
 }
 
 /* Runs the job's pass over rows[0..n-1] on the pool's threads, the
- * calling one among them. Returns 0 when every row of the pass is done,
- * 1 when stopped. */
-static int run_pass(Job *job, int pass, const int *rows, int n)
+ * calling one among them; with last, the workers end after it (the
+ * render's last pass). Returns 0 when every row of the pass is done, 1
+ * when stopped. */
+static int run_pass(Job *job, int pass, const int *rows, int n, int last)
 {
     job->pass = pass;
     job->rows = rows;
     job->nrows = n;
     job->next = 0;
     int before = job->progress_done;
-    pool_run(job->pool, worker, job);
+    (last ? pool_run_last : pool_run)(job->pool, worker, job);
     return job->progress_done - before < n ? 1 : 0;
 }
 
@@ -273,7 +274,7 @@ int render_image(const RenderPlan *p, const Accel *a, const RenderOptions *opt, 
             todo[ntodo++] = y;
     if (!adaptive) {
         job.progress_total = ntodo;
-        rc = run_pass(&job, 0, todo, ntodo);
+        rc = run_pass(&job, 0, todo, ntodo, 1);
     } else {
         /* In bands of rows, so that a stopped render keeps the bands done:
          * the centres a band needs (its rows and the rows around them, each
@@ -298,9 +299,9 @@ int render_image(const RenderPlan *p, const Accel *a, const RenderOptions *opt, 
                     around[n++] = y;
             }
             traced = last + 1;
-            rc = run_pass(&job, 1, around, n);
+            rc = run_pass(&job, 1, around, n, 0);
             if (rc == 0)
-                rc = run_pass(&job, 2, todo + b, nb);
+                rc = run_pass(&job, 2, todo + b, nb, b + band >= ntodo);
         }
     }
     pthread_mutex_destroy(&job.lock);

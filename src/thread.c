@@ -69,7 +69,8 @@ struct ThreadPool {
     /* written under the lock, and read without it by the spins below */
     unsigned job;     /* counts the jobs begun (and the end); a worker waits for the next */
     unsigned pending; /* the workers not yet finished with the current job */
-    int quit;
+    int last;         /* the current job is the workers' last (pool_run_last) */
+    int ended;        /* the workers have had their last job, or have been told to end */
     void (*fn)(void *);
     void *arg;
     int nworkers;
@@ -120,17 +121,20 @@ static void *pool_worker(void *arg)
             while (p->job == seen)
                 pthread_cond_wait(&p->go, &p->lock);
         }
-        if (p->quit)
-            break;
         seen = p->job;
         void (*fn)(void *) = p->fn;
         void *fa = p->arg;
+        const int last = p->last;
+        if (!fn) /* pool_free's end */
+            break;
         pthread_mutex_unlock(&p->lock);
         fn(fa);
         pthread_mutex_lock(&p->lock);
         POOL_STORE(p->pending, p->pending - 1);
         if (p->pending == 0)
             pthread_cond_signal(&p->done);
+        if (last) /* p is not touched after the unlock below */
+            break;
     }
     pthread_mutex_unlock(&p->lock);
     return NULL;
@@ -166,20 +170,26 @@ fail:
 
 int pool_threads(const ThreadPool *p) { return p->nworkers + 1; }
 
-void pool_run(ThreadPool *p, void (*fn)(void *), void *arg)
+/* fn(arg) on every thread; with last, the workers end after it. */
+static void run(ThreadPool *p, void (*fn)(void *), void *arg, int last)
 {
-    if (p->nworkers > 0) {
+    const int workers = p->ended ? 0 : p->nworkers; /* (after the last job, the caller alone) */
+    if (workers > 0) {
         pthread_mutex_lock(&p->lock);
         p->fn = fn;
         p->arg = arg;
-        POOL_STORE(p->pending, (unsigned)p->nworkers);
+        p->last = last;
+        p->ended = last;
+        POOL_STORE(p->pending, (unsigned)workers);
         POOL_STORE(p->job, p->job + 1);
         pthread_cond_broadcast(&p->go);
         pthread_mutex_unlock(&p->lock);
     }
     fn(arg);
-    if (p->nworkers > 0) {
+    if (workers > 0) {
         spin_while(&p->pending, 0, 0);
+        /* Past this lock every worker has let go of it after its count,
+         * and one that had its last job touches p no more. */
         pthread_mutex_lock(&p->lock);
         while (p->pending > 0)
             pthread_cond_wait(&p->done, &p->lock);
@@ -187,17 +197,31 @@ void pool_run(ThreadPool *p, void (*fn)(void *), void *arg)
     }
 }
 
+void pool_run(ThreadPool *p, void (*fn)(void *), void *arg) { run(p, fn, arg, 0); }
+
+void pool_run_last(ThreadPool *p, void (*fn)(void *), void *arg) { run(p, fn, arg, 1); }
+
 void pool_free(ThreadPool *p)
 {
     if (!p)
         return;
-    pthread_mutex_lock(&p->lock);
-    p->quit = 1;
-    POOL_STORE(p->job, p->job + 1);
-    pthread_cond_broadcast(&p->go);
-    pthread_mutex_unlock(&p->lock);
+    const int ended = p->ended;
+    if (!ended) { /* the workers wait for a job: none comes */
+        pthread_mutex_lock(&p->lock);
+        p->fn = NULL;
+        POOL_STORE(p->job, p->job + 1);
+        pthread_cond_broadcast(&p->go);
+        pthread_mutex_unlock(&p->lock);
+    }
+    /* Workers past their last job are let go, not waited for: they touch
+     * the pool no more (run), and waiting for a thread's end means waiting
+     * for its processor to wake, which on a virtual machine can take as
+     * long as a frame's last rows. */
     for (int i = 0; i < p->nworkers; i++)
-        pthread_join(p->tids[i], NULL);
+        if (ended)
+            pthread_detach(p->tids[i]);
+        else
+            pthread_join(p->tids[i], NULL);
     pthread_cond_destroy(&p->done);
     pthread_cond_destroy(&p->go);
     pthread_mutex_destroy(&p->lock);

@@ -116,12 +116,12 @@ static void tally(void *arg)
 
 /* Runs one job on p: returns how many calls it saw, and checks that each
  * was on a thread of its own, the caller's among them. */
-static int run_tally(ThreadPool *p)
+static int run_tally_as(ThreadPool *p, void (*run)(ThreadPool *, void (*)(void *), void *))
 {
     Tally t;
     memset(&t, 0, sizeof t);
     assert_int_equal(pthread_mutex_init(&t.lock, NULL), 0);
-    pool_run(p, tally, &t);
+    run(p, tally, &t);
     pthread_mutex_destroy(&t.lock);
     assert_int_equal(t.nids, t.calls);
     int caller = 0;
@@ -130,6 +130,8 @@ static int run_tally(ThreadPool *p)
     assert_true(caller);
     return t.calls;
 }
+
+static int run_tally(ThreadPool *p) { return run_tally_as(p, pool_run); }
 
 /* Job after job, each runs once on each of the pool's threads and has
  * ended when pool_run returns; a pool of one thread, or of none, runs the
@@ -147,6 +149,27 @@ static void test_pool_runs_each_job_on_its_threads(void **state)
         pool_free(p);
     }
     pool_free(NULL);
+}
+
+/* The last job runs on every thread, as the others did; after it the
+ * workers are gone, a job runs on the caller alone, and pool_free lets
+ * them go without waiting (a render's last pass). Pools that end so, one
+ * after another, leave no thread behind that touches a freed pool (which
+ * AddressSanitizer would report). */
+static void test_pool_last_job(void **state)
+{
+    (void)state;
+    for (int round = 0; round < 20; round++)
+        for (int threads = 1; threads <= 4; threads++) {
+            ThreadPool *p = pool_new(threads);
+            assert_non_null(p);
+            const int n = pool_threads(p);
+            assert_int_equal(run_tally(p), n);
+            assert_int_equal(run_tally_as(p, pool_run_last), n);
+            if (round & 1)
+                assert_int_equal(run_tally(p), 1);
+            pool_free(p);
+        }
 }
 
 /* A job's writes are all seen when pool_run returns: each thread adds to
@@ -194,6 +217,7 @@ int main(void)
         cmocka_unit_test(test_thread_keeps_the_callers_processors),
         cmocka_unit_test(test_pool_runs_each_job_on_its_threads),
         cmocka_unit_test(test_pool_job_is_done_when_run_returns),
+        cmocka_unit_test(test_pool_last_job),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -27,6 +27,7 @@ int thread_start(pthread_t *t, void *(*fn)(void *), void *arg);
  *
  *     ThreadPool *pool = pool_new(4);      the caller and 3 workers
  *     pool_run(pool, fn, arg);             fn(arg) on each of the 4
+ *     pool_run_last(pool, fn, arg);        again, the workers ending after it
  *     pool_free(pool);
  *
  * The workers are started with thread_start. Between jobs they look for
@@ -42,6 +43,10 @@ int pool_threads(const ThreadPool *p);
 /* Runs fn(arg) on each of the pool's threads at once, the caller's among
  * them, and returns when every one has returned. */
 void pool_run(ThreadPool *p, void (*fn)(void *), void *arg);
+/* pool_run for the pool's last job: the workers end with it, so that
+ * pool_free need not wait for them. A job after it runs on the caller
+ * alone. */
+void pool_run_last(ThreadPool *p, void (*fn)(void *), void *arg);
 /* Ends the workers (between jobs) and frees the pool; NULL is ignored. */
 void pool_free(ThreadPool *p);
 
