@@ -12,11 +12,12 @@
  * INT_MAX.
  *
  * mesh_finish() drops triangles of zero area, but for the collinear ones
- * of distinct corners, which it keeps after the others (mesh.h). The test is exact: the cross
- * product (b-a) x (c-a) equals a x b + b x c + c x a, and each component of
- * that is a sum of six products of two floats. A product of two floats is
- * exact in double (24 + 24 bits < 53, and its exponent is in range), and
- * the six-term sum is evaluated exactly as a floating-point expansion
+ * of distinct corners, which it keeps after the others (mesh.h). The test
+ * is exact: the cross product (b-a) x (c-a) equals a x b + b x c + c x a,
+ * and each component of that is a sum of six products of two floats. A
+ * product of two floats is exact in double (24 + 24 bits < 53, and its
+ * exponent is in range), and the six-term sum is evaluated exactly as a
+ * floating-point expansion
  * (Shewchuk, "Adaptive precision floating-point arithmetic and fast robust
  * geometric predicates", 1997) whenever a cheap error bound cannot already
  * show it nonzero.
@@ -241,8 +242,10 @@ int mesh_finish(const LexReader *R, MeshBuild *B, int vertex_normals)
         }
         k++;
     }
-    if (k == 0) /* no triangle with area: none at all (mesh.h) */
-        m->degenerate += nline, nline = 0;
+    if (k == 0) { /* no triangle with area: none at all (mesh.h) */
+        m->degenerate += nline;
+        nline = 0;
+    }
     if (nline) { /* (into the room the dropped and set-aside ones left) */
         memcpy(m->tri + k, line, (size_t)nline * sizeof *line);
         if (m->ntri)

@@ -70,7 +70,7 @@ struct ThreadPool {
     unsigned job;     /* counts the jobs begun (and the end); a worker waits for the next */
     unsigned pending; /* the workers not yet finished with the current job */
     int last;         /* the current job is the workers' last (pool_run_last) */
-    int ended;        /* the workers have had their last job, or have been told to end */
+    int ended;        /* the workers have had their last job (pool_run_last) */
     void (*fn)(void *);
     void *arg;
     int nworkers;

@@ -863,8 +863,9 @@ static void test_degenerate(void **state)
     mesh_free(&m);
 
     /* normals follow their triangles when some are set apart or dropped */
-    parse_ok(MESH_OBJ, "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nvn 0 0 1\nvn 1 0 0\n"
-                       "f 1//1 2//1 3//1\nf 1//2 2//2 4//2\nf 1//1 1//2 2//1\n",
+    parse_ok(MESH_OBJ,
+             "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nvn 0 0 1\nvn 1 0 0\n"
+             "f 1//1 2//1 3//1\nf 1//2 2//2 4//2\nf 1//1 1//2 2//1\n",
              &m);
     assert_int_equal(m.degenerate, 1);
     assert_int_equal(m.nt, 1);

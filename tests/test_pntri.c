@@ -553,8 +553,10 @@ static void test_t_junction_does_not_leak(void **state)
     static const char *const kinds[2] = {"flat", "pn"};
     for (int k = 0; k < 2; k++) {
         Scene s;
-        snprintf(text, sizeof text, "camera { eye 0 0 -5 target 0 0 0 fov 40 }\nmaterial m { }\n"
-                                    "mesh { file \"%s\" material m %s }\n", path, kinds[k]);
+        snprintf(text, sizeof text,
+                 "camera { eye 0 0 -5 target 0 0 0 fov 40 }\nmaterial m { }\n"
+                 "mesh { file \"%s\" material m %s }\n",
+                 path, kinds[k]);
         if (scene_parse("t.scn", text, strlen(text), &s, err, sizeof err) != 0)
             fail_msg("%s", err);
         /* flat: 13 triangles and the collinear one dropped; pn: 14 patches */

@@ -19,6 +19,7 @@ void stamp_make(Stamp *st, const char *scene, const Scene *s, const RenderPlan *
      * structure with the robust routines. The classic ones can hit, without
      * the tree's boxes, what the tree would not have tested: there it is
      * part of the routines' name. */
+    const char *intersect = p->variant != PRIM_CLASSIC ? "robust" : p->loop ? "classic-loop" : "classic-bvh";
     char area[16] = "scene", adaptive[16] = "scene", pn[16] = "scene";
     if (o->area_samples)
         snprintf(area, sizeof area, "%d", o->area_samples);
@@ -29,7 +30,7 @@ void stamp_make(Stamp *st, const char *scene, const Scene *s, const RenderPlan *
     snprintf(st->settings, sizeof st->settings,
              "size=%dx%d spp=%d max_depth=%d intersect=%s adc_bailout=%.9g aa_threshold=%.9g area_samples=%s "
              "area_adaptive=%s pn_mode=%s scale=%.17g translate=%.17g,%.17g,%.17g channels=%s",
-             p->width, p->height, p->spp, p->max_depth, p->variant != PRIM_CLASSIC ? "robust" : p->loop ? "classic-loop" : "classic-bvh",
+             p->width, p->height, p->spp, p->max_depth, intersect,
              (double)p->adc_bailout, (double)p->aa_threshold, area, adaptive, pn, o->move ? o->scale : 1.0,
              o->move ? o->translate[0] : 0.0, o->move ? o->translate[1] : 0.0, o->move ? o->translate[2] : 0.0,
              use_float ? "float" : "half");
