@@ -17,10 +17,9 @@
  * and each component of that is a sum of six products of two floats. A
  * product of two floats is exact in double (24 + 24 bits < 53, and its
  * exponent is in range), and the six-term sum is evaluated exactly as a
- * floating-point expansion
- * (Shewchuk, "Adaptive precision floating-point arithmetic and fast robust
- * geometric predicates", 1997) whenever a cheap error bound cannot already
- * show it nonzero.
+ * floating-point expansion (Shewchuk, "Adaptive precision floating-point
+ * arithmetic and fast robust geometric predicates", 1997) whenever a cheap
+ * error bound cannot already show it nonzero.
  */
 #include "mesh_read.h"
 
