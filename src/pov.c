@@ -271,7 +271,19 @@ static void pn_mesh2(FILE *f, const PnPatch *pn, const PnGrid *g)
  * same kind is already applied to it (an oriented box is POV-Ray's box
  * with a matrix), and an ellipsoid is the unit sphere with its matrix.
  * Coordinates come from the scene's doubles where it has them. */
-static void prim(FILE *f, const Scene *s, const Prim *p, const PnGrid *grid)
+/* 1 when POV-Ray's twin of a primitive of material m needs an interior:
+ * light passes, or its ior counts where a ray starts in it. */
+static int has_interior(const Material *m) { return m->filter + m->transmit > 0.0f || m->ior != 1.0f; }
+
+static void interior(FILE *f, const Material *m)
+{
+    key(f, " interior { ior", m->ior);
+    fputs(" }", f);
+}
+
+/* The primitive, with its interior unless `shared` (a mesh's, which its
+ * union holds). */
+static void prim(FILE *f, const Scene *s, const Prim *p, const PnGrid *grid, int shared)
 {
     const Triangle *t = &p->g.tri;
     Place q = scene_place(s, (int)(p - s->prims));
@@ -386,11 +398,33 @@ static void prim(FILE *f, const Scene *s, const Prim *p, const PnGrid *grid)
     }
     const Material *m = &s->materials[p->material];
     fprintf(f, " texture { M_%s }", m->name);
-    if (m->filter + m->transmit > 0.0f || m->ior != 1.0f) { /* an opaque solid's counts where a ray starts in it */
-        key(f, " interior { ior", m->ior);
-        fputs(" }", f);
-    }
+    if (has_interior(m) && !shared)
+        interior(f, m);
     fputs(" }\n", f);
+}
+
+/* The primitives from i on: one, or a mesh whose material needs an
+ * interior as one union of its pieces with that one interior, so that a
+ * ray entering by one piece leaves by another, as in lancer (prim_solid)
+ * and as in POV-Ray's own mesh. Returns the primitives written. */
+static int object(FILE *f, const Scene *s, int i, const PnGrid *grid)
+{
+    const Prim *p = &s->prims[i];
+    const int solid = prim_solid(p);
+    const Material *m = &s->materials[p->material];
+    if (!solid || !has_interior(m)) {
+        prim(f, s, p, grid, 0);
+        return 1;
+    }
+    int n = 0;
+    fputs("union {\n", f);
+    for (; i + n < s->nprims && prim_solid(&s->prims[i + n]) == solid; n++) {
+        fputs("  ", f);
+        prim(f, s, &s->prims[i + n], grid, 1);
+    }
+    interior(f, m);
+    fputs("\n}\n", f);
+    return n;
 }
 
 int pov_export(const Scene *s, int width, int height, int pn_segments, FILE *f)
@@ -430,8 +464,8 @@ int pov_export(const Scene *s, int width, int height, int pn_segments, FILE *f)
     int rc = 0;
     if (s->npatches > 0 && (!g.pts || !g.nrm || !g.faces))
         rc = -1;
-    for (int i = 0; rc == 0 && i < s->nprims; i++)
-        prim(f, s, &s->prims[i], &g);
+    for (int i = 0; rc == 0 && i < s->nprims;)
+        i += object(f, s, i, &g);
     free(g.pts);
     free(g.nrm);
     free(g.faces);

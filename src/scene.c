@@ -1578,12 +1578,14 @@ int scene_add_mesh(Scene *s, const Mesh *m, int material, int smooth, const doub
     if (reserve_prims(s, (size_t)s->nprims + (size_t)m->nt) != 0)
         return -1;
     *dropped = 0;
+    const int solid = ++s->nmeshes;
     for (int i = 0; i < m->nt; i++) {
         Prim *p = &s->prims[s->nprims];
         Place *pl = &s->place[s->nprims];
         memset(p, 0, sizeof *p);
         p->kind = smooth ? PRIM_SMOOTH_TRIANGLE : PRIM_TRIANGLE;
         p->material = material;
+        p->g.tri.solid = solid;
         Vec3 n[3];
         if (!placed_triangle(m, i, xf, pl->p, smooth ? n : NULL)) {
             (*dropped)++;
@@ -1623,6 +1625,7 @@ int scene_add_pn_mesh(Scene *s, const Mesh *m, int material, int mode, const dou
         return -1;
     s->patches = pa;
     *dropped = 0;
+    const int solid = ++s->nmeshes;
     for (int i = 0; i < all; i++) {
         Place *pl = &s->place[s->nprims];
         Vec3 n[3];
@@ -1636,6 +1639,7 @@ int scene_add_pn_mesh(Scene *s, const Mesh *m, int material, int mode, const dou
         memset(q, 0, sizeof *q);
         q->kind = PRIM_PN;
         q->material = material;
+        q->g.pn.solid = solid;
         q->g.pn.index = s->npatches++;
         q->g.pn.mode = mode;
     }

@@ -565,8 +565,9 @@ static int refraction(const Ctx *c, int prim, const Material *m, const Surface *
     *out = *in;
     float eta; /* incident index over transmitted index */
     int k = -1, lost = 0;
-    for (int i = 0; i < in->n; i++)
-        if (in->prim[i] == prim)
+    const int solid = prim_solid(&c->s->prims[prim]);
+    for (int i = 0; i < in->n; i++) /* the same primitive, or one of the same mesh */
+        if (in->prim[i] == prim || (solid && prim_solid(&c->s->prims[in->prim[i]]) == solid))
             k = i;
     if (in->n == 0) {
         eta = 1.0f / m->ior;

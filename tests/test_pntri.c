@@ -397,7 +397,7 @@ static void flat_pair(PnPatch *pn, Triangle *tr)
     Vec3 a = vec3(-1, -1, 0.5f), b = vec3(1.5f, -0.8f, 0.7f), c = vec3(-0.2f, 1.2f, 0.3f);
     Vec3 n = unit(vec_cross(vec_sub(b, a), vec_sub(c, a)));
     make_patch(pn, a, b, c, n, n, n);
-    *tr = (Triangle){a, b, c, n, n, n};
+    *tr = (Triangle){a, b, c, n, n, n, 0};
 }
 
 static void test_flat_patch_is_the_triangle(void **state)

@@ -319,7 +319,7 @@ static void test_plane(void **state)
 
 /* ---- triangle ---- */
 
-static const Triangle tri = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, 1}, {0, 0, 1}};
+static const Triangle tri = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, 1}, {0, 0, 1}, 0};
 
 static void test_triangle(void **state)
 {
@@ -946,8 +946,8 @@ static void test_watertight_shared_edge(void **state)
      * diagonal from off-axis origins, whose directions round in float.
      * The watertight test lets none of them through; Moller-Trumbore is
      * only measured (the exact judge reports how often it leaks). */
-    Triangle t1 = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 0, 1}, {0, 0, 1}, {0, 0, 1}};
-    Triangle t2 = {{0, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, 1}, {0, 0, 1}};
+    Triangle t1 = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 0, 1}, {0, 0, 1}, {0, 0, 1}, 0};
+    Triangle t2 = {{0, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, 1}, {0, 0, 1}, 0};
     int leaks = 0;
     for (int k = 1; k < 1000; k++) {
         float s = (float)k / 1000.0f;

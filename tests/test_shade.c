@@ -10,6 +10,8 @@
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
+#include <stdlib.h>
+#include <unistd.h>
 #include <cmocka.h>
 
 #include "testutil.h"
@@ -391,6 +393,43 @@ static void load_floorless(Scene *s, const char *extra)
     load(s, extra);
     memmove(&s->prims[0], &s->prims[1], sizeof s->prims[0] * (size_t)(s->nprims - 1));
     s->nprims--;
+}
+
+/* The same slab as a mesh: a ray that enters by one triangle and leaves
+ * by another leaves the one solid the mesh bounds, and bends back (it once
+ * read as entering a second solid of the same ior, and went on unbent past
+ * the tile). */
+static void test_refraction_through_mesh_slab(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/lancer-shade-XXXXXX", path[256], text[1024];
+    assert_non_null(mkdtemp(dir));
+    snprintf(path, sizeof path, "%s/slab.off", dir);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs("OFF\n8 12 0\n-10 -1 -10\n10 -1 -10\n10 0 -10\n-10 0 -10\n-10 -1 10\n10 -1 10\n10 0 10\n-10 0 10\n"
+          "3 0 2 1\n3 0 3 2\n3 4 5 6\n3 4 6 7\n3 0 1 5\n3 0 5 4\n3 3 7 6\n3 3 6 2\n3 0 4 7\n3 0 7 3\n"
+          "3 1 2 6\n3 1 6 5\n",
+          f);
+    fclose(f);
+    /* (a pn slab is not flat: its corners' normals round it) */
+    static const char *const kinds[2] = {"flat", "smooth"};
+    for (int k = 0; k < 2; k++) {
+        Scene s;
+        snprintf(text, sizeof text,
+                 "material clear { color 1 1 1 ambient 0 diffuse 0 transmit 1 ior 1.5 }\n"
+                 "material tile { color 0.9 0.6 0.3 ambient 1 diffuse 0 }\n"
+                 "mesh { file \"%s\" material clear %s }\n"
+                 "box { min 1.4 -2.1 -1 max 1.7 -2 1 material tile }\n",
+                 path, kinds[k]);
+        load_floorless(&s, text);
+        /* across the top face's diagonal, and beside it */
+        assert_vec(trace(&s, vec3(-1, 1, 0), vec3(1, -1, 0)), 0.9f, 0.6f, 0.3f, 1e-5);
+        assert_vec(trace(&s, vec3(-1, 1, 0.3f), vec3(1, -1, 0)), 0.9f, 0.6f, 0.3f, 1e-5);
+        scene_free(&s);
+    }
+    remove(path);
+    rmdir(dir);
 }
 
 /* A pyramid of height 3 over the square |x|, |z| <= 1, as six triangles;
@@ -1053,6 +1092,7 @@ int main(void)
         cmocka_unit_test(test_area_light_through_glass_in_packets),
         cmocka_unit_test(test_transparent_surface),
         cmocka_unit_test(test_shadow_through_glass), cmocka_unit_test(test_refraction_through_slab),
+        cmocka_unit_test(test_refraction_through_mesh_slab),
         cmocka_unit_test(test_total_internal_reflection), cmocka_unit_test(test_no_self_shadowing_on_spheres),
         cmocka_unit_test(test_traced_is_trace), cmocka_unit_test(test_filtered_shadows_in_packets),
         cmocka_unit_test(test_refraction_in_packets), cmocka_unit_test(test_invisible_sphere_in_glass),

@@ -50,10 +50,12 @@ typedef struct {
     float d;
 } Plane;
 
-/* Vertices a, b, c; vertex normals na, nb, nc are used only when smooth. */
+/* Vertices a, b, c; vertex normals na, nb, nc are used only when smooth.
+ * solid: see prim_solid. */
 typedef struct {
     Vec3 a, b, c;
     Vec3 na, nb, nc;
+    int solid;
 } Triangle;
 
 typedef struct {
@@ -99,6 +101,7 @@ typedef struct {
     int index;
     int mode;
     const struct PnPiece *piece; /* NULL: the whole patch; else one piece of it (accel.c) */
+    int solid;                   /* see prim_solid */
 } PnRef;
 
 /* An ellipsoid, kept out of line like a PN patch: e points into the
@@ -121,6 +124,18 @@ typedef struct {
         EllRef ell;
     } g;
 } Prim;
+
+/* 0 when p bounds a solid of its own; else the number of the mesh it is
+ * part of (from 1), whose triangles or patches bound one solid, as
+ * POV-Ray's mesh has one interior: a ray that enters by one leaves by
+ * another. (Kept in the triangle and the patch, where the union has room:
+ * a Prim stays 96 bytes.) */
+static inline int prim_solid(const Prim *p)
+{
+    return p->kind == PRIM_TRIANGLE || p->kind == PRIM_SMOOTH_TRIANGLE ? p->g.tri.solid
+           : p->kind == PRIM_PN                                       ? p->g.pn.solid
+                                                                       : 0;
+}
 
 /* What a hit routine learns: the distance and its error bound, and where on
  * the primitive. */

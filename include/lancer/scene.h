@@ -127,6 +127,7 @@ typedef struct {
     Place *place;
     int placed;
     int degenerate; /* mesh triangles dropped for having no area */
+    int nmeshes;    /* meshes added: the last one's primitives have solid nmeshes (Prim.solid) */
     int vanished;   /* boxes and triangles that scene_transform dropped */
     int *origin;    /* NULL, or since a drop, each primitive's number in the scene as written */
     char **inputs;  /* the files read: each mesh, then the scene file (scene_load) */

@@ -77,7 +77,7 @@ int main(int argc, char **argv)
     }
     Plane plane = {vec_normalize(vec3(0.1f, 0.2f, -1.0f)), 0.0f};
     Sphere sphere = {{0, 0, 0}, 0.9f};
-    Triangle tri = {{-1, -1, 0}, {1, -0.8f, 0.1f}, {0, 1, -0.1f}, {0, 0, 1}, {0, 0, 1}, {0, 0, 1}};
+    Triangle tri = {{-1, -1, 0}, {1, -0.8f, 0.1f}, {0, 1, -0.1f}, {0, 0, 1}, {0, 0, 1}, {0, 0, 1}, 0};
     Box box = {{-0.7f, -0.7f, -0.7f}, {0.7f, 0.7f, 0.7f}};
     OBox obox = {{0, 0, 0}, {0.6f, 0.2f, 0}, {-0.2f, 0.6f, 0.1f}, {0, -0.1f, 0.6f}, {{0, 0, 0}}};
     prim_obox_init(&obox);
