@@ -1571,12 +1571,12 @@ int prim_inside(const Prim *p, Vec3 q)
     }
     case PRIM_BOX: {
         const Box *b = &p->g.box;
-        return q.x > b->lo.x && q.x < b->hi.x && q.y > b->lo.y && q.y < b->hi.y && q.z > b->lo.z && q.z < b->hi.z;
+        return q.x >= b->lo.x && q.x <= b->hi.x && q.y >= b->lo.y && q.y <= b->hi.y && q.z >= b->lo.z && q.z <= b->hi.z;
     }
     case PRIM_OBOX: {
         Vec3 rel = vec_sub(q, p->g.obox.c);
         for (int i = 0; i < 3; i++)
-            if (!(fabsf(vec_dot(p->g.obox.inv[i], rel)) < 1.0f))
+            if (!(fabsf(vec_dot(p->g.obox.inv[i], rel)) <= 1.0f))
                 return 0;
         return 1;
     }

@@ -395,10 +395,21 @@ static void test_inside(void **state)
     Prim b = {PRIM_BOX, 0, {.box = {{-1, -1, -1}, {1, 1, 1}}}};
     assert_true(prim_inside(&b, vec3(0.9f, -0.9f, 0)));
     assert_false(prim_inside(&b, vec3(1.1f, 0, 0)));
+    /* a box's face and an oriented box's are inside, as for their hit
+     * routines: a ray from there hits the far face (they were outside) */
+    assert_true(prim_inside(&b, vec3(1, 0.5f, 0)));
+    assert_true(prim_inside(&b, vec3(-1, -1, -1)));
+    assert_false(prim_inside(&b, vec3(nextafterf(1, 2), 0.5f, 0)));
+    Ray from_face = ray(1, 0.5f, 0, -1, 0, 0);
+    PrimHit fh;
+    assert_true(prim_intersect(&b, &from_face, V, &fh));
+    assert_float_equal(fh.t, 2, 0);
     Prim o = {PRIM_OBOX, 0, {.obox = {{0, 0, 0}, {1, 0, 1}, {0, 1, 0}, {-1, 0, 1}, {{0, 0, 0}}}}};
     assert_int_equal(prim_obox_init(&o.g.obox), 0);
     assert_true(prim_inside(&o, vec3(0, 0, 1.9f)));
     assert_false(prim_inside(&o, vec3(1.9f, 0, 1.9f)));
+    assert_true(prim_inside(&o, vec3(0, 1, 0))); /* on the face of v */
+    assert_false(prim_inside(&o, vec3(0, 1.0001f, 0)));
     Prim pl = {PRIM_PLANE, 0, {.plane = {{0, 1, 0}, 0}}};
     assert_false(prim_inside(&pl, vec3(0, -5, 0))); /* planes are surfaces only */
 }

@@ -348,8 +348,11 @@ int prim_intersect(const Prim *p, const Ray *r, PrimVariant v, PrimHit *h);
  * first tests take four (pn_hit_piece_rays). */
 unsigned prim_intersect_rays(const Prim *p, const Ray *r, unsigned rays, PrimVariant v, PrimHit *h);
 
-/* 1 when q lies strictly inside a solid primitive (sphere, ellipsoid, box,
- * oriented box). Planes and triangles are surfaces: nothing is inside them. */
+/* 1 when q lies inside a solid primitive: strictly inside a sphere or an
+ * ellipsoid, and inside or on a face of a box or an oriented box, whose
+ * hit routines take a ray from a face for one from inside (its first hit
+ * the far face), as POV-Ray's Inside() does. Planes and triangles are
+ * surfaces: nothing is inside them. */
 int prim_inside(const Prim *p, Vec3 q);
 
 /* Fills the hit point, normals and error bound for a hit found by
