@@ -53,6 +53,41 @@ static double solid_volume(const Prim *p)
     }
 }
 
+/* For a transparent bounded primitive whose box meets one of the plan's
+ * floors: the distance from the floor at which a point of it counts as
+ * touching it (shade.c, floors_first), twice what rounding each surface's
+ * numbers to float (the plan's move) can put between two that the scene
+ * makes meet. Else 0. */
+static float floor_band(const Scene *s, const RenderPlan *p, int i)
+{
+    const Prim *q = &s->prims[i];
+    const Material *m = &s->materials[q->material];
+    float lo[3], hi[3];
+    /* (a sphere or an ellipsoid touches a plane at a point: no ray leaves
+     * the one into the other but by a tie on a line of measure zero) */
+    if (m->filter + m->transmit <= 0.0f || q->kind == PRIM_SPHERE || q->kind == PRIM_ELLIPSOID ||
+        !bvh_prim_bounds(q, lo, hi))
+        return 0.0f;
+    float size = 0.0f;
+    for (int a = 0; a < 3; a++)
+        size = fmaxf(size, fmaxf(fabsf(lo[a]), fabsf(hi[a])));
+    float band = 0.0f;
+    for (int j = 0; j < p->nfloors; j++) {
+        const Plane *f = &s->prims[p->floors[j]].g.plane;
+        const float b = 0x1p-21f * (size + fabsf(f->d));
+        /* the box's extent along the normal, around its centre */
+        float c = 0.0f, r = 0.0f;
+        for (int a = 0; a < 3; a++) {
+            const float n = vec_comp(f->n, a);
+            c += n * 0.5f * (lo[a] + hi[a]);
+            r += fabsf(n) * 0.5f * (hi[a] - lo[a]);
+        }
+        if (fabsf(c - f->d) <= r + 2.0f * b) /* the box reaches the floor's band */
+            band = fmaxf(band, b);
+    }
+    return band;
+}
+
 int plan_interiors_at(const Scene *s, Vec3 q, Interiors *in)
 {
     int prim[LIMIT_INTERIORS + 1], n = 0, lost = 0;
@@ -419,6 +454,34 @@ int plan_build(RenderPlan *p, Scene *s, const PlanOptions *o, char *err, size_t 
     }
     if (p->transparent || o->full) /* only refraction reads the solids a ray is in */
         p->camera_in_lost = plan_interiors_at(s, s->camera.eye, &p->camera_in);
+    if (p->transparent) {
+        for (int i = 0; i < s->nprims; i++) {
+            const Material *m = &s->materials[s->prims[i].material];
+            if (s->prims[i].kind != PRIM_PLANE || m->filter + m->transmit > 0.0f)
+                continue;
+            int *f = realloc(p->floors, sizeof(int) * (size_t)(p->nfloors + 1));
+            if (!f) {
+                plan_free(p);
+                return fail(err, errlen, "out of memory");
+            }
+            p->floors = f;
+            p->floors[p->nfloors++] = i;
+        }
+    }
+    if (p->nfloors && !(p->floor_band = calloc((size_t)s->nprims, sizeof(float)))) {
+        plan_free(p);
+        return fail(err, errlen, "out of memory");
+    }
+    int touch = 0; /* primitives that may stand on a floor: without any, no floors */
+    for (int i = 0; p->nfloors && i < s->nprims; i++)
+        touch += (p->floor_band[i] = floor_band(s, p, i)) > 0.0f;
+    if (!touch) {
+        free(p->floors);
+        free(p->floor_band);
+        p->floors = NULL;
+        p->floor_band = NULL;
+        p->nfloors = 0;
+    }
     if (s->nlights > 0) {
         p->shadow = malloc(sizeof(PlanShadow) * (size_t)s->nlights);
         p->area = calloc((size_t)s->nlights, sizeof(PlanArea));
@@ -520,5 +583,7 @@ void plan_free(RenderPlan *p)
         free(p->area[i].point);
     free(p->area);
     free(p->shadow);
+    free(p->floors);
+    free(p->floor_band);
     memset(p, 0, sizeof *p);
 }

@@ -549,6 +549,18 @@ static int worth(const Ctx *c, float wt)
 /* The largest of a colour's channels: POV-Ray's weight of a filter. */
 static float max3(Vec3 v) { return float_max(v.x, float_max(v.y, v.z)); }
 
+/* The place of primitive prim's solid in the list in (the same primitive,
+ * or one of the same mesh), or -1. */
+static int solid_in(const Ctx *c, const Interiors *in, int prim)
+{
+    const int solid = prim_solid(&c->s->prims[prim]);
+    int k = -1;
+    for (int i = 0; i < in->n; i++)
+        if (in->prim[i] == prim || (solid && prim_solid(&c->s->prims[in->prim[i]]) == solid))
+            k = i;
+    return k;
+}
+
 /* What refraction() made of a hit. */
 enum { REFRACT_NONE, REFRACT_TIR, REFRACT_ON, REFRACT_RAY };
 
@@ -564,11 +576,7 @@ static int refraction(const Ctx *c, int prim, const Material *m, const Surface *
 {
     *out = *in;
     float eta; /* incident index over transmitted index */
-    int k = -1, lost = 0;
-    const int solid = prim_solid(&c->s->prims[prim]);
-    for (int i = 0; i < in->n; i++) /* the same primitive, or one of the same mesh */
-        if (in->prim[i] == prim || (solid && prim_solid(&c->s->prims[in->prim[i]]) == solid))
-            k = i;
+    int k = solid_in(c, in, prim), lost = 0;
     if (in->n == 0) {
         eta = 1.0f / m->ior;
         out->prim[out->n++] = prim;
@@ -612,6 +620,49 @@ static int refraction(const Ctx *c, int prim, const Material *m, const Surface *
     return REFRACT_RAY;
 }
 
+/* The hits of the n rays r inside the solids in[k], best[k] (h[k]), that
+ * leave a transparent solid where an opaque plane (the plan's floors)
+ * meets the ray at the same distance, give way to the plane: a glass solid
+ * standing on a floor touches it, and a ray leaving the glass there meets
+ * the floor. Else the ray left the solid first, started past the floor and
+ * missed it, or not, by the scene's order and the roundings; POV-Ray draws
+ * the floor. The same distance: within both hits' error bounds, and the
+ * distance that rounding each surface to float (the plan's move) can put
+ * between two that the scene makes meet (the plan's floor_band, 0 for the
+ * primitives whose box does not reach a floor). */
+static void floors_first(const Ctx *c, const Ray *r, int n, const Interiors *const *in, int *best, PrimHit *h)
+{
+    for (int k = 0; k < n; k++) {
+        const float band = best[k] >= 0 && in[k]->n ? c->p->floor_band[best[k]] : 0.0f;
+        if (band == 0.0f)
+            continue;
+        const Vec3 o = r[k].o, d = r[k].d;
+        for (int j = 0; j < c->p->nfloors; j++) {
+            const Prim *f = &c->s->prims[c->p->floors[j]];
+            /* first roughly, where the ray meets the plane: ahead of its
+             * origin (inside the solid, on the solid's side of the floor),
+             * and near the hit, with room for every rounding below */
+            const float no = vec_dot(f->g.plane.n, o), od = no - f->g.plane.d, nd = vec_dot(f->g.plane.n, d);
+            if (!(od * nd < 0.0f))
+                continue;
+            /* |plane's t - t| within the bound below, times |nd|: no division */
+            const float an = fabsf(nd), slack = 0x1p-19f * h[k].t * an + 0x1p-20f * (fabsf(no) + fabsf(f->g.plane.d));
+            if (!(fabsf(od + h[k].t * nd) <= h[k].terr * an + slack + 2.0f * band))
+                continue;
+            PrimHit g;
+            if (solid_in(c, in[k], best[k]) < 0) /* not leaving the solid */
+                break;
+            if (!prim_intersect(f, &r[k], c->p->variant, &g))
+                continue;
+            if (fabsf(g.t - h[k].t) <= g.terr + h[k].terr + band / an) {
+                best[k] = c->p->floors[j];
+                h[k] = g;
+                break;
+            }
+        }
+    }
+}
+
 /* `level` is the parent's level (0 for a camera ray); a continued ray stays
  * at it, any other ray is one deeper. */
 static Vec3 trace(const Ctx *c, const Ray *r, int level, int continued, const Interiors *in, float wt)
@@ -628,8 +679,11 @@ static Vec3 trace(const Ctx *c, const Ray *r, int level, int continued, const In
         i = g.prim;
         h = g.h;
         r = &g.r;
-    } else
+    } else {
         i = accel_closest(c->a, r, &h, c->st);
+        if (c->p->nfloors)
+            floors_first(c, r, 1, &in, &i, &h);
+    }
     Vec3 col;
     *c->continued += continued;
     shade_packet(c, r, 1, &i, &h, level, &in, &wt, &col);
@@ -820,6 +874,8 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
     Vec3 got[ACCEL_PACKET];
     if (nt) {
         accel_closest_packet(c->a, tr, nt, h2, best2, c->st);
+        if (c->p->nfloors)
+            floors_first(c, tr, nt, tinp, best2, h2);
         if (c->given->n)
             given(c, tr, nt, h2, best2);
         shade_packet(c, tr, nt, best2, h2, level + 1, tinp, tw, got);
@@ -834,6 +890,8 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
             if (near_edge(c, best[rwho[j]], &h[rwho[j]], &sf[rwho[j]]))
                 edge_clear(c, &sf[rwho[j]], &rr[j]);
         accel_closest_packet(c->a, rr, nr, h2, best2, c->st);
+        if (c->p->nfloors)
+            floors_first(c, rr, nr, rin, best2, h2);
         if (c->given->n)
             given(c, rr, nr, h2, best2);
         shade_packet(c, rr, nr, best2, h2, level + 1, rin, rw, got);
@@ -859,7 +917,14 @@ void shade_traced_packet(const RenderPlan *p, const Accel *a, const Ray *r, int 
         if (p->max_depth < 1) /* as trace() at level 0 */
             for (int j = 0; j < m; j++)
                 out[k + j] = vec3(0, 0, 0);
-        else
+        else if (p->nfloors && p->camera_in.n) { /* as trace() */
+            int b[ACCEL_PACKET];
+            PrimHit g[ACCEL_PACKET];
+            memcpy(b, best + k, sizeof(int) * (size_t)m);
+            memcpy(g, h + k, sizeof(PrimHit) * (size_t)m);
+            floors_first(&c, r + k, m, in, b, g);
+            shade_packet(&c, r + k, m, b, g, 1, in, ONES, out + k);
+        } else
             shade_packet(&c, r + k, m, best + k, h + k, 1, in, ONES, out + k);
     }
 }

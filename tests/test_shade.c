@@ -387,6 +387,58 @@ static void test_refraction_through_slab(void **state)
     scene_free(&s);
 }
 
+/* A clear solid (transmit 1, ior 1: no bend, no colour of its own)
+ * standing on the floor, listed before it: a ray through its bottom face
+ * meets the floor there, at the same distance, and sees the floor's
+ * ambient colour. The solid's face won the tie by its lower number, the
+ * ray left it first, started past the floor, and saw the background; an
+ * oriented box or a turned mesh on the floor, by the roundings. */
+static void test_clear_solid_on_floor(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/lancer-shade-XXXXXX", path[256], text[2048], err[512];
+    assert_non_null(mkdtemp(dir));
+    snprintf(path, sizeof path, "%s/cube.off", dir);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs("OFF\n8 12 0\n-1 0 -1\n1 0 -1\n1 2 -1\n-1 2 -1\n-1 0 1\n1 0 1\n1 2 1\n-1 2 1\n"
+          "3 0 2 1\n3 0 3 2\n3 4 5 6\n3 4 6 7\n3 0 1 5\n3 0 5 4\n3 3 7 6\n3 3 6 2\n3 0 4 7\n3 0 7 3\n"
+          "3 1 2 6\n3 1 6 5\n",
+          f);
+    fclose(f);
+    static const char *const solids[] = {
+        "box { min -1 0 -1 max 1 2 1 material g }",
+        "obox { center 0 0.8 0 u 1 0 0 v 0 0.8 0 w 0 0 1 material g }",
+        "box { min -1 0 -1 max 1 2 1 rotate 0 20 0 material g }",
+        NULL, /* the mesh */
+    };
+    for (size_t i = 0; i < sizeof solids / sizeof solids[0]; i++) {
+        char solid[512];
+        if (solids[i])
+            snprintf(solid, sizeof solid, "%s", solids[i]);
+        else
+            snprintf(solid, sizeof solid, "mesh { file \"%s\" material g rotate 0 30 0 }", path);
+        snprintf(text, sizeof text,
+                 "image { background 0.2 0.4 0.6 }\n"
+                 "camera { eye 0 1 -5 target 0 0 0 fov 40 }\n"
+                 "material m { color 0.5 0.4 0.3 ambient 0.1 diffuse 0.6 }\n"
+                 "material g { color 1 1 1 ambient 0 diffuse 0 transmit 1 }\n"
+                 "%s\nplane { normal 0 1 0 material m }\n",
+                 solid);
+        Scene s;
+        if (scene_parse("t.scn", text, strlen(text), &s, err, sizeof err) != 0)
+            fail_msg("%s", err);
+        for (int k = 0; k < 25; k++) { /* down through the top, at angles, out through the bottom */
+            const Vec3 at = vec3(-0.5f + 0.04f * (float)k, 0, 0.3f - 0.02f * (float)k);
+            const Vec3 o = vec3(0.3f, 5, -1.5f);
+            assert_vec(trace(&s, o, vec_sub(at, o)), 0.05f, 0.04f, 0.03f, 1e-6);
+        }
+        scene_free(&s);
+    }
+    remove(path);
+    rmdir(dir);
+}
+
 /* Loads the floor scene plus `extra`, then drops the floor. */
 static void load_floorless(Scene *s, const char *extra)
 {
@@ -1093,6 +1145,7 @@ int main(void)
         cmocka_unit_test(test_transparent_surface),
         cmocka_unit_test(test_shadow_through_glass), cmocka_unit_test(test_refraction_through_slab),
         cmocka_unit_test(test_refraction_through_mesh_slab),
+        cmocka_unit_test(test_clear_solid_on_floor),
         cmocka_unit_test(test_total_internal_reflection), cmocka_unit_test(test_no_self_shadowing_on_spheres),
         cmocka_unit_test(test_traced_is_trace), cmocka_unit_test(test_filtered_shadows_in_packets),
         cmocka_unit_test(test_refraction_in_packets), cmocka_unit_test(test_invisible_sphere_in_glass),

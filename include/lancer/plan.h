@@ -116,6 +116,10 @@ typedef struct {
                             * more get the spp x spp grid (render.h); 0: every pixel */
     PlanShadow *shadow;    /* per light, scene->lights[i] */
     PlanArea *area;        /* per light: its samples, for an area light (NULL for a point light) */
+    int *floors;           /* with transparent materials, the opaque planes (shade.c: floors_first) */
+    int nfloors;
+    float *floor_band;     /* with floors, per primitive: 0, or for a transparent one whose box meets a
+                            * floor, how far the float roundings can put it from a floor it touches */
 } RenderPlan;
 
 /* Options that keep every setting of the scene, on one thread. */
