@@ -541,15 +541,11 @@ static void test_t_junction_does_not_leak(void **state)
 {
     (void)state;
     char dir[] = "/tmp/lancer-pntri-XXXXXX", path[256], text[512], err[512];
-    assert_non_null(mkdtemp(dir));
-    snprintf(path, sizeof path, "%s/cube.off", dir);
-    FILE *f = fopen(path, "w");
-    assert_non_null(f);
-    fputs("OFF\n9 14 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n0 0 1\n1 0 1\n1 1 1\n0 1 1\n0.5 0 0\n"
-          "3 0 3 2\n3 0 2 1\n3 4 5 6\n3 4 6 7\n3 0 5 4\n3 2 3 7\n3 2 7 6\n3 1 2 6\n3 1 6 5\n3 0 4 7\n"
-          "3 0 7 3\n3 0 8 5\n3 8 1 5\n3 0 1 8\n",
-          f);
-    fclose(f);
+    test_temp_file(dir, "cube.off",
+                   "OFF\n9 14 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n0 0 1\n1 0 1\n1 1 1\n0 1 1\n0.5 0 0\n"
+                   "3 0 3 2\n3 0 2 1\n3 4 5 6\n3 4 6 7\n3 0 5 4\n3 2 3 7\n3 2 7 6\n3 1 2 6\n3 1 6 5\n3 0 4 7\n"
+                   "3 0 7 3\n3 0 8 5\n3 8 1 5\n3 0 1 8\n",
+                   path, sizeof path);
     static const char *const kinds[2] = {"flat", "pn"};
     for (int k = 0; k < 2; k++) {
         Scene s;

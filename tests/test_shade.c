@@ -397,15 +397,8 @@ static void test_clear_solid_on_floor(void **state)
 {
     (void)state;
     char dir[] = "/tmp/lancer-shade-XXXXXX", path[256], text[2048], err[512];
-    assert_non_null(mkdtemp(dir));
-    snprintf(path, sizeof path, "%s/cube.off", dir);
-    FILE *f = fopen(path, "w");
-    assert_non_null(f);
-    fputs("OFF\n8 12 0\n-1 0 -1\n1 0 -1\n1 2 -1\n-1 2 -1\n-1 0 1\n1 0 1\n1 2 1\n-1 2 1\n"
-          "3 0 2 1\n3 0 3 2\n3 4 5 6\n3 4 6 7\n3 0 1 5\n3 0 5 4\n3 3 7 6\n3 3 6 2\n3 0 4 7\n3 0 7 3\n"
-          "3 1 2 6\n3 1 6 5\n",
-          f);
-    fclose(f);
+    test_box_off((const float[3]){-1, 0, -1}, (const float[3]){1, 2, 1}, text, sizeof text);
+    test_temp_file(dir, "cube.off", text, path, sizeof path);
     static const char *const solids[] = {
         "box { min -1 0 -1 max 1 2 1 material g }",
         "obox { center 0 0.8 0 u 1 0 0 v 0 0.8 0 w 0 0 1 material g }",
@@ -455,15 +448,8 @@ static void test_refraction_through_mesh_slab(void **state)
 {
     (void)state;
     char dir[] = "/tmp/lancer-shade-XXXXXX", path[256], text[1024];
-    assert_non_null(mkdtemp(dir));
-    snprintf(path, sizeof path, "%s/slab.off", dir);
-    FILE *f = fopen(path, "w");
-    assert_non_null(f);
-    fputs("OFF\n8 12 0\n-10 -1 -10\n10 -1 -10\n10 0 -10\n-10 0 -10\n-10 -1 10\n10 -1 10\n10 0 10\n-10 0 10\n"
-          "3 0 2 1\n3 0 3 2\n3 4 5 6\n3 4 6 7\n3 0 1 5\n3 0 5 4\n3 3 7 6\n3 3 6 2\n3 0 4 7\n3 0 7 3\n"
-          "3 1 2 6\n3 1 6 5\n",
-          f);
-    fclose(f);
+    test_box_off((const float[3]){-10, -1, -10}, (const float[3]){10, 0, 10}, text, sizeof text);
+    test_temp_file(dir, "slab.off", text, path, sizeof path);
     /* (a pn slab is not flat: its corners' normals round it) */
     static const char *const kinds[2] = {"flat", "smooth"};
     for (int k = 0; k < 2; k++) {

@@ -6,6 +6,7 @@
 #define LANCER_TESTUTIL_H
 
 #include <stdio.h>
+#include <stdlib.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -43,6 +44,29 @@ static inline Vec3 test_rvec(unsigned long long *s, float lo, float hi)
 {
     float x = test_uniform(s, lo, hi), y = test_uniform(s, lo, hi);
     return vec3(x, y, test_uniform(s, lo, hi));
+}
+
+/* Makes the folder dir (a mkdtemp template) and in it the file `name`
+ * holding text, whose path goes into path (len bytes). */
+static inline void test_temp_file(char *dir, const char *name, const char *text, char *path, size_t len)
+{
+    assert_non_null(mkdtemp(dir));
+    snprintf(path, len, "%s/%s", dir, name);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs(text, f);
+    fclose(f);
+}
+
+/* The OFF file of the box lo..hi as 12 triangles, outward, into buf. */
+static inline void test_box_off(const float lo[3], const float hi[3], char *buf, size_t len)
+{
+    int n = snprintf(buf, len, "OFF\n8 12 0\n");
+    for (int k = 0; k < 8; k++) /* corner k: x from bit 0 ^ bit 1, y from bit 1, z from bit 2 */
+        n += snprintf(buf + n, len - (size_t)n, "%.9g %.9g %.9g\n", (double)((k & 1) ^ (k >> 1 & 1) ? hi[0] : lo[0]),
+                      (double)(k & 2 ? hi[1] : lo[1]), (double)(k & 4 ? hi[2] : lo[2]));
+    snprintf(buf + n, len - (size_t)n, "3 0 2 1\n3 0 3 2\n3 4 5 6\n3 4 6 7\n3 0 1 5\n3 0 5 4\n3 3 7 6\n3 3 6 2\n"
+                                       "3 0 4 7\n3 0 7 3\n3 1 2 6\n3 1 6 5\n");
 }
 
 /* Seeds for the fuzzers (tests/fuzz): a test program run as `test_x
