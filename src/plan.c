@@ -54,34 +54,34 @@ static double solid_volume(const Prim *p)
 }
 
 /* For a transparent bounded primitive whose box meets one of the plan's
- * floors: the distance from the floor at which a point of it counts as
- * touching it (shade.c, floors_first), twice what rounding each surface's
- * numbers to float (the plan's move) can put between two that the scene
- * makes meet. Else 0. */
+ * floors: the distance from the floor within which a point of it counts as
+ * touching it (shade.c, floors_first). Rounding a number x to float moves
+ * it by up to 2^-24 |x|, so the plan's move can put a face up to 2^-24 of
+ * the terms that place it along the floor's normal n from where the scene
+ * has it (a centre and half-axes for an oriented box: at most twice the
+ * box's own coordinates, Σ |n_i| max(|lo_i|, |hi_i|)), and the floor up to
+ * 2^-24 |d| and that much again by its tilt. Else 0: spheres and ellipsoids
+ * too, which touch a plane at a point, where no ray leaves them for the
+ * floor but on a line of measure zero. */
 static float floor_band(const Scene *s, const RenderPlan *p, int i)
 {
     const Prim *q = &s->prims[i];
     const Material *m = &s->materials[q->material];
     float lo[3], hi[3];
-    /* (a sphere or an ellipsoid touches a plane at a point: no ray leaves
-     * the one into the other but by a tie on a line of measure zero) */
     if (m->filter + m->transmit <= 0.0f || q->kind == PRIM_SPHERE || q->kind == PRIM_ELLIPSOID ||
         !bvh_prim_bounds(q, lo, hi))
         return 0.0f;
-    float size = 0.0f;
-    for (int a = 0; a < 3; a++)
-        size = fmaxf(size, fmaxf(fabsf(lo[a]), fabsf(hi[a])));
     float band = 0.0f;
     for (int j = 0; j < p->nfloors; j++) {
         const Plane *f = &s->prims[p->floors[j]].g.plane;
-        const float b = 0x1p-21f * (size + fabsf(f->d));
-        /* the box's extent along the normal, around its centre */
-        float c = 0.0f, r = 0.0f;
+        float c = 0.0f, r = 0.0f, along = 0.0f; /* the box along n: centre, half-extent, magnitude */
         for (int a = 0; a < 3; a++) {
-            const float n = vec_comp(f->n, a);
-            c += n * 0.5f * (lo[a] + hi[a]);
-            r += fabsf(n) * 0.5f * (hi[a] - lo[a]);
+            const float n = fabsf(vec_comp(f->n, a));
+            c += vec_comp(f->n, a) * 0.5f * (lo[a] + hi[a]);
+            r += n * 0.5f * (hi[a] - lo[a]);
+            along += n * fmaxf(fabsf(lo[a]), fabsf(hi[a]));
         }
+        const float b = 0x1p-23f * (along + fabsf(f->d));
         if (fabsf(c - f->d) <= r + 2.0f * b) /* the box reaches the floor's band */
             band = fmaxf(band, b);
     }
