@@ -546,9 +546,11 @@ int plan_notes(const RenderPlan *p, PlanNote *notes, int max)
              s->nprims);
     note(notes, max, &n, p->loop, "the BVH", why);
     note(notes, max, &n, !p->reflective && !p->full, "reflection rays",
-         p->reflective ? "some material reflects"
-         : p->full     ? "no material reflects; traced all the same, weighed 0 (--no-plan)"
-                       : "no material reflects");
+         p->reflective    ? "some material reflects"
+         : p->full        ? "no material reflects; traced all the same, weighed 0 (--no-plan)"
+         : p->transparent ? "no material reflects (total internal reflection in a transparent one is traced, "
+                            "and counted as reflection rays)"
+                          : "no material reflects");
     note(notes, max, &n, !p->transparent && !p->full, "refraction rays and interior lists",
          p->transparent ? "some material lets light through"
          : p->full      ? "no material lets light through; traced all the same, weighed 0 (--no-plan)"

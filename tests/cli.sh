@@ -399,6 +399,11 @@ has "$T/floor.json" '"shadows": "clear"'
 has "$T/floor.json" '"acceleration": {"bytes": '
 has "$T/floor.json" '{"what": "reflection rays", "skipped": true, "why": "no material reflects"}'
 has "$T/floor.json" '"phases_share": {"parse": '
+# a glass ball's total internal reflection is traced though no material
+# reflects, and the plan says so (it once said the rays were all skipped)
+printf 'image { width 32 height 24 }\ncamera { eye 0 0 -5 target 0 0 0 fov 40 }\nmaterial g { transmit 0.9 ior 1.5 }\nsphere { center 0 0 0 radius 1 material g }\n' >"$T/tir.scn"
+expect 0 "$LANCER" render "$T/tir.scn" -o "$T/tir.exr" --explain -q
+has "$T/out" "skipped  reflection rays: no material reflects (total internal reflection in a transparent one is traced, and counted as reflection rays)"
 expect 0 "$LANCER" render "$T/floor.scn" -o "$T/floor-full.exr" --no-plan --explain -q
 has "$T/out" "done     shadow rays toward light 0: any hit blocks it"
 has "$T/out" "rays: 768 camera, 736 shadow, 736 reflection, 736 refraction (2976 in all)"
