@@ -15,11 +15,14 @@ void stamp_make(Stamp *st, const char *scene, const Scene *s, const RenderPlan *
     scene_content_hash(s, st->hash);
     /* %.17g gives back the double exactly, %.9g the float. The move is the
      * options' (the plan's own camera-relative move follows from it); the
-     * threads and --no-plan change no pixel, nor does the acceleration
-     * structure with the robust routines. The classic ones can hit, without
-     * the tree's boxes, what the tree would not have tested: there it is
+     * threads and --no-plan change no pixel. The acceleration structure
+     * can: the classic routines can hit, without the tree's boxes, what the
+     * tree would not have tested, and the robust ones break a tie between
+     * coincident PN patches by the pieces the tree splits them into. It is
      * part of the routines' name. */
-    const char *intersect = p->variant != PRIM_CLASSIC ? "robust" : p->loop ? "classic-loop" : "classic-bvh";
+    char intersect[16];
+    snprintf(intersect, sizeof intersect, "%s-%s", p->variant == PRIM_CLASSIC ? "classic" : "robust",
+             p->loop ? "loop" : "bvh");
     char area[16] = "scene", adaptive[16] = "scene", pn[16] = "scene";
     if (o->area_samples)
         snprintf(area, sizeof area, "%d", o->area_samples);
