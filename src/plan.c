@@ -59,7 +59,7 @@ static double solid_volume(const Prim *p)
  * it by up to 2^-24 |x|, so the plan's move can put a face up to 2^-24 of
  * the terms that place it along the floor's normal n from where the scene
  * has it (a centre and half-axes for an oriented box: at most twice the
- * box's own coordinates, Σ |n_i| max(|lo_i|, |hi_i|)), and the floor up to
+ * box's own coordinates, the sum of |n_i| max(|lo_i|, |hi_i|)), and the floor up to
  * 2^-24 |d| and that much again by its tilt. Else 0: spheres and ellipsoids
  * too, which touch a plane at a point, where no ray leaves them for the
  * floor but on a line of measure zero. */

@@ -267,10 +267,6 @@ static void pn_mesh2(FILE *f, const PnPatch *pn, const PnGrid *g)
     fprintf(f, " }\n ");
 }
 
-/* Every object as lancer holds it: a transform that gave an object of the
- * same kind is already applied to it (an oriented box is POV-Ray's box
- * with a matrix), and an ellipsoid is the unit sphere with its matrix.
- * Coordinates come from the scene's doubles where it has them. */
 /* 1 when POV-Ray's twin of a primitive of material m needs an interior:
  * light passes, or its ior counts where a ray starts in it. */
 static int has_interior(const Material *m) { return m->filter + m->transmit > 0.0f || m->ior != 1.0f; }
@@ -281,8 +277,12 @@ static void interior(FILE *f, const Material *m)
     fputs(" }", f);
 }
 
-/* The primitive, with its interior unless `shared` (a mesh's, which its
- * union holds). */
+/* Every object as lancer holds it: a transform that gave an object of the
+ * same kind is already applied to it (an oriented box is POV-Ray's box
+ * with a matrix), and an ellipsoid is the unit sphere with its matrix.
+ * Coordinates come from the scene's doubles where it has them.
+ * Its interior comes with it unless `shared` (a mesh's, which its union
+ * holds). */
 static void prim(FILE *f, const Scene *s, const Prim *p, const PnGrid *grid, int shared)
 {
     const Triangle *t = &p->g.tri;
