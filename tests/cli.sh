@@ -482,7 +482,10 @@ for scn in scenes/*.scn scenes/parity/*.scn scenes/stability/*.scn tests/parity/
     case $scn in *bunny*) [ -e build/cgal-data/meshes/bunny00.off ] || continue ;; esac
     expect 0 "$LANCER" render "$scn" -o "$T/planned.exr" --float --width 96 --height 72 -q
     expect 0 "$LANCER" render "$scn" -o "$T/full.exr" --float --width 96 --height 72 --no-plan -q
-    if cmp -s "$T/planned.exr" "$T/full.exr"; then ok; else bad "$scn: --no-plan changed the picture"; fi
+    # (the pixels: the stamps may differ, naming the loop or the tree)
+    if "$LANCER" diff "$T/planned.exr" "$T/full.exr" | grep -q "^max=0 mean=0 "; then ok; else
+        bad "$scn: --no-plan changed the picture"
+    fi
 done
 
 tally cli
