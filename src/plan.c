@@ -4,6 +4,7 @@
  */
 #include "lancer/plan.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -81,7 +82,7 @@ static float floor_band(const Scene *s, const RenderPlan *p, int i)
             r += n * 0.5f * (hi[a] - lo[a]);
             along += n * fmaxf(fabsf(lo[a]), fabsf(hi[a]));
         }
-        const float b = 0x1p-23f * (along + fabsf(f->d));
+        const float b = 0x1p-23f * (along + fabsf(f->d)) + FLT_MIN; /* (not 0, which says no floor) */
         if (fabsf(c - f->d) <= r + 2.0f * b) /* the box reaches the floor's band */
             band = fmaxf(band, b);
     }
