@@ -69,8 +69,7 @@ struct ThreadPool {
     /* written under the lock, and read without it by the spins below */
     unsigned job;     /* counts the jobs begun (and the end); a worker waits for the next */
     unsigned pending; /* the workers not yet finished with the current job */
-    int last;         /* the current job is the workers' last (pool_run_last) */
-    int ended;        /* the workers have had their last job (pool_run_last) */
+    int ended;        /* the current or a past job was the workers' last (pool_run_last) */
     void (*fn)(void *);
     void *arg;
     int nworkers;
@@ -124,7 +123,7 @@ static void *pool_worker(void *arg)
         seen = p->job;
         void (*fn)(void *) = p->fn;
         void *fa = p->arg;
-        const int last = p->last;
+        const int last = p->ended;
         if (!fn) /* pool_free's end */
             break;
         pthread_mutex_unlock(&p->lock);
@@ -178,7 +177,6 @@ static void run(ThreadPool *p, void (*fn)(void *), void *arg, int last)
         pthread_mutex_lock(&p->lock);
         p->fn = fn;
         p->arg = arg;
-        p->last = last;
         p->ended = last;
         POOL_STORE(p->pending, (unsigned)workers);
         POOL_STORE(p->job, p->job + 1);
