@@ -28,7 +28,8 @@ static const char *floor_scene =
 static void load(Scene *s, const char *extra)
 {
     char text[4096], err[512];
-    snprintf(text, sizeof text, "%s%s", floor_scene, extra);
+    int len = snprintf(text, sizeof text, "%s%s", floor_scene, extra);
+    assert_true(len > 0 && (size_t)len < sizeof text);
     int rc = scene_parse("t.scn", text, strlen(text), s, err, sizeof err);
     if (rc != 0)
         print_error("%s\n", err);
