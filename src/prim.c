@@ -29,6 +29,11 @@
 #include "ray_lanes.h"
 #endif
 
+/* prim_surface takes a triangle's normal in double where its length is
+ * outside these, whose squares neither over- nor underflow in float. */
+#define TRI_NORMAL_MIN 0x1p-60f
+#define TRI_NORMAL_MAX 0x1p60f
+
 /* The spawn margin off a triangle, in units of gamma (tri_spawn_margin):
  * 16 times the least that test_prim's triangles need. */
 #define TRI_SPAWN_GAMMA 64
@@ -1321,6 +1326,18 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
     case PRIM_SMOOTH_TRIANGLE: {
         const Triangle *t = &p->g.tri;
         ng = vec_cross(vec_sub(t->b, t->a), vec_sub(t->c, t->a));
+        float alen = vec_length(ng);
+        if (!(alen >= TRI_NORMAL_MIN && alen <= TRI_NORMAL_MAX)) {
+            /* |n|^2 over- or underflows in float (edges of about 2^30, or
+             * 2^-30): the direction from double, |n| rounded */
+            double n[3];
+            tri_normal_d(t, n, NULL);
+            const double len = sqrt(d3_dot(n, n));
+            if (len > 0.0) {
+                ng = vec3((float)(n[0] / len), (float)(n[1] / len), (float)(n[2] / len));
+                alen = (float)len;
+            }
+        }
         if (robust) {
             /* pbrt: from the barycentrics, which lie on the triangle's
              * plane to within gamma(7) of the terms; o + t d would carry
@@ -1332,7 +1349,7 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
                              vec3(fabsf(pc.x), fabsf(pc.y), fabsf(pc.z)));
             s->perr = vec_scale(m, gamma_f(7));
             s->edge = -1; /* prim_near_edge tells, if asked */
-            const float margin = tri_spawn_margin(t, s, vec_length(ng));
+            const float margin = tri_spawn_margin(t, s, alen);
             if (margin > PRIM_WIDE_MARGIN * vec_max_abs(s->p) && margin > PRIM_WIDE_MARGIN * h->t * vec_max_abs(r->d))
                 tri_wide_hit(p, r, h, s);
         }
