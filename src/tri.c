@@ -44,12 +44,21 @@ static float max3(float a, float b, float c) { return float_max(a, float_max(b, 
 
 /* A bound on the rounding of the edge function xi yj - yi xj when each
  * coordinate is off by its e: the products' own rounding, and first and
- * second order terms of the coordinate errors. Symmetric in (i, j). */
+ * second order terms of the coordinate errors. Symmetric in (i, j). (The
+ * products' underflow: TRI_SHEAR_FLOOR.) */
 static float edge_err(float xi, float yi, float exi, float eyi, float xj, float yj, float exj, float eyj)
 {
     float m = fabsf(xi * yj) + fabsf(yi * xj);
     float d = exi * fabsf(yj) + eyj * fabsf(xi) + eyi * fabsf(xj) + exj * fabsf(yi) + exi * eyj + eyi * exj;
     return gamma_f(3) * m + d * (1.0f + gamma_f(3));
+}
+
+/* An edge function taken again in double, as a float of the same sign: a
+ * value below the least float would round to 0 and lose its sign. */
+static float edge_float(double e)
+{
+    float f = (float)e;
+    return f != 0.0f || e == 0.0 ? f : e > 0.0 ? 0x1p-149f : -0x1p-149f;
 }
 
 static int watertight(const Vec3 v[3], const Ray *r, const PrimTriRay *p, PrimHit *h);
@@ -69,8 +78,11 @@ static void shear_double(const Vec3 v[3], const Ray *r, const PrimTriRay *p, dou
 }
 
 /* t, u and v of watertight() in double, for a t too close to 0 or tmax to
- * trust in float; 0 if it is outside (0, tmax) all the same. */
-static int t_double(const Vec3 v[3], const Ray *r, const PrimTriRay *p, float *t, float *u, float *w)
+ * trust in float; 0 if it is outside (0, tmax) all the same. With terr,
+ * also watertight()'s bound on t's error, taken in double from the
+ * double coordinates (the same roundings, each smaller), for a triangle
+ * whose float products over- or underflow. */
+static int t_double(const Vec3 v[3], const Ray *r, const PrimTriRay *p, float *t, float *u, float *w, float *terr)
 {
     double X[3], Y[3], Z[3];
     shear_double(v, r, p, X, Y, Z);
@@ -78,12 +90,28 @@ static int t_double(const Vec3 v[3], const Ray *r, const PrimTriRay *p, float *t
     double det = e0 + e1 + e2;
     if (det == 0.0)
         return 0;
-    float td = (float)((e0 * Z[0] + e1 * Z[1] + e2 * Z[2]) / det);
+    const double tdd = (e0 * Z[0] + e1 * Z[1] + e2 * Z[2]) / det;
+    float td = (float)tdd;
     if (!(td > 0.0f && td < r->tmax))
         return 0;
     *t = td;
     *u = (float)(e1 / det);
     *w = (float)(e2 / det);
+    if (terr) {
+        const double dz = fabs((double)vec_comp(r->d, p->kz));
+        double mx = 0.0, my = 0.0, mz = 0.0;
+        for (int k = 0; k < 3; k++) {
+            mx = double_max(mx, fabs(X[k]));
+            my = double_max(my, fabs(Y[k]));
+            mz = double_max(mz, fabs(Z[k]));
+        }
+        const double mz_len = mz * dz, me = double_max(fabs(e0), double_max(fabs(e1), fabs(e2)));
+        const double dxe = GAMMA_D(5) * (mx + mz_len), dye = GAMMA_D(5) * (my + mz_len), dze = GAMMA_D(3) * mz;
+        const double de = 2.0 * (GAMMA_D(2) * mx * my + dye * mx + dxe * my);
+        /* and t's rounding to float */
+        *terr = float_up(3.0 * (GAMMA_D(3) * me * mz + de * mz + dze * me) / fabs(det) * (1.0 + GAMMA_D(4)) +
+                         fabs(tdd - (double)td));
+    }
     return 1;
 }
 
@@ -148,22 +176,26 @@ static int watertight(const Vec3 v[3], const Ray *r, const PrimTriRay *p, PrimHi
      * the same whichever way round the edge is taken, so the two triangles
      * sharing an edge always decide it by the same computation and still
      * get exactly opposite signs. */
-    float g5 = gamma_f(5);
-    float exa = g5 * (fabsf(vec_comp(A, kx)) + fabsf(vec_comp(A, kz))), eya = g5 * (fabsf(vec_comp(A, ky)) + fabsf(vec_comp(A, kz)));
-    float exb = g5 * (fabsf(vec_comp(B, kx)) + fabsf(vec_comp(B, kz))), eyb = g5 * (fabsf(vec_comp(B, ky)) + fabsf(vec_comp(B, kz)));
-    float exc = g5 * (fabsf(vec_comp(C, kx)) + fabsf(vec_comp(C, kz))), eyc = g5 * (fabsf(vec_comp(C, ky)) + fabsf(vec_comp(C, kz)));
-    int u0 = fabsf(e0) <= edge_err(bx, by, exb, eyb, cx, cy, exc, eyc);
-    int u1 = fabsf(e1) <= edge_err(cx, cy, exc, eyc, ax, ay, exa, eya);
-    int u2 = fabsf(e2) <= edge_err(ax, ay, exa, eya, bx, by, exb, eyb);
+    /* (a coordinate's x and y no less than TRI_SHEAR_FLOOR, which covers
+     * the underflow of the shear's products and the edge functions') */
+    float g5 = gamma_f(5), lo = TRI_SHEAR_FLOOR;
+#define SHEAR_ERR(P, k) (g5 * (float_max(fabsf(vec_comp(P, k)), lo) + fabsf(vec_comp(P, kz))))
+    float exa = SHEAR_ERR(A, kx), eya = SHEAR_ERR(A, ky);
+    float exb = SHEAR_ERR(B, kx), eyb = SHEAR_ERR(B, ky);
+    float exc = SHEAR_ERR(C, kx), eyc = SHEAR_ERR(C, ky);
+#undef SHEAR_ERR
+    int u0 = !(fabsf(e0) > edge_err(bx, by, exb, eyb, cx, cy, exc, eyc)); /* (a NaN, past 2^63: unsure) */
+    int u1 = !(fabsf(e1) > edge_err(cx, cy, exc, eyc, ax, ay, exa, eya));
+    int u2 = !(fabsf(e2) > edge_err(ax, ay, exa, eya, bx, by, exb, eyb));
     if (u0 || u1 || u2) {
         double X[3], Y[3], Z[3];
         shear_double(v, r, p, X, Y, Z);
         if (u0)
-            e0 = (float)(X[1] * Y[2] - Y[1] * X[2]);
+            e0 = edge_float(X[1] * Y[2] - Y[1] * X[2]);
         if (u1)
-            e1 = (float)(X[2] * Y[0] - Y[2] * X[0]);
+            e1 = edge_float(X[2] * Y[0] - Y[2] * X[0]);
         if (u2)
-            e2 = (float)(X[0] * Y[1] - Y[0] * X[1]);
+            e2 = edge_float(X[0] * Y[1] - Y[0] * X[1]);
     }
     if ((e0 < 0.0f || e1 < 0.0f || e2 < 0.0f) && (e0 > 0.0f || e1 > 0.0f || e2 > 0.0f))
         return 0;
@@ -194,7 +226,13 @@ static int watertight(const Vec3 v[3], const Ray *r, const PrimTriRay *p, PrimHi
     float terr = tserr * fabsf(inv);
     float u = e1 * inv, w = e2 * inv;
     int out = det < 0.0f ? (tscaled >= 0.0f || tscaled < r->tmax * det) : (tscaled <= 0.0f || tscaled > r->tmax * det);
-    if (out || !(t > 0.0f) || !(t < r->tmax)) {
+    if (tri_t_out_of_range(tserr, me)) {
+        /* Past float's range (about 2^42 from the ray's origin, where
+         * tscaled's products overflow, or products below 2^-100), t and
+         * its bound are taken in double. */
+        if (!t_double(v, r, p, &t, &u, &w, &terr))
+            return 0;
+    } else if (out || !(t > 0.0f) || !(t < r->tmax)) {
         /* Outside (0, tmax), but maybe only by t's rounding: a triangle
          * seen almost edge-on has a t far less accurate than its edge
          * signs, and if the shared edge went to it, dropping it would leak
@@ -202,7 +240,7 @@ static int watertight(const Vec3 v[3], const Ray *r, const PrimTriRay *p, PrimHi
          * so that the lanes need no division), t is taken again in double;
          * the signs stay as decided. */
         float ts = det < 0.0f ? -tscaled : tscaled, reach = r->tmax * fabsf(det) + tserr;
-        if (!(ts > -tserr && ts < reach) || !t_double(v, r, p, &t, &u, &w))
+        if (!(ts > -tserr && ts < reach) || !t_double(v, r, p, &t, &u, &w, NULL))
             return 0;
     }
     *h = (PrimHit){t, prim_terr_up(terr, t), u, w, 0}; /* terr: and the rounding of t itself */

@@ -32,7 +32,7 @@ TRI_LANES_DECL int TRI_LANES(const float *blk, int lanes, const PrimTriRay *p, c
      * it is at least each edge's own bound, at a third of the cost. A lane
      * it cannot decide takes the scalar routine, which applies the
      * per-edge bounds: the verdict's bits are the same. */
-    V mx0 = zero, my0 = zero, mz_len = zero;
+    V mx0 = V_SET1(TRI_SHEAR_FLOOR), my0 = mx0, mz_len = zero; /* (watertight()'s floor) */
     /* (written out: a loop over arrays of vectors is not unrolled at -O2) */
 #define VERTEX(k, X, Y, Z)                                                                      \
     V X = V_SUB(V_LOAD(blk, k, p->kx), ox), Y = V_SUB(V_LOAD(blk, k, p->ky), oy);               \
@@ -63,8 +63,8 @@ TRI_LANES_DECL int TRI_LANES(const float *blk, int lanes, const PrimTriRay *p, c
     V bound = V_ADD(V_MUL(V_SET1(GAMMA_F(3)), m), V_MUL(d, V_SET1(1.0f + GAMMA_F(3))));
     V emin = V_MIN(V_ABS(e0), V_MIN(V_ABS(e1), V_ABS(e2)));
     int unsure = M_BITS(V_LE(emin, bound));
-    /* edges of both signs: the ray passes outside (a NaN lane, from an
-     * overflow, is never hit: its t is NaN too) */
+    /* edges of both signs: the ray passes outside (a lane with a NaN edge,
+     * past 2^63, has a NaN ts, and the scalar routine decides it) */
     V emn = V_MIN(e0, V_MIN(e1, e2)), emx = V_MAX(e0, V_MAX(e1, e2));
     V det = V_ADD(V_ADD(e0, e1), e2);
     V sz = V_RAY(p->sz, p2->sz);
@@ -81,8 +81,8 @@ TRI_LANES_DECL int TRI_LANES(const float *blk, int lanes, const PrimTriRay *p, c
     if (!inside) /* most leaves a ray reaches are missed by here */
         return 0;
     /* the rest of watertight() for the lanes inside, in its order (a lane
-     * with a finite ts has no NaN, so MAXPS is max3 there; a NaN ts is
-     * neither hit nor slow, as in watertight()). max |z sz| is max|z| |sz|
+     * with a finite ts has no NaN, so MAXPS is max3 there; a NaN ts goes
+     * to the scalar routine, below). max |z sz| is max|z| |sz|
      * rounded, and max |e| the larger of |min e| and |max e|: rounding
      * and abs are monotone. */
     V mz = V_MUL(mz_len, V_ABS(sz)), me = V_MAX(V_ABS(emn), V_ABS(emx));
@@ -96,7 +96,12 @@ TRI_LANES_DECL int TRI_LANES(const float *blk, int lanes, const PrimTriRay *p, c
      * watertight() takes it again in double */
     V tsd = V_SEL(neg, V_SUB(zero, ts), ts);
     int near = M_BITS(M_AND(V_GT(tsd, V_SUB(zero, tserr)), V_LT(tsd, V_ADD(V_ABS(tmd), tserr))));
-    int hit = inside & ~M_BITS(t_out);
+    /* a t past float's range or a NaN (tri_t_out_of_range), to the scalar
+     * routine, which takes it in double (me, sure here, is at least
+     * TRI_T_TINY: TRI_SHEAR_FLOOR) */
+    M fits = M_AND(V_GE(tserr, V_SET1(TRI_T_TINY)), V_LE(tserr, V_SET1(TRI_T_HUGE)));
+    int far = inside & ~M_BITS(fits);
+    int hit = inside & ~M_BITS(t_out) & ~far;
     if (hit) { /* only then the division */
         V inv = V_DIV(V_SET1(1.0f), det), tv = V_MUL(ts, inv);
         hit &= M_BITS(M_AND(V_GT(tv, zero), V_LT(tv, tmax)));
@@ -105,7 +110,7 @@ TRI_LANES_DECL int TRI_LANES(const float *blk, int lanes, const PrimTriRay *p, c
         V_STORE(hu, V_MUL(e1, inv));
         V_STORE(hv, V_MUL(e2, inv));
     }
-    *slow |= inside & ~hit & near;
+    *slow |= (inside & ~hit & near) | far;
     return hit;
 #undef MAX3
 }

@@ -8,6 +8,7 @@
 #ifndef LANCER_TRI_RAY_H
 #define LANCER_TRI_RAY_H
 
+#include <float.h>
 #include <math.h>
 #include <stdint.h>
 
@@ -31,6 +32,26 @@
  * overflow), and the SIMD lanes leave them to the scalar routine. */
 #define TRI_RESCALE_MIN 0x1p-60f
 #define TRI_RESCALE_MAX 0x1p60f
+
+/* The watertight test past float's normal range (tri.c, and the lanes the
+ * same). The shear's error is taken from coordinates no less than
+ * TRI_SHEAR_FLOOR: each edge bound is then at least 2 (gamma(5) 2^-30)^2
+ * > 2^-103, more than its products' underflow (2^-150 each, where no
+ * relative bound holds), and an edge function the test is sure of is a
+ * normal float. And t's float bound stops holding past TRI_T_HUGE, where
+ * |t det| overflows or is a NaN (vertices about 2^42 from the ray's
+ * origin; |t det| is at most 2^23 times its bound), or where the bound or
+ * the largest edge function is below TRI_T_TINY and products underflow:
+ * such a t is taken in double. */
+#define TRI_SHEAR_FLOOR 0x1p-30f
+#define TRI_T_TINY 0x1p-104f
+#define TRI_T_HUGE 0x1p100f
+
+static inline int tri_t_out_of_range(float tserr, float me)
+{
+    const float least = tserr < me ? tserr : me; /* as MINPS, the lanes' */
+    return !(least >= TRI_T_TINY && tserr <= TRI_T_HUGE);
+}
 
 /* prim_triray_init (prim.h), which calls this. kz is the axis of the
  * largest |d|, from a = |dx| > |dy|, b = |dx| > |dz| and c = |dy| > |dz|:

@@ -1604,9 +1604,12 @@ static void test_tri16_matches_tri8(void **state)
         skip();
     int pairs = 0, hits = 0, slow = 0;
     for (int n = 0; n < 100000; n++) {
-        Vec3 c = test_rvec(&rng, -2, 2), rim[8];
+        /* a tenth of the fans far from the rays or tiny next to them,
+         * where the lanes leave t to the scalar routine */
+        const float geo = n % 10 != 9 ? 1.0f : n % 20 == 9 ? 0x1p44f : 0x1p-55f;
+        Vec3 c = vec_scale(test_rvec(&rng, -2, 2), geo), rim[8];
         for (int i = 0; i < 8; i++)
-            rim[i] = vec_add(c, test_rvec(&rng, -1, 1));
+            rim[i] = vec_add(c, vec_scale(test_rvec(&rng, -1, 1), geo));
         PrimTri8 t;
         for (int i = 0; i < 8; i++) {
             Vec3 v[3] = {c, rim[i], rim[(i + 1) % 8]};
@@ -1618,9 +1621,10 @@ static void test_tri16_matches_tri8(void **state)
         const float sc = scales[n / 16 % 6];
         for (int j = 0; j < 2; j++) {
             Vec3 target = vec_add(c, vec_scale(vec_sub(rim[(n + j) % 8], c), test_uniform(&rng, 0, 1.2f)));
-            Vec3 o = j && n % 2 ? vec_add(r[0].o, test_rvec(&rng, -1e-3f, 1e-3f)) : test_rvec(&rng, -6, 6);
+            Vec3 o = j && n % 2 ? vec_add(r[0].o, vec_scale(test_rvec(&rng, -1e-3f, 1e-3f), geo))
+                                : vec_scale(test_rvec(&rng, -6, 6), geo);
             if (n % 5 == 4) /* from next to the fan: t near 0 */
-                o = vec_add(target, vec_scale(test_rvec(&rng, -1, 1), ldexpf(1.0f, -(n / 5 % 30))));
+                o = vec_add(target, vec_scale(test_rvec(&rng, -1, 1), geo * ldexpf(1.0f, -(n / 5 % 30))));
             Vec3 d = vec_scale(n % 5 == 4 ? test_rvec(&rng, -1, 1) : vec_sub(target, o), sc);
             float tmax = (n + j) % 3 ? INFINITY : test_uniform(&rng, 0.5f, 1.5f) / sc;
             r[j] = ray_make(o, d, tmax);
@@ -1652,6 +1656,126 @@ static void test_tri16_matches_tri8(void **state)
     assert_true(slow > 100); /* lanes left to the scalar routine, in both forms */
 }
 #endif
+
+/* A triangle's unit normal whatever its size (a review found huge ones
+ * black): a float |n|^2 overflowed for edges of about 4 * 10^9, which
+ * made the normal 0, and underflowed for 10^-13, which left it
+ * unnormalised. */
+static void test_triangle_normal_at_any_scale(void **state)
+{
+    (void)state;
+    const float s[] = {4e9f, 1e10f, 1e-13f, 1.0f, 1e18f, 1e-18f};
+    for (int i = 0; i < 6; i++)
+        for (int variant = i < 4 ? 0 : 1; variant < 2; variant++) { /* (the classic test's t overflows by 10^18) */
+            Prim p = {0};
+            p.kind = PRIM_TRIANGLE;
+            p.g.tri.a = vec3(-s[i], 0, -s[i]);
+            p.g.tri.b = vec3(s[i], 0, -s[i]);
+            p.g.tri.c = vec3(0, 0, s[i]);
+            const PrimVariant v = variant ? PRIM_ROBUST : PRIM_CLASSIC;
+            Ray r = ray_make(vec3(0, 2 * s[i], 0), vec3(0, -1, 0), INFINITY);
+            PrimHit h;
+            Surface sf;
+            assert_true(prim_intersect(&p, &r, v, &h));
+            prim_surface(&p, &r, &h, v, &sf);
+            assert_true(fabsf(sf.ng.y - 1.0f) < 1e-6f && fabsf(sf.ng.x) < 1e-6f && fabsf(sf.ng.z) < 1e-6f);
+            assert_true(fabsf(sf.ns.y - 1.0f) < 1e-6f && fabsf(sf.noff.y - 1.0f) < 1e-6f);
+        }
+}
+
+/* Triangles far from the ray's origin or tiny next to it, where the
+ * watertight test's float products over- or underflow (a review found
+ * them): t = 2^42 came out infinite, and the far sides of a product's
+ * inf - inf a NaN, both dropped; t = 2^-51 underflowed to 0, and 2^-50 to
+ * a subnormal t off by half with a tiny bound; and an edge function below
+ * the least float lost its sign, a miss by a hundredth of the triangle
+ * taken for a hit. The exact answers come from rational arithmetic. */
+static void test_watertight_far_and_tiny(void **state)
+{
+    (void)state;
+    const float s[] = {0x1p42f, 0x1p-51f, 0x1p-50f, 0x1p60f, 0x1p-60f};
+    for (int i = 0; i < 5; i++) { /* hit at u = 1/4, v = 1/2, t = s exactly */
+        Triangle t = {0};
+        t.a = vec3(-s[i], -s[i], s[i]);
+        t.b = vec3(s[i], -s[i], s[i]);
+        t.c = vec3(0, s[i], s[i]);
+        Ray r = ray_make(vec3(0, 0, 0), vec3(0, 0, 1), INFINITY);
+        PrimHit h;
+        assert_true(prim_triangle_hit_watertight(&t, &r, &h));
+        assert_true(isfinite(h.terr) && fabsf(h.t - s[i]) <= h.terr && h.terr < 0x1p-20f * s[i]);
+        assert_true(fabsf(h.u - 0.25f) < 1e-6f && fabsf(h.v - 0.5f) < 1e-6f);
+    }
+    { /* a floor 2 * 10^13 across, seen from 5 * 10^12 away: every ray aimed inside it hits */
+        const float k = 1e12f;
+        Triangle t = {0};
+        t.a = vec3(-10 * k, 0, -10 * k);
+        t.b = vec3(10 * k, 0, -10 * k);
+        t.c = vec3(10 * k, 0, 10 * k);
+        Ray r = ray_make(vec3(0, 2 * k, -5 * k), vec3(0x1.368a46p-2f, -0x1.0d74ccp-1f, 0x1.96baa6p-1f), INFINITY);
+        PrimHit h;
+        assert_true(prim_triangle_hit_watertight(&t, &r, &h));
+        assert_true(h.t > 2 * k && isfinite(h.terr) && h.terr < 0x1p-20f * h.t);
+    }
+    { /* exact: u = -0.0100001, v = 0.632, t = 1/8: a miss, by 1% */
+        Triangle t = {0};
+        t.a = vec3(0x1p+0f, -0x1.4c798ap-72f, 0x1.28d0fap-74f);
+        t.b = vec3(0x1p+0f, -0x1.ad6efp-72f, -0x1.03de82p-72f);
+        t.c = vec3(0x1p+0f, -0x1.456fecp-72f, 0x1.de02fp-72f);
+        Ray r = ray_make(vec3(0, 0, 0), vec3(0x1p+3f, -0x1.470deep-69f, 0x1.4cec82p-69f), INFINITY);
+        PrimHit h;
+        assert_false(prim_triangle_hit_watertight(&t, &r, &h));
+    }
+}
+
+/* The lanes (tri4.h) at those scales: the fan of test_tri4_matches_scalar
+ * scaled as a whole, 2^40 to 2^64 from the ray's origin or 2^-45 to
+ * 2^-60 next to it, must get the scalar routine's verdicts and bits, and
+ * the rays aimed inside the fan must hit it. */
+static void test_tri4_far_and_tiny_match_scalar(void **state)
+{
+    (void)state;
+    const float scales[] = {0x1p40f, 0x1p44f, 0x1p52f, 0x1p64f, 0x1p-45f, 0x1p-52f, 0x1p-60f};
+    int aimed = 0, found = 0;
+    for (int n = 0; n < 14000; n++) {
+        const float k = scales[n % 7];
+        Vec3 c = test_rvec(&rng, -2, 2), rim[4], v[4][3];
+        for (int i = 0; i < 4; i++)
+            rim[i] = vec_add(c, test_rvec(&rng, -1, 1));
+        PrimTri8 t = {0};
+        for (int i = 0; i < 4; i++) {
+            v[i][0] = vec_scale(c, k);
+            v[i][1] = vec_scale(rim[i], k);
+            v[i][2] = vec_scale(rim[(i + 1) % 4], k);
+            put_lane(&t, i, v[i]);
+        }
+        const int i = n / 7 % 4;
+        const float a = test_uniform(&rng, 0.1f, 0.45f), b = test_uniform(&rng, 0.1f, 0.45f);
+        Vec3 in = vec_add(c, vec_add(vec_scale(vec_sub(rim[i], c), a), vec_scale(vec_sub(rim[(i + 1) % 4], c), b)));
+        Vec3 o = test_rvec(&rng, -6, 6);
+        Ray r = ray_make(vec_scale(o, k), vec_normalize(vec_sub(in, o)), INFINITY);
+        PrimTriRay p;
+        prim_triray_init(&p, &r);
+        Hit4 h4;
+        int got = tri4_hit(&t, 0, 15, &p, &r, &h4);
+        for (int l = 0; l < 4; l++) {
+            PrimHit h;
+            int want = prim_triangle_hit_watertight3(v[l], &r, &h);
+            assert_int_equal(got >> l & 1, want);
+            if (want) {
+                assert_memory_equal(&h4.t[l], &h.t, sizeof(float));
+                assert_memory_equal(&h4.terr[l], &h.terr, sizeof(float));
+                assert_memory_equal(&h4.u[l], &h.u, sizeof(float));
+                assert_memory_equal(&h4.v[l], &h.v, sizeof(float));
+            }
+        }
+        if (vec_length(vec_cross(vec_sub(rim[i], c), vec_sub(rim[(i + 1) % 4], c))) > 0.05f) {
+            aimed++;
+            found += got >> i & 1;
+        }
+    }
+    assert_true(aimed > 10000);
+    assert_int_equal(found, aimed);
+}
 
 static void test_shared_edge_with_an_edge_on_triangle(void **state)
 {
@@ -1898,6 +2022,9 @@ int main(void)
 #ifdef TRI4_AVX512
         cmocka_unit_test(test_tri16_matches_tri8),
 #endif
+        cmocka_unit_test(test_triangle_normal_at_any_scale),
+        cmocka_unit_test(test_watertight_far_and_tiny),
+        cmocka_unit_test(test_tri4_far_and_tiny_match_scalar),
         cmocka_unit_test(test_shared_edge_with_an_edge_on_triangle),
         cmocka_unit_test(test_edge_on_triangle_hit_near_origin),
         cmocka_unit_test(test_triray_init),
