@@ -633,22 +633,57 @@ static int frame_of(const char *pat, const char *name, int lo, int hi)
     return -1;
 }
 
-/* 0 when no two outputs of frames first..last-1 name one file, else 2
- * after a message (each frame's own outputs are checked as it starts). */
-static int frames_apart(const char *const opt[3], const char *const pat[3], int first, int last)
+/* Frame pattern pat with its folder named by its device and inode, into
+ * out, so that two spellings of one folder ("out", "./out", a link to it)
+ * compare equal; pat itself where the folder holds a frame number or does
+ * not exist. Returns 0, or -1 when out is too short. */
+static int pattern_in_real_folder(const char *pat, char *out, size_t len)
 {
-    char name[AFILE_PATH_MAX];
-    for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++) {
-            if (i == j || !pat[i] || !pat[j])
+    const char *slash = strrchr(pat, '/');
+    char dir[AFILE_PATH_MAX];
+    struct stat st;
+    int n = slash ? snprintf(dir, sizeof dir, "%.*s", slash == pat ? 1 : (int)(slash - pat), pat)
+                  : snprintf(dir, sizeof dir, ".");
+    if (n < 0 || (size_t)n >= sizeof dir || strchr(dir, '%') || stat(dir, &st) != 0)
+        return fits(out, len, pat) ? 0 : -1;
+    n = snprintf(out, len, "%llu:%llu/%s", (unsigned long long)st.st_dev, (unsigned long long)st.st_ino,
+                 slash ? slash + 1 : pat);
+    return n >= 0 && (size_t)n < len ? 0 : -1;
+}
+
+/* 0 when no two files of frames first..last-1 are one file, else 2 after a
+ * message (each frame's own files are checked as it starts). The files:
+ * the outputs of pat[0 .. 2], and the partial image of -o (pat[0]), which
+ * a finished frame removes. */
+static int frames_apart(const char *const pat[3], int first, int last)
+{
+    static const char *const opt[4] = {"-o", "--png", "--stats", "the partial image of -o"};
+    char canon[4][AFILE_PATH_MAX], partial[AFILE_PATH_MAX], name[AFILE_PATH_MAX];
+    const char *given[4] = {pat[0], pat[1], pat[2], NULL};
+    if (outputs_partial_name(pat[0], partial, sizeof partial) != 0)
+        return 2;
+    given[3] = partial;
+    for (int i = 0; i < 4; i++)
+        if (given[i] && pattern_in_real_folder(given[i], canon[i], sizeof canon[i]) != 0)
+            return cli_usage_error("render", "%s %s: the path is too long", opt[i], given[i]);
+    for (int i = 0; i < 4; i++)
+        for (int j = 0; j < 4; j++) {
+            if (i == j || !given[i] || !given[j])
                 continue;
             for (int f = first; f < last; f++) {
-                if (cli_frame_path(opt[i], pat[i], f, name, sizeof name, NULL) != 0)
+                if (cli_frame_path(opt[i], canon[i], f, name, sizeof name, NULL) != 0)
                     return 2;
-                int g = frame_of(pat[j], name, first, last);
-                if (g >= 0 && g != f)
-                    return cli_usage_error("render", "%s of frame %d and %s of frame %d are both %s; each output needs a file of its own",
-                                           opt[i], f, opt[j], g, name);
+                int g = frame_of(canon[j], name, first, last);
+                if (g >= 0 && g != f) { /* named as the user wrote them */
+                    char a[AFILE_PATH_MAX], b[AFILE_PATH_MAX];
+                    if (cli_frame_path(opt[i], given[i], f, a, sizeof a, NULL) != 0 ||
+                        cli_frame_path(opt[j], given[j], g, b, sizeof b, NULL) != 0)
+                        return 2;
+                    return cli_usage_error(
+                        "render",
+                        "%s of frame %d (%s) and %s of frame %d (%s) are one file; each output needs a file of its own",
+                        opt[i], f, a, opt[j], g, b);
+                }
             }
         }
     return 0;
@@ -714,7 +749,7 @@ static int run(void *args, const char **pos, int npos)
                 return cli_usage_error("render", "%s %s: several frames need a frame pattern in the name, such as %%04d",
                                        opt_names[i], paths[i]);
         }
-        if (frames_apart(opt_names, paths, first, last) != 0)
+        if (frames_apart(paths, first, last) != 0)
             return 2;
     }
     outputs_catch_signals();
