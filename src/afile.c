@@ -224,6 +224,18 @@ int afile_check_writable(const char *path, char *err, size_t errlen)
                                      : "not a regular file (a device, FIFO or socket), which lancer does not replace");
         return -1;
     }
+    /* The temporary file's name is cut to fit (tmp_stem), so the name
+     * itself is measured: a render would run to its end and then fail. */
+    char dir[AFILE_PATH_MAX];
+    const char *base = split_path(target, dir, sizeof dir);
+    long most = pathconf(dir, _PC_NAME_MAX);
+    if (most <= 0)
+        most = AFILE_NAME_MAX;
+    if (strlen(base) > (size_t)most) {
+        snprintf(err, errlen, "%s: the file name is %zu bytes long, more than the %ld its folder allows", path,
+                 strlen(base), most);
+        return -1;
+    }
     char tmp[AFILE_PATH_MAX];
     if (afile_temp(path, tmp, sizeof tmp, err, errlen) != 0)
         return -1;

@@ -100,6 +100,14 @@ if [ -e "$T/ok.exr" ]; then bad "EXR written although the PNG path was bad"; els
 mkdir "$T/adir"
 expect 1 "$LANCER" render "$T/tiny.scn" -o "$T/adir"
 has "$T/err" "is a directory"
+# a name past the folder's 255 bytes, or whose partial image's name is:
+# refused before the render, not at its end or at a stop
+long=$(printf '%0252d' 0)
+expect 1 "$LANCER" render "$T/tiny.scn" -o "$T/$long.exr"
+has "$T/err" "the file name is 256 bytes long, more than the 255 its folder allows"
+long=$(printf '%0244d' 0)
+expect 1 "$LANCER" render "$T/tiny.scn" -o "$T/$long.exr" --resume
+has "$T/err" "$T/$long.partial.exr: the file name is 256 bytes long"
 
 # a good render writes every requested file, atomically replacing old ones
 expect 0 "$LANCER" render "$T/tiny.scn" -o "$T/keep.exr" --png "$T/a.png" --stats "$T/s.json" --threads 2 -q

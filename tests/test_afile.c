@@ -236,6 +236,12 @@ static void test_longest_name(void **state)
     fputs("long", f);
     assert_int_equal(afile_fclose(f, tmp, path, err, sizeof err), 0);
     assert_int_equal(access(path, F_OK), 0);
+    /* one byte more cannot be written: refused before any work */
+    assert_int_equal(afile_check_writable(path, err, sizeof err), 0);
+    char longer[AFILE_PATH_MAX];
+    assert_true(snprintf(longer, sizeof longer, "%sn", path) < (int)sizeof longer);
+    assert_int_equal(afile_check_writable(longer, err, sizeof err), -1);
+    assert_non_null(strstr(err, "the file name is 256 bytes long"));
     /* the temporary's name as the dead run made it, the pid in its place */
     const char *tag = strstr(strrchr(tmp, '/'), ".lancer-tmp.");
     assert_non_null(tag);
