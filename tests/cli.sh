@@ -268,6 +268,15 @@ if [ -w /dev/full ]; then
     if [ $? -eq 1 ]; then ok; else bad "diff into a full stdout did not exit 1"; fi
     has "$T/err" "lancer: cannot write the standard output"
 fi
+# and so does one into a pipe whose reader is gone (perl-base is in every
+# Debian): a message and exit 1, not death by SIGPIPE
+for cmd in "diff $T/t1.exr $T/t2.exr" "tiles $T/tiny.scn --count 4"; do
+    # shellcheck disable=SC2086 # the command's words
+    perl -e 'pipe(R, W) or die; close R; open(STDOUT, ">&W") or die; exec @ARGV' "$LANCER" $cmd 2>"$T/err"
+    rc=$?
+    if [ $rc -eq 1 ]; then ok; else bad "lancer $cmd into a closed pipe exited $rc, not 1"; fi
+    has "$T/err" "lancer: cannot write the standard output: Broken pipe"
+done
 mkdir "$T/rays-in" && ln -s ../tet.off "$T/rays-in/primary.rays"
 expect 1 "$LANCER" bench --gen-rays "$T/tet.off" "$T/rays-in" 4 4
 has "$T/err" "is the input '$T/tet.off'"

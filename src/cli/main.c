@@ -7,6 +7,7 @@
 #include <malloc.h>
 #endif
 #include <math.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -195,6 +196,9 @@ static int dispatch(int argc, char **argv)
 
 int main(int argc, char **argv)
 {
+    /* A closed pipe fails the write, reported below, rather than killing
+     * lancer without a word. */
+    signal(SIGPIPE, SIG_IGN);
     int rc = dispatch(argc, argv);
     /* What a command printed on stdout is its answer (diff's figures,
      * --explain's plan): lost to a full disk or a closed pipe, the run
