@@ -324,6 +324,15 @@ mkdir "$T/tight"
 expect 0 "$LANCER" bench --gen-rays "$T/tet.off" "$T/tight" 16 16 --tight
 if [ "$(sed -n 's/^primary=256 shadow=\([0-9]*\) .*/\1/p' "$T/out")" -ge 231 ]; then ok; else bad "bench --tight: $(cat "$T/out")"; fi
 expect 2 "$LANCER" bench --mesh "$T/tet.off" --rays "$T/rays/primary.rays" --kind closest --tight
+# each form refuses the others' options, rather than passing over them
+expect 2 "$LANCER" bench --build-series "$T/tet.off" --rays "$T/rays/primary.rays" --kind closest --max-mtris 1
+has "$T/err" "--rays does not go with --build-series"
+expect 2 "$LANCER" bench --gen-rays "$T/tet.off" "$T/rays" 16 16 --passes 7
+has "$T/err" "--passes does not go with --gen-rays"
+expect 2 "$LANCER" bench --mesh "$T/tet.off" --rays "$T/rays/primary.rays" --kind closest --max-mtris 2
+has "$T/err" "--max-mtris does not go with --mesh"
+expect 2 "$LANCER" bench --passes 2
+has "$T/err" "give --gen-rays MESH OUTDIR, --mesh MESH --rays FILE --kind K, or --build-series MESH"
 expect 0 "$LANCER" bench --build-series "$T/tet.off" --max-mtris 1
 has "$T/out" "| 4 | "
 # a mesh without triangles, or with degenerate ones only: refused by every

@@ -61,12 +61,38 @@ typedef struct {
     int passes, classic, threads, max_mtris, pn, tight;
 } Args;
 
-static void defaults(void *args)
+/* 0: not given (each takes 1 at least), which run() checks before it
+ * puts the defaults in. */
+static void defaults(void *args) { (void)args; }
+
+enum { FORM_GEN = 1, FORM_MESH = 2, FORM_SERIES = 4 };
+
+/* A usage error for the first option given that form does not take, else
+ * 0 (--classic goes with every form). */
+static int stray_option(const Args *a, unsigned form)
 {
-    Args *a = args;
-    a->passes = 3;
-    a->threads = 1;
-    a->max_mtris = 10;
+    const struct {
+        const char *name;
+        int given;
+        unsigned forms;
+    } opt[] = {
+        {"--gen-rays", a->gen != NULL, FORM_GEN},
+        {"--mesh", a->mesh != NULL, FORM_MESH},
+        {"--build-series", a->series != NULL, FORM_SERIES},
+        {"--rays", a->rays != NULL, FORM_MESH},
+        {"--kind", a->kind != NULL, FORM_MESH},
+        {"--passes", a->passes != 0, FORM_MESH},
+        {"--pn", a->pn, FORM_MESH},
+        {"--pn-mode", a->pn_mode != NULL, FORM_MESH},
+        {"--tight", a->tight, FORM_GEN},
+        {"--threads", a->threads != 0, FORM_GEN | FORM_MESH},
+        {"--max-mtris", a->max_mtris != 0, FORM_SERIES},
+    };
+    const char *name = form == FORM_GEN ? "--gen-rays" : form == FORM_MESH ? "--mesh" : "--build-series";
+    for (size_t i = 0; i < sizeof opt / sizeof opt[0]; i++)
+        if (opt[i].given && !(opt[i].forms & form))
+            return cli_usage_error("bench", "%s does not go with %s", opt[i].name, name);
+    return 0;
 }
 
 /* A scene of the mesh's flat triangles, or with pn = 1 + PnMode its PN
@@ -237,6 +263,15 @@ static int run(void *args, const char **pos, int npos)
     PrimVariant v = a->classic ? PRIM_CLASSIC : PRIM_ROBUST;
     Scene s;
     int rc;
+    const unsigned form = a->series ? FORM_SERIES : a->gen ? FORM_GEN : a->mesh ? FORM_MESH : 0;
+    if (!form)
+        return cli_usage_error("bench", "give --gen-rays MESH OUTDIR, --mesh MESH --rays FILE --kind K, or "
+                                        "--build-series MESH");
+    if ((rc = stray_option(a, form)) != 0)
+        return rc;
+    a->passes = a->passes ? a->passes : 3;
+    a->threads = a->threads ? a->threads : 1;
+    a->max_mtris = a->max_mtris ? a->max_mtris : 10;
     if (a->series) {
         if (npos != 0)
             return cli_usage_error("bench", "--build-series takes no other arguments");
@@ -246,24 +281,18 @@ static int run(void *args, const char **pos, int npos)
         scene_free(&s);
         return rc;
     }
-    if (!a->gen == !a->mesh)
-        return cli_usage_error("bench", "give either --gen-rays MESH OUTDIR or --mesh MESH --rays FILE --kind K");
     int w = 1024, h = 1024;
     if (a->gen && (npos != 1 && npos != 3))
         return cli_usage_error("bench", "--gen-rays needs MESH OUTDIR [W H]");
     if (a->gen && npos == 3 &&
         (cli_parse_int(pos[1], 1, LIMIT_IMAGE_SIDE, &w) != 0 || cli_parse_int(pos[2], 1, LIMIT_IMAGE_SIDE, &h) != 0))
         return cli_usage_error("bench", "W and H must be whole numbers from 1 to %d", LIMIT_IMAGE_SIDE);
-    if (a->tight && !a->gen)
-        return cli_usage_error("bench", "--tight goes with --gen-rays");
     BenchKind kind = BENCH_CLOSEST;
     if (a->mesh && (!a->rays || parse_kind(a->kind, &kind) != 0 || npos != 0))
         return cli_usage_error("bench", "--mesh needs --rays FILE and --kind closest, any, packet or stream");
     int pn = 0;
     if (a->pn_mode && !a->pn)
         return cli_usage_error("bench", "--pn-mode needs --pn");
-    if (a->pn && !a->mesh)
-        return cli_usage_error("bench", "--pn goes with --mesh");
     if (a->pn) {
         pn = 1 + (a->pn_mode ? pn_mode_named(a->pn_mode) : PN_EXACT);
         if (!pn)
