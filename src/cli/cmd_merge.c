@@ -127,6 +127,15 @@ static int run(void *args, const char **pos, int npos)
                         r.y0, r.y1, pos[k], rects[k].x0, rects[k].x1, rects[k].y0, rects[k].y1);
                 bad = 1;
             }
+        if (!bad && i == 0 &&
+            (t.full_width > LIMIT_IMAGE_SIDE || t.full_height > LIMIT_IMAGE_SIDE ||
+             (long)t.full_width * t.full_height > LIMIT_IMAGE_PIXELS)) {
+            fprintf(stderr,
+                    "lancer: %s: is a tile of a %dx%d picture, past lancer's limits of %d pixels a side and %ld "
+                    "in all\n",
+                    pos[i], t.full_width, t.full_height, LIMIT_IMAGE_SIDE, LIMIT_IMAGE_PIXELS);
+            bad = 1;
+        }
         if (!bad && i == 0 && image_init(&full, t.full_width, t.full_height) != 0) {
             fprintf(stderr, "lancer: out of memory for a %dx%d image\n", t.full_width, t.full_height);
             bad = 1;
