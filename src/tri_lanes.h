@@ -96,12 +96,7 @@ TRI_LANES_DECL int TRI_LANES(const float *blk, int lanes, const PrimTriRay *p, c
      * watertight() takes it again in double */
     V tsd = V_SEL(neg, V_SUB(zero, ts), ts);
     int near = M_BITS(M_AND(V_GT(tsd, V_SUB(zero, tserr)), V_LT(tsd, V_ADD(V_ABS(tmd), tserr))));
-    /* a t past float's range or a NaN (tri_t_out_of_range), to the scalar
-     * routine, which takes it in double (me, sure here, is at least
-     * TRI_T_TINY: TRI_SHEAR_FLOOR) */
-    M fits = M_AND(V_GE(tserr, V_SET1(TRI_T_TINY)), V_LE(tserr, V_SET1(TRI_T_HUGE)));
-    int far = inside & ~M_BITS(fits);
-    int hit = inside & ~M_BITS(t_out) & ~far;
+    int hit = inside & ~M_BITS(t_out);
     if (hit) { /* only then the division */
         V inv = V_DIV(V_SET1(1.0f), det), tv = V_MUL(ts, inv);
         hit &= M_BITS(M_AND(V_GT(tv, zero), V_LT(tv, tmax)));
@@ -110,8 +105,14 @@ TRI_LANES_DECL int TRI_LANES(const float *blk, int lanes, const PrimTriRay *p, c
         V_STORE(hu, V_MUL(e1, inv));
         V_STORE(hv, V_MUL(e2, inv));
     }
+    /* a t past float's range or a NaN (tri_t_out_of_range), to the scalar
+     * routine, which takes it in double (me, sure here, is at least
+     * TRI_T_TINY: TRI_SHEAR_FLOOR); apart from the branch above, which
+     * would otherwise wait for tserr */
+    M fits = M_AND(V_GE(tserr, V_SET1(TRI_T_TINY)), V_LE(tserr, V_SET1(TRI_T_HUGE)));
+    int far = inside & ~M_BITS(fits);
     *slow |= (inside & ~hit & near) | far;
-    return hit;
+    return hit & ~far;
 #undef MAX3
 }
 
