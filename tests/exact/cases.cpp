@@ -92,10 +92,10 @@ struct Scene {
 
 // Scale log-uniform in [1e-6, 1e6]; offset: none, or each coordinate of
 // magnitude log-uniform up to 1e6.
-Scene scene(Rng &g, double p_no_offset = 0.25)
+Scene scene(Rng &g, double p_no_offset = 0.25, double lo = 1e-6, double hi = 1e6)
 {
     Scene S;
-    S.s = g.logu(1e-6, 1e6);
+    S.s = g.logu(lo, hi);
     if (g.coin(p_no_offset))
         S.T = D3{0, 0, 0};
     else
@@ -370,11 +370,13 @@ bool on_tri(L3 A, L3 B, L3 C, L3 P)
 // Case 1: interior fuzz
 // ---------------------------------------------------------------------
 
-void case_interior(int rid, Rng &g, Stats &st, uint64_t i, bool v)
+void case_interior(int rid, Rng &g, Stats &st, uint64_t i, bool v, bool extreme = false)
 {
     Kind k = ROUTINES[rid].kind;
     for (int tries = 0; tries < 100; tries++) {
-        Scene S = scene(g);
+        /* case 12: scenes 2^40 to 2^66 across, or 2^-66 to 2^-40, where
+         * float products of coordinates over- or underflow */
+        Scene S = !extreme ? scene(g) : g.coin(0.5) ? scene(g, 0.25, 0x1p40, 0x1p66) : scene(g, 0.25, 0x1p-66, 0x1p-40);
         Prim p;
         if (!gen_prim(k, g, S, p))
             continue;
@@ -1530,10 +1532,10 @@ void case_ellipsoid(int rid, Rng &g, Stats &st, uint64_t i, bool v)
 // The driver
 // ---------------------------------------------------------------------
 
-const char *CASE_NAMES[12] = {"",           "1-interior", "2-mesh",       "3-shared-edge", "4-box-edge", "5-degenerate",
+const char *CASE_NAMES[13] = {"",           "1-interior", "2-mesh",       "3-shared-edge", "4-box-edge", "5-degenerate",
                               "6-sphere",   "7-t-accuracy", "8-self-hit", "9-pn-boxes",   "10-pn-rays",
-                              "11-ellipsoid"};
-const int N_CASES = 11;
+                              "11-ellipsoid", "12-far-and-tiny"};
+const int N_CASES = 12;
 
 std::vector<int> case_routines(int cs)
 {
@@ -1577,6 +1579,7 @@ void run_ray(int cs, int rid, uint64_t i, Stats &st, bool v)
         case 9: pn_box_ray(rid, g, st, i, v); break;
         case 10: pn_ray(rid, g, st, i, v); break;
         case 11: case_ellipsoid(rid, g, st, i, v); break;
+        case 12: case_interior(rid, g, st, i, v, true); break;
         }
     } catch (const std::exception &e) {
         st.c[C_INTERNAL]++;
