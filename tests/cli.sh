@@ -68,6 +68,11 @@ has "$T/err" "missing SCENE"
 expect 2 "$LANCER" render "$T/tiny.scn" --threads 0
 has "$T/err" "--threads needs a whole number"
 expect 2 "$LANCER" render "$T/tiny.scn" --width abc
+# a whole number is digits alone, as in --region's and --frames' lists
+expect 2 "$LANCER" render "$T/tiny.scn" --width " 8"
+has "$T/err" "--width"
+expect 2 "$LANCER" render "$T/tiny.scn" --width +8
+expect 2 "$LANCER" bench --gen-rays "$T/tiny.scn" "$T/rays-plus" +16 16
 expect 2 "$LANCER" render "$T/tiny.scn" --bogus
 has "$T/err" "unknown option '--bogus'"
 # after "--", a file whose name starts with '-'
@@ -198,6 +203,8 @@ for move in "--scale 1e-3 --translate 5,6,7" "--scale 1e5" "--translate 1e5,-3e4
 done
 expect 2 "$LANCER" render "$T/tiny.scn" --translate 1,2
 has "$T/err" "--translate needs X,Y,Z"
+expect 2 "$LANCER" render "$T/tiny.scn" --translate nan,0,0
+has "$T/err" "--translate needs X,Y,Z, three finite numbers, not 'nan,0,0'"
 expect 2 "$LANCER" render "$T/tiny.scn" --scale 0
 # a move that overflows float is refused (it once crashed the traversal)
 expect 1 "$LANCER" render "$T/tiny.scn" -o "$T/big.exr" --scale 1e38

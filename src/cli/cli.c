@@ -35,6 +35,10 @@ int cli_default_threads(void)
 
 int cli_parse_int(const char *s, int lo, int hi, int *out)
 {
+    /* digits, as cli_parse_ints takes them: strtol would also take blanks
+     * and a '+' before them */
+    if (!(*s >= '0' && *s <= '9') && !(*s == '-' && lo < 0))
+        return -1;
     char *end;
     errno = 0;
     long v = strtol(s, &end, 10);

@@ -3,6 +3,7 @@
  * optional PNG preview and statistics.
  */
 #include <errno.h>
+#include <math.h>
 #include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -347,9 +348,10 @@ static int plan_options_of(const Args *a, PlanOptions *o)
         char tail;
         o->move = 1;
         o->scale = a->scale > 0.0 ? a->scale : 1.0;
-        if (a->translate && sscanf(a->translate, "%lf,%lf,%lf%c", &o->translate[0], &o->translate[1],
-                                   &o->translate[2], &tail) != 3)
-            return cli_usage_error("render", "--translate needs X,Y,Z, not '%s'", a->translate);
+        if (a->translate &&
+            (sscanf(a->translate, "%lf,%lf,%lf%c", &o->translate[0], &o->translate[1], &o->translate[2], &tail) != 3 ||
+             !isfinite(o->translate[0]) || !isfinite(o->translate[1]) || !isfinite(o->translate[2])))
+            return cli_usage_error("render", "--translate needs X,Y,Z, three finite numbers, not '%s'", a->translate);
     }
     return 0;
 }
