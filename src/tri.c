@@ -228,7 +228,7 @@ static int watertight(const Vec3 v[3], const Ray *r, const PrimTriRay *p, PrimHi
     int out = det < 0.0f ? (tscaled >= 0.0f || tscaled < r->tmax * det) : (tscaled <= 0.0f || tscaled > r->tmax * det);
     if (tri_t_out_of_range(tserr, me)) {
         /* Past float's range (about 2^42 from the ray's origin, where
-         * tscaled's products overflow, or products below 2^-100), t and
+         * tscaled's products overflow, or products below 2^-104), t and
          * its bound are taken in double. */
         if (!t_double(v, r, p, &t, &u, &w, &terr))
             return 0;

@@ -49,7 +49,9 @@
 
 static inline int tri_t_out_of_range(float tserr, float me)
 {
-    const float least = tserr < me ? tserr : me; /* as MINPS, the lanes' */
+    /* (a NaN tserr fails the second test; the lanes test tserr alone, since
+     * an me they are sure of is at least TRI_T_TINY) */
+    const float least = tserr < me ? tserr : me;
     return !(least >= TRI_T_TINY && tserr <= TRI_T_HUGE);
 }
 
