@@ -293,7 +293,8 @@ static void filtered(const Ctx *c, Ray *r, int n, const Vec3 *q, Vec3 *f)
         f[k] = vec3(1, 1, 1);
         who[k] = k;
     }
-    for (int cross = 0; cross < LIMIT_SHADOW_CROSSINGS && non; cross++) {
+    /* (crossing k surfaces takes k + 1 searches, the last one clear) */
+    for (int cross = 0; cross <= LIMIT_SHADOW_CROSSINGS && non; cross++) {
         int best[ACCEL_PACKET], m = 0;
         PrimHit h[ACCEL_PACKET];
         int through[ACCEL_PACKET]; /* the transparent surfaces crossed, or -1 */
@@ -337,6 +338,7 @@ static void filtered(const Ctx *c, Ray *r, int n, const Vec3 *q, Vec3 *f)
         f[who[j]] = vec3(0, 0, 0);
         take(c, &cur[j], &g); /* and no hit waits for them */
     }
+    c->st->shadow_cut += (unsigned)non;
 }
 
 /* prim_spawn_origin(sf, d) from sf's two spawn origins o. */

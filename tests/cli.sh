@@ -114,6 +114,22 @@ long=$(printf '%0244d' 0)
 expect 1 "$LANCER" render "$T/tiny.scn" -o "$T/$long.exr" --resume
 has "$T/err" "$T/$long.partial.exr: the file name is 256 bytes long"
 
+# a shadow ray past the 257th clear surface on its way is taken as blocked,
+# counted in --stats and said on stderr, even with -q
+{
+    printf 'image { width 8 height 6 }\ncamera { eye 0 1 -5 target 0 0 0 fov 40 }\nlight { position 0 20 0 }\n'
+    printf 'material m { color 1 1 1 }\nmaterial g { color 1 1 1 ambient 0 diffuse 0 transmit 1 }\n'
+    printf 'plane { normal 0 1 0 material m }\n'
+    i=0
+    while [ $i -lt 257 ]; do
+        printf 'plane { normal 0 1 0 offset %d.%03d material g }\n' $((10 + i / 1000)) $((i % 1000))
+        i=$((i + 1))
+    done
+} >"$T/panes.scn"
+expect 0 "$LANCER" render "$T/panes.scn" -q -o "$T/panes.exr" --stats "$T/panes.json"
+has "$T/err" "shadow rays crossed more than 256 transparent surfaces, which lancer does not follow"
+if grep -q '"shadow_rays_past_crossings": [1-9]' "$T/panes.json"; then ok; else bad "panes.json lacks the cut shadow rays"; fi
+
 # a good render writes every requested file, atomically replacing old ones
 expect 0 "$LANCER" render "$T/tiny.scn" -o "$T/keep.exr" --png "$T/a.png" --stats "$T/s.json" --threads 2 -q
 if head -c 4 "$T/keep.exr" | od -An -tx1 | grep -q "76 2f 31 01"; then ok; else bad "keep.exr is not an EXR"; fi

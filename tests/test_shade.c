@@ -796,6 +796,43 @@ static void test_continued_rays_cut(void **state)
     }
 }
 
+/* A shadow ray through LIMIT_SHADOW_CROSSINGS clear planes reaches the
+ * light (it once took one search too few, and found 256 dark); through
+ * one more it is taken as blocked, and counted. */
+static void test_shadow_crossings_limit(void **state)
+{
+    (void)state;
+    const int count[2] = {LIMIT_SHADOW_CROSSINGS, LIMIT_SHADOW_CROSSINGS + 1};
+    for (int t = 0; t < 2; t++) {
+        static char text[64 * 400];
+        char err[512];
+        int at = snprintf(text, sizeof text,
+                          "%slight { position 0 20 0 }\nmaterial g { color 1 1 1 ambient 0 diffuse 0 transmit 1 }\n",
+                          floor_scene);
+        for (int k = 0; k < count[t]; k++)
+            at += snprintf(text + at, sizeof text - (size_t)at, "plane { normal 0 1 0 offset %g material g }\n",
+                           10.0 + 0.01 * k);
+        Scene s;
+        assert_int_equal(scene_parse("t.scn", text, strlen(text), &s, err, sizeof err), 0);
+        RenderPlan p;
+        Accel *a = plan_world(&p, &s);
+        RayStats st;
+        memset(&st, 0, sizeof st);
+        Ray r = ray_make(EYE, vec_normalize(DIR), INFINITY);
+        const Vec3 c = shade_trace(&p, a, &r, &st);
+        if (t == 0) { /* ambient and the whole diffuse term, the light straight above */
+            assert_vec(c, 0.35f, 0.28f, 0.21f, 1e-6);
+            assert_int_equal(st.shadow_cut, 0);
+        } else {
+            assert_vec(c, 0.05f, 0.04f, 0.03f, 1e-6);
+            assert_int_equal(st.shadow_cut, 1);
+        }
+        accel_free(a);
+        plan_free(&p);
+        scene_free(&s);
+    }
+}
+
 static void test_total_internal_reflection(void **state)
 {
     (void)state;
@@ -1133,6 +1170,7 @@ int main(void)
         cmocka_unit_test(test_shadow_through_glass), cmocka_unit_test(test_refraction_through_slab),
         cmocka_unit_test(test_refraction_through_mesh_slab),
         cmocka_unit_test(test_clear_solid_on_floor),
+        cmocka_unit_test(test_shadow_crossings_limit),
         cmocka_unit_test(test_total_internal_reflection), cmocka_unit_test(test_no_self_shadowing_on_spheres),
         cmocka_unit_test(test_traced_is_trace), cmocka_unit_test(test_filtered_shadows_in_packets),
         cmocka_unit_test(test_refraction_in_packets), cmocka_unit_test(test_invisible_sphere_in_glass),

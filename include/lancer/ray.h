@@ -38,6 +38,7 @@ typedef struct {
     unsigned long long cut;         /* secondary rays not traced: their weight was below adc_bailout */
     unsigned long long supersampled; /* pixels adaptive anti-aliasing supersampled */
     unsigned long long too_deep;     /* refracted rays into a solid past LIMIT_INTERIORS nested ones */
+    unsigned long long shadow_cut;   /* shadow rays past LIMIT_SHADOW_CROSSINGS transparent surfaces, dark */
 } RayStats;
 
 static inline void raystats_add(RayStats *sum, const RayStats *s)
@@ -50,6 +51,7 @@ static inline void raystats_add(RayStats *sum, const RayStats *s)
     sum->cut += s->cut;
     sum->supersampled += s->supersampled;
     sum->too_deep += s->too_deep;
+    sum->shadow_cut += s->shadow_cut;
 }
 
 #endif

@@ -283,6 +283,7 @@ static int write_stats(const char *file, const char *path, const char *scene, co
             st->camera + st->shadow + st->reflection + st->refraction, st->cut);
     fprintf(f, "  \"supersampled_pixels\": %llu,\n", st->supersampled);
     fprintf(f, "  \"too_deep_rays\": %llu,\n", st->too_deep);
+    fprintf(f, "  \"shadow_rays_past_crossings\": %llu,\n", st->shadow_cut);
     fprintf(f, "  \"intersection_tests\": %llu\n}\n", st->isect_tests);
     int bad = ferror(f), saved = errno;
     if (fclose(f) != 0 || bad) {
@@ -569,6 +570,11 @@ static int render_one(Args *a, const char *scene, const PlanOptions *po, int fra
                     "lancer: warning: %llu refracted rays entered solids nested more than %d deep, which lancer "
                     "does not follow: their refraction is not the scene's\n",
                     st.too_deep, LIMIT_INTERIORS);
+        if (st.shadow_cut)
+            fprintf(stderr,
+                    "lancer: warning: %llu shadow rays crossed more than %d transparent surfaces, which lancer "
+                    "does not follow: they were taken as blocked\n",
+                    st.shadow_cut, LIMIT_SHADOW_CROSSINGS);
         if (plan.camera_in_lost)
             fprintf(stderr,
                     "lancer: warning: the camera is inside %d solids past the %d innermost that lancer follows: "
