@@ -7,9 +7,10 @@
 # LANCER defaults to build/lancer; the scenes to scenes/parity/*.scn.
 # References are cached by a hash of the exported .pov file (and of the
 # POV-Ray command line) in $LANCER_POV_CACHE, default ~/.cache/lancer/pov.
-# A scene passes when at most 0.1% of its pixels differ by more than 2e-3 in
-# some channel (half-float rounding). A scene that cannot meet that names the
-# pixels and the reason in a line of its own, read here:
+# A scene passes when at most 0.1% of its pixels differ by more than 2e-3 and
+# 2^-11 of the value in some channel (half-float rounding). A scene that
+# cannot meet that names the pixels and the reason in a line of its own,
+# read here:
 #     # parity-allow: N pixels: reason
 # which allows N pixels over 2e-3 instead. A scene whose twin needs a finer
 # tessellation of its PN patches says so in a line
@@ -63,7 +64,7 @@ EOF
         fail=$((fail + 1))
         continue
     fi
-    line=$("$LANCER" diff "$out" "$ref" --downsample "$k" --heatmap "$WORK/$name-heat.png") || {
+    line=$("$LANCER" diff "$out" "$ref" --downsample "$k" --relative 4.8828125e-4 --heatmap "$WORK/$name-heat.png") || {
         echo "parity: $name FAIL (diff)"
         fail=$((fail + 1))
         continue

@@ -32,21 +32,28 @@ static double absdiff(float x, float y)
     return isnan(d) ? INFINITY : d;
 }
 
-/* The largest channel difference of pixel i. */
-static double pixel_diff(const Image *a, const Image *b, size_t i, double *sum, double *sum2)
+/* The largest channel difference of pixel i; *over: whether a channel
+ * differs by more than threshold and relative times its larger value. */
+static double pixel_diff(const Image *a, const Image *b, size_t i, double threshold, double relative, int *over,
+                         double *sum, double *sum2)
 {
     double m = 0.0;
+    *over = 0;
     for (int c = 0; c < 3; c++) {
-        double d = absdiff(a->rgb[3 * i + c], b->rgb[3 * i + c]);
+        const float x = a->rgb[3 * i + c], y = b->rgb[3 * i + c];
+        double d = absdiff(x, y);
         *sum += d;
         *sum2 += d * d;
         if (d > m)
             m = d;
+        if (d > threshold && !(d <= relative * fmax(fabs((double)x), fabs((double)y))))
+            *over = 1;
     }
     return m;
 }
 
-int compare_images(const Image *a, const Image *b, double threshold, CompareStats *st, char *err, size_t errlen)
+int compare_images(const Image *a, const Image *b, double threshold, double relative, CompareStats *st, char *err,
+                   size_t errlen)
 {
     if (same_part(a, b, err, errlen))
         return -1;
@@ -56,9 +63,9 @@ int compare_images(const Image *a, const Image *b, double threshold, CompareStat
     st->over = 0;
     st->max_x = st->max_y = 0;
     for (size_t i = 0; i < n; i++) {
-        double m = pixel_diff(a, b, i, &sum, &sum2);
-        if (m > threshold)
-            st->over++;
+        int over;
+        double m = pixel_diff(a, b, i, threshold, relative, &over, &sum, &sum2);
+        st->over += over;
         if (m > st->max) {
             st->max = m;
             st->max_x = (int)(i % (size_t)a->width);
@@ -135,7 +142,8 @@ int compare_heatmap(const Image *a, const Image *b, double threshold, Image *dst
     }
     size_t n = (size_t)a->width * (size_t)a->height;
     double sum = 0.0, sum2 = 0.0;
+    int over;
     for (size_t i = 0; i < n; i++)
-        ramp(pixel_diff(a, b, i, &sum, &sum2), threshold, &dst->rgb[3 * i]);
+        ramp(pixel_diff(a, b, i, threshold, 0.0, &over, &sum, &sum2), threshold, &dst->rgb[3 * i]);
     return 0;
 }

@@ -24,7 +24,7 @@ static void test_identical(void **state)
     b.rgb[0] = a.rgb[0] = INFINITY; /* equal infinities differ by nothing */
     CompareStats st;
     char err[128];
-    assert_int_equal(compare_images(&a, &b, COMPARE_THRESHOLD, &st, err, sizeof err), 0);
+    assert_int_equal(compare_images(&a, &b, COMPARE_THRESHOLD, 0.0, &st, err, sizeof err), 0);
     assert_true(st.max == 0 && st.mean == 0 && st.rms == 0 && st.over == 0);
     assert_true(isinf(st.psnr));
     assert_int_equal(st.pixels, 12);
@@ -44,7 +44,7 @@ static void test_known_differences(void **state)
         b.rgb[3 * 2 + c] = 0.001f;
     CompareStats st;
     char err[128];
-    assert_int_equal(compare_images(&a, &b, COMPARE_THRESHOLD, &st, err, sizeof err), 0);
+    assert_int_equal(compare_images(&a, &b, COMPARE_THRESHOLD, 0.0, &st, err, sizeof err), 0);
     assert_float_equal(st.max, 0.01, 1e-9);
     assert_int_equal(st.max_x, 1);
     assert_int_equal(st.max_y, 0);
@@ -53,6 +53,31 @@ static void test_known_differences(void **state)
     double mse = (1e-4 + 3e-6) / 12;
     assert_float_equal(st.rms, sqrt(mse), 1e-9);
     assert_float_equal(st.psnr, 10 * log10(1 / mse), 1e-4);
+    image_free(&a);
+    image_free(&b);
+}
+
+/* Bright values against their half-float rounding (a review: POV-Ray's
+ * 8.0781 against lancer's 8.0810, 2^-11 of 8 apart, counted as over): with
+ * relative 2^-11 they are within, while 0.003 between small values is
+ * still over, and so is a NaN. */
+static void test_relative_tolerance(void **state)
+{
+    (void)state;
+    Image a, b;
+    fill(&a, 3, 1, 0.0f);
+    fill(&b, 3, 1, 0.0f);
+    a.rgb[0] = 8.0810f;
+    b.rgb[0] = 8.0781f;
+    a.rgb[3] = 0.5f;
+    b.rgb[3] = 0.503f;
+    a.rgb[6] = NAN;
+    CompareStats st;
+    char err[128];
+    assert_int_equal(compare_images(&a, &b, COMPARE_THRESHOLD, 0.0, &st, err, sizeof err), 0);
+    assert_int_equal(st.over, 3);
+    assert_int_equal(compare_images(&a, &b, COMPARE_THRESHOLD, COMPARE_HALF, &st, err, sizeof err), 0);
+    assert_int_equal(st.over, 2);
     image_free(&a);
     image_free(&b);
 }
@@ -67,15 +92,15 @@ static void test_nan_and_size_mismatch(void **state)
     b.rgb[4] = NAN;
     CompareStats st;
     char err[128];
-    assert_int_equal(compare_images(&a, &b, COMPARE_THRESHOLD, &st, err, sizeof err), 0);
+    assert_int_equal(compare_images(&a, &b, COMPARE_THRESHOLD, 0.0, &st, err, sizeof err), 0);
     assert_true(isinf(st.max));
     assert_int_equal(st.over, 1);
     /* a NaN against a NaN differs by 0: an image with NaNs is its own
      * equal (it once differed from itself by infinity) */
-    assert_int_equal(compare_images(&b, &b, COMPARE_THRESHOLD, &st, err, sizeof err), 0);
+    assert_int_equal(compare_images(&b, &b, COMPARE_THRESHOLD, 0.0, &st, err, sizeof err), 0);
     assert_true(st.max == 0.0);
     assert_int_equal(st.over, 0);
-    assert_int_equal(compare_images(&a, &c, COMPARE_THRESHOLD, &st, err, sizeof err), -1);
+    assert_int_equal(compare_images(&a, &c, COMPARE_THRESHOLD, 0.0, &st, err, sizeof err), -1);
     assert_string_equal(err, "the images differ in size: 2x1 and 1x2");
     image_free(&a);
     image_free(&b);
@@ -149,7 +174,7 @@ static void test_parts_of_pictures(void **state)
     a.full_width = b.full_width = 10;
     a.full_height = b.full_height = 6;
     b.x = 6;
-    assert_int_equal(compare_images(&a, &b, COMPARE_THRESHOLD, &st, err, sizeof err), -1);
+    assert_int_equal(compare_images(&a, &b, COMPARE_THRESHOLD, 0.0, &st, err, sizeof err), -1);
     assert_string_equal(err, "the images are different parts of their pictures: 4x3 at 0,0 of 10x6 and at 6,0 of 10x6");
     assert_int_equal(compare_heatmap(&a, &b, COMPARE_THRESHOLD, &small, err, sizeof err), -1);
     fill(&big, 8, 6, 0.5f);
@@ -161,7 +186,7 @@ static void test_parts_of_pictures(void **state)
     a.x = 6; /* where the averaged part lies */
     assert_int_equal(small.x, 6);
     assert_int_equal(small.full_width, 10);
-    assert_int_equal(compare_images(&a, &small, COMPARE_THRESHOLD, &st, err, sizeof err), 0);
+    assert_int_equal(compare_images(&a, &small, COMPARE_THRESHOLD, 0.0, &st, err, sizeof err), 0);
     image_free(&small);
     big.x = 3; /* not on the blocks' grid */
     assert_int_equal(compare_downsample(&big, 2, &small, err, sizeof err), -1);
@@ -178,6 +203,7 @@ int main(void)
         cmocka_unit_test(test_nan_and_size_mismatch), cmocka_unit_test(test_downsample),
         cmocka_unit_test(test_heatmap_colours),
         cmocka_unit_test(test_parts_of_pictures),
+        cmocka_unit_test(test_relative_tolerance),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

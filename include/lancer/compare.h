@@ -2,11 +2,12 @@
  * compare.h - pixel differences between two images, for parity tests.
  *
  *     CompareStats st;
- *     if (compare_images(&a, &b, COMPARE_THRESHOLD, &st, err, sizeof err) != 0) ...
+ *     if (compare_images(&a, &b, COMPARE_THRESHOLD, 0.0, &st, err, sizeof err) != 0) ...
  *     printf("max=%g over=%ld\n", st.max, st.over);
  *
  * Differences are absolute, per channel, in linear units. A pixel is "over"
- * when any of its channels differs by more than the threshold. Equal values
+ * when any of its channels differs by more than the threshold, or than
+ * `relative` times the larger of the two values if that is more. Equal values
  * (infinities included) differ by 0; a NaN on one side, or infinities that
  * do not match, differ by infinity.
  */
@@ -18,8 +19,10 @@
 #include "lancer/image.h"
 
 /* Half-float rounding of values up to about 4 is 2^-11 * 4 = 2e-3: the
- * tolerance of the parity tests. */
+ * tolerance of the parity tests; above, it is 2^-11 of the value
+ * (COMPARE_HALF). */
 #define COMPARE_THRESHOLD 2e-3
+#define COMPARE_HALF 0x1p-11
 
 typedef struct {
     double max, mean, rms;
@@ -29,7 +32,8 @@ typedef struct {
 } CompareStats;
 
 /* Returns 0, or -1 with a message when the sizes differ. */
-int compare_images(const Image *a, const Image *b, double threshold, CompareStats *st, char *err, size_t errlen);
+int compare_images(const Image *a, const Image *b, double threshold, double relative, CompareStats *st, char *err,
+                   size_t errlen);
 
 /* Averages src in k x k blocks into dst (a new image of size w/k x h/k): the
  * box filter that turns a k-times supersampled render into a pixel each.

@@ -26,12 +26,15 @@ static const char usage[] =
     "      --downsample K     average B in K x K blocks first (B is a render at\n"
     "                         K times the size of A)\n"
     "      --threshold T      the difference that counts as over (default 2e-3)\n"
+    "      --relative R       ...or R times the larger of the two values, if\n"
+    "                         that is more (default 0; 4.8828125e-4, 2^-11, is\n"
+    "                         the rounding of half floats)\n"
     "  -h, --help             show this help\n";
 
 typedef struct {
     const char *heatmap;
     int down;
-    double threshold;
+    double threshold, relative;
 } Args;
 
 static void defaults(void *args)
@@ -78,7 +81,7 @@ static int run(void *args, const char **pos, int npos)
         ib = small;
     }
     CompareStats st;
-    int rc = compare_images(&ia, &ib, a->threshold, &st, err, sizeof err);
+    int rc = compare_images(&ia, &ib, a->threshold, a->relative, &st, err, sizeof err);
     if (rc == 0) {
         printf("max=%.6g mean=%.6g rms=%.6g psnr=%.2f over=%ld pixels=%ld\n", st.max, st.mean, st.rms, st.psnr,
                st.over, st.pixels);
@@ -101,6 +104,7 @@ static const Opt opts[] = {
     {"--heatmap", NULL, OPT_STRING, offsetof(Args, heatmap), 0, 0},
     {"--downsample", NULL, OPT_INT, offsetof(Args, down), 1, LIMIT_DOWNSAMPLE},
     {"--threshold", NULL, OPT_DOUBLE, offsetof(Args, threshold), 0, 0},
+    {"--relative", NULL, OPT_DOUBLE, offsetof(Args, relative), 0, 1},
 };
 
 const Command cmd_diff = {"diff", usage, opts, (int)(sizeof opts / sizeof opts[0]), 2, sizeof(Args), defaults, run};
