@@ -68,16 +68,28 @@ typedef struct {
     int ready;
 } TriPre;
 
-/* 1 / d by axis into inv[0 .. 2] (inv[3] is scratch). */
+/* 1 / d by axis into inv[0 .. 2] (inv[3] is scratch). Where d is not 0
+ * but 1 / d overflows (|d| below 2^-128), a NaN: the ray drifts along that
+ * axis too slowly for float distances to follow, and a NaN distance leaves
+ * the slab test's bounds as they were, so that axis culls nothing (an
+ * infinity would take the ray as parallel to the slab, and cull the boxes
+ * it drifts into). */
 static inline void inverse_dir(const Ray *r, float inv[4])
 {
 #ifdef BVH_SSE
     /* one division for the three axes (lane 3 is 1/1) */
-    _mm_storeu_ps(inv, _mm_div_ps(_mm_set1_ps(1.0f), _mm_setr_ps(r->d.x, r->d.y, r->d.z, 1.0f)));
+    const __m128 d = _mm_setr_ps(r->d.x, r->d.y, r->d.z, 1.0f), q = _mm_div_ps(_mm_set1_ps(1.0f), d);
+    /* from d, beside the division: 1 / d overflows just where |d| <= 2^-128 */
+    const __m128 over = _mm_and_ps(_mm_cmple_ps(_mm_andnot_ps(_mm_set1_ps(-0.0f), d), _mm_set1_ps(0x1p-128f)),
+                                   _mm_cmpneq_ps(d, _mm_setzero_ps()));
+    _mm_storeu_ps(inv, _mm_or_ps(q, over)); /* (all ones: a NaN) */
 #else
-    inv[0] = 1.0f / r->d.x;
-    inv[1] = 1.0f / r->d.y;
-    inv[2] = 1.0f / r->d.z;
+    for (int a = 0; a < 3; a++) {
+        const float d = vec_comp(r->d, a);
+        inv[a] = 1.0f / d;
+        if (isinf(inv[a]) && d != 0.0f)
+            inv[a] = NAN;
+    }
     inv[3] = 1.0f;
 #endif
 }

@@ -480,6 +480,51 @@ static void check_split_patches(PnMode mode)
     free(s.prims);
 }
 
+/* Rays whose direction has a component below 2^-128, not 0 (a review):
+ * its inverse overflowed, the tree took the ray as parallel to that axis
+ * and culled the boxes it drifts into, and lost hits that the loop and the
+ * triangle's own routine find. Triangles at 2^-120, rays along z starting
+ * just below each one's box and drifting up into it by t = 1, where they
+ * cross it just above its lower edge. */
+static void test_subnormal_direction_components(void **state)
+{
+    (void)state;
+    enum { N = 64 };
+    const float u = 0x1p-120f;
+    Prim p[N];
+    memset(p, 0, sizeof p);
+    for (int i = 0; i < N; i++) {
+        const float x = (float)(4 * (i % 8)) * u, y = (float)(4 * (i / 8)) * u;
+        p[i].kind = PRIM_TRIANGLE;
+        p[i].g.tri.a = vec3(x - u, y, u);
+        p[i].g.tri.b = vec3(x + u, y, u);
+        p[i].g.tri.c = vec3(x, y + 2 * u, u);
+    }
+    Scene s;
+    memset(&s, 0, sizeof s);
+    s.prims = p;
+    s.nprims = N;
+    Accel *tree = accel_build_as(&s, PRIM_ROBUST, 1, 0), *loop = accel_build_as(&s, PRIM_ROBUST, 1, 1);
+    assert_non_null(tree);
+    assert_non_null(loop);
+    RayStats st = {0};
+    int found = 0;
+    for (int i = 0; i < N; i++) {
+        const Triangle *t = &p[i].g.tri;
+        const Vec3 c = vec3(t->c.x, t->a.y + 3 * 0x1p-131f, u);
+        const Vec3 d = vec3((float)(i % 5 - 2) * 0x1p-140f, 0x1p-129f, u);
+        const Ray r = ray_make(vec_sub(c, d), d, INFINITY);
+        PrimHit a, b;
+        const int ia = accel_closest(tree, &r, &a, &st), ib = accel_closest(loop, &r, &b, &st);
+        assert_int_equal(ia, ib);
+        assert_int_equal(accel_occluded(tree, &r, &st), accel_occluded(loop, &r, &st));
+        found += ia == i;
+    }
+    assert_int_equal(found, N);
+    accel_free(tree);
+    accel_free(loop);
+}
+
 static void test_split_patches_answer_as_whole_ones(void **state)
 {
     (void)state;
@@ -498,6 +543,7 @@ int main(void)
         cmocka_unit_test(test_accessors),
         cmocka_unit_test(test_loop_answers_as_the_bvh),
         cmocka_unit_test(test_split_patches_answer_as_whole_ones),
+        cmocka_unit_test(test_subnormal_direction_components),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
