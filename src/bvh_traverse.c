@@ -69,11 +69,11 @@ typedef struct {
 } TriPre;
 
 /* 1 / d by axis into inv[0 .. 2] (inv[3] is scratch). Where d is not 0
- * but 1 / d overflows (|d| below 2^-128), a NaN: the ray drifts along that
- * axis too slowly for float distances to follow, and a NaN distance leaves
- * the slab test's bounds as they were, so that axis culls nothing (an
- * infinity would take the ray as parallel to the slab, and cull the boxes
- * it drifts into). */
+ * but 1 / d overflows (|d| at most 2^-128), a NaN: the ray drifts along
+ * that axis too slowly for float distances to follow, and a NaN distance
+ * leaves the slab test's bounds as they were, so that axis culls nothing
+ * (an infinity would take the ray as parallel to the slab, and cull the
+ * boxes it drifts into). */
 static inline void inverse_dir(const Ray *r, float inv[4])
 {
 #ifdef BVH_SSE
