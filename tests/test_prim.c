@@ -26,6 +26,15 @@ static int tri4_hit(const PrimTri8 *t, int at, int lanes, const PrimTriRay *p, c
     return tri4_hit_watertight(t, at, lanes, p, r, h->t, h->terr, h->u, h->v);
 }
 
+/* Lane l of h4 holds hit h, bit for bit. */
+static void assert_lane_is(const Hit4 *h4, int l, const PrimHit *h)
+{
+    assert_memory_equal(&h4->t[l], &h->t, sizeof(float));
+    assert_memory_equal(&h4->terr[l], &h->terr, sizeof(float));
+    assert_memory_equal(&h4->u[l], &h->u, sizeof(float));
+    assert_memory_equal(&h4->v[l], &h->v, sizeof(float));
+}
+
 /* Triangle v into lane `lane` of t, as a BVH leaf holds it. */
 static void put_lane(PrimTri8 *t, int lane, const Vec3 v[3])
 {
@@ -1567,10 +1576,7 @@ static void test_tri4_matches_scalar(void **state)
             int want = (lanes >> l & 1) && prim_triangle_hit_watertight3(v[l], &r, &h);
             assert_int_equal(got >> l & 1, want);
             if (want) {
-                assert_memory_equal(&h4.t[l], &h.t, sizeof(float));
-                assert_memory_equal(&h4.terr[l], &h.terr, sizeof(float));
-                assert_memory_equal(&h4.u[l], &h.u, sizeof(float));
-                assert_memory_equal(&h4.v[l], &h.v, sizeof(float));
+                assert_lane_is(&h4, l, &h);
                 /* and the lane through the scalar routine */
                 PrimHit g;
                 assert_true(prim_tri8_lane_hit(&t, at + l, &p, &r, &g));
@@ -1762,10 +1768,7 @@ static void test_tri4_far_and_tiny_match_scalar(void **state)
             int want = prim_triangle_hit_watertight3(v[l], &r, &h);
             assert_int_equal(got >> l & 1, want);
             if (want) {
-                assert_memory_equal(&h4.t[l], &h.t, sizeof(float));
-                assert_memory_equal(&h4.terr[l], &h.terr, sizeof(float));
-                assert_memory_equal(&h4.u[l], &h.u, sizeof(float));
-                assert_memory_equal(&h4.v[l], &h.v, sizeof(float));
+                assert_lane_is(&h4, l, &h);
             }
         }
         if (vec_length(vec_cross(vec_sub(rim[i], c), vec_sub(rim[(i + 1) % 4], c))) > 0.05f) {
