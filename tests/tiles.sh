@@ -175,12 +175,12 @@ expect 2 "$LANCER" render "$T/orbit.scn" --frames 0:4294967298 -o "$T/f.%d.exr"
 has "$T/err" "--frames needs A:B"
 # frame 10's image would replace frame 0's preview: refused before the first frame
 expect 2 "$LANCER" render "$T/orbit.scn" --width 8 --height 6 --frames 0:11 -o "$T/c%d.exr" --png "$T/c1%d.exr"
-has "$T/err" "-o of frame 10 ($T/c10.exr) and --png of frame 0 ($T/c10.exr) are one file; each output needs a file of its own"
+has "$T/err" "--png of frame 0 ($T/c10.exr) and -o of frame 10 ($T/c10.exr) are one file; each output needs a file of its own"
 if [ -e "$T/c0.exr" ]; then bad "a frame was rendered before the clash was found"; else ok; fi
 # the same with the folder spelled another way, and with frame 10's partial
 # image, which its end removes: frame 0's statistics would be lost
 expect 2 "$LANCER" render "$T/orbit.scn" --width 8 --height 6 --frames 0:11 -o "$T/c%d.exr" --stats "$T/./c1%d.exr"
-has "$T/err" "-o of frame 10 ($T/c10.exr) and --stats of frame 0 ($T/./c10.exr) are one file"
+has "$T/err" "--stats of frame 0 ($T/./c10.exr) and -o of frame 10 ($T/c10.exr) are one file"
 expect 2 "$LANCER" render "$T/orbit.scn" --width 8 --height 6 --frames 0:11 -o "$T/c%d.exr" --stats "$T/c1%d.partial.exr"
 has "$T/err" "--stats of frame 0 ($T/c10.partial.exr) and the partial image of -o of frame 10 ($T/c10.partial.exr) are one file"
 if [ -e "$T/c0.exr" ]; then bad "a frame was rendered before the clash was found"; else ok; fi

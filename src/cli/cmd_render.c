@@ -617,10 +617,39 @@ static int paths_of(const Args *a, int frame, Paths *pp)
     return outputs_partial_name(pp->exr, pp->partial, sizeof pp->partial) != 0;
 }
 
-/* The frame f in [lo, hi) whose file under frame pattern pat (well
- * formed) is name, or -1 for none. */
-static int frame_of(const char *pat, const char *name, int lo, int hi)
+/* The literal part of frame pattern pat (well formed) after its last
+ * number, "%%" as one percent sign, into lit; its length. */
+static size_t pattern_tail(const char *pat, char *lit, size_t cap)
 {
+    const char *tail = pat;
+    for (const char *q = pat; *q; q++)
+        if (q[0] == '%' && q[1] == '%')
+            q++;
+        else if (q[0] == '%') {
+            q += strspn(q + 1, "0123456789") + 1; /* at the conversion's 'd' */
+            tail = q + (*q != '\0');
+        }
+    size_t n = 0;
+    for (const char *q = tail; *q && n + 1 < cap; q++)
+        lit[n++] = *q == '%' ? *++q : *q;
+    lit[n] = '\0';
+    return n;
+}
+
+/* Whether a name ending in tail a can end in tail b too: one ends the
+ * other. */
+static int tails_meet(const char *a, size_t na, const char *b, size_t nb)
+{
+    return na >= nb ? !memcmp(a + na - nb, b, nb) : !memcmp(b + nb - na, a, na);
+}
+
+/* The frame f in [lo, hi) whose file under frame pattern pat (well
+ * formed, its pattern_tail tail) is name, or -1 for none. */
+static int frame_of(const char *pat, const char *tail, size_t ntail, const char *name, int lo, int hi)
+{
+    const size_t len = strlen(name);
+    if (ntail > len || memcmp(name + len - ntail, tail, ntail) != 0)
+        return -1;
     size_t at = 0;
     const char *p = pat;
     for (; *p && !(p[0] == '%' && p[1] != '%'); p++, at++) { /* the literal part before the first number */
@@ -674,14 +703,28 @@ static int frames_apart(const char *const pat[3], int first, int last)
     for (int i = 0; i < 4; i++)
         if (given[i] && pattern_in_real_folder(given[i], canon[i], sizeof canon[i]) != 0)
             return cli_usage_error("render", "%s %s: the path is too long", opt[i], given[i]);
+    /* Only kinds whose names can end alike are compared (".exr" and
+     * ".partial.exr" can, ".exr" and ".png" cannot): a million frames are
+     * checked in seconds. */
+    char tail[4][AFILE_PATH_MAX];
+    size_t ntail[4];
+    int meets[4] = {0, 0, 0, 0};
     for (int i = 0; i < 4; i++)
-        for (int j = 0; j < 4; j++) {
-            if (i == j || !given[i] || !given[j])
+        ntail[i] = given[i] ? pattern_tail(canon[i], tail[i], sizeof tail[i]) : 0;
+    for (int i = 0; i < 4; i++)
+        for (int j = 0; j < 4; j++)
+            if (i != j && given[i] && given[j] && tails_meet(tail[i], ntail[i], tail[j], ntail[j]))
+                meets[i] |= 1 << j;
+    for (int f = first; f < last; f++)
+        for (int i = 0; i < 4; i++) {
+            if (!meets[i])
                 continue;
-            for (int f = first; f < last; f++) {
-                if (cli_frame_path(opt[i], canon[i], f, name, sizeof name, NULL) != 0)
-                    return 2;
-                int g = frame_of(canon[j], name, first, last);
+            if (cli_frame_path(opt[i], canon[i], f, name, sizeof name, NULL) != 0)
+                return 2;
+            for (int j = 0; j < 4; j++) {
+                if (!(meets[i] >> j & 1))
+                    continue;
+                int g = frame_of(canon[j], tail[j], ntail[j], name, first, last);
                 if (g >= 0 && g != f) { /* named as the user wrote them */
                     char a[AFILE_PATH_MAX], b[AFILE_PATH_MAX];
                     if (cli_frame_path(opt[i], given[i], f, a, sizeof a, NULL) != 0 ||
