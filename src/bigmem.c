@@ -104,6 +104,23 @@ void big_free(void *p)
     free(hd);
 }
 
+void big_release(void *p, size_t keep, size_t size)
+{
+#ifdef BIG_MAP
+    /* a block big_realloc mapped runs to its whole huge pages, which the
+     * first touch of their last one made resident */
+    const size_t len = size >= BIG_MIN && size <= SIZE_MAX - HUGE_PAGE ? huge_round(size) : size;
+    const uintptr_t page = 4096; /* (a multiple of it, were pages larger, is whole pages too) */
+    const uintptr_t lo = ((uintptr_t)p + keep + page - 1) & ~(page - 1), hi = ((uintptr_t)p + len) & ~(page - 1);
+    if (keep < size && hi > lo)
+        madvise((void *)lo, hi - lo, MADV_DONTNEED);
+#else
+    (void)p;
+    (void)keep;
+    (void)size;
+#endif
+}
+
 void *big_realloc(void *p, size_t used, size_t n)
 {
     if (n == 0 || n > SIZE_MAX - HUGE_PAGE)

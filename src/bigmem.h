@@ -39,4 +39,10 @@ void big_free(void *p);
  * untouched, when there is no memory (or n is 0). */
 void *big_realloc(void *p, size_t used, size_t n);
 
+/* Gives back to the system the whole pages of p[keep .. size), p a block
+ * of size bytes from big_realloc: they read as 0 after, and are no longer
+ * held (a huge page touched anywhere is held whole). The bytes around
+ * them, the allocator's among them, are untouched. */
+void big_release(void *p, size_t keep, size_t size);
+
 #endif

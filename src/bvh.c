@@ -754,11 +754,10 @@ static int grow(char **m, size_t *size, size_t need, size_t tail)
  * goes into pages the build has faulted in already (docs/performance.md).
  * The collapse's plan lies at the block's end, and its costs, done with
  * before the tree is written, at its start; the block grows when they or
- * the tree do not fit. It is not cut to the tree afterwards: the next
- * build's block would then not fit where this one was, and would fault
- * fresh pages; the part of it that neither touches costs no memory. On
- * success b->mem owns the block and *block is NULL; on failure *block is
- * the caller's to free. */
+ * the tree do not fit. The pages past the tree, the plan's among them, are
+ * then given back (big_release), but the block keeps its size: the next
+ * build's block then fits where this one was. On success b->mem owns the
+ * block and *block is NULL; on failure *block is the caller's to free. */
 static int build_wide(Bvh *b, const BvhNode *bin, int nbin, void **block, size_t size)
 {
     char *m = *block;
@@ -793,7 +792,9 @@ static int build_wide(Bvh *b, const BvhNode *bin, int nbin, void **block, size_t
     }
     b->lo[3] = b->hi[3] = 0.0f;
     fill_leaves(b);
-    b->plan_bytes = plan_bytes;
+    /* what the build touched past the tree, huge pages held whole */
+    b->held = skew + tree_bytes;
+    big_release(m, b->held, size);
     return 0;
 }
 
@@ -804,11 +805,7 @@ void bvh_free(Bvh *b)
     memset(b, 0, sizeof *b);
 }
 
-size_t bvh_bytes(const Bvh *b)
-{
-    return sizeof(BvhWideNode) * (size_t)b->nnodes + sizeof(BvhLeaf) * (size_t)b->nleaves + b->plan_bytes +
-           sizeof(int) * (size_t)b->nprims;
-}
+size_t bvh_bytes(const Bvh *b) { return b->held + sizeof(int) * (size_t)b->nprims; }
 
 int bvh_build(Bvh *b, const Prim *prims, int n, PrimVariant v, int threads)
 {

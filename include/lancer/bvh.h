@@ -83,8 +83,8 @@ typedef struct {
 } BvhLeaf;
 
 typedef struct {
-    void *mem;         /* one block: the leaves, the nodes, and the build's plan at its end */
-    size_t plan_bytes; /* (which bvh_bytes counts, as its pages stay in memory) */
+    void *mem;   /* one block: the leaves and the nodes, from its start */
+    size_t held; /* its bytes still in memory (bvh_bytes): those up to the tree's end */
     BvhWideNode *nodes;
     int nnodes;
     BvhLeaf *leaves;
