@@ -44,7 +44,9 @@ awk -F'\t' '
             if (!(t in c)) { printf "| %s | %s %s | not measured | | |\n", what, (w[1] == "ge" ? "≥" : "≤"), w[2]; continue }
             met = 0; worst = ""
             for (j = 1; j <= c[t]; j++) {
-                x = v[t, j]; val = (x == "inf") ? 1e300 : x + 0
+                # a NaN (0 / 0) meets no goal and is the worst, which awk,
+                # comparing it as true, would not make it
+                x = v[t, j]; val = (x == "inf") ? 1e300 : (x ~ /nan/) ? (w[1] == "ge" ? -1e300 : 1e300) : x + 0
                 ok = (w[1] == "ge") ? val >= w[2] : val <= w[2]
                 met += ok
                 bad = (w[1] == "ge") ? -val : val
@@ -54,8 +56,10 @@ awk -F'\t' '
             # the median, by insertion sort
             for (a = 2; a <= c[t]; a++) { y = s[a]; for (b = a - 1; b >= 1 && s[b] > y; b--) s[b + 1] = s[b]; s[b + 1] = y }
             m = (c[t] % 2) ? s[(c[t] + 1) / 2] : (s[c[t] / 2] + s[c[t] / 2 + 1]) / 2
+            if (m > 1e299) m = 1e300 # the mean of an infinity and a number: an infinity
+            if (m < -1e299) m = -1e300
             printf "| %s | %s %s | %d of %d%s | %s (%s) | %s |\n", what, (w[1] == "ge" ? "≥" : "≤"), w[2], met, c[t],
                 (met == c[t] ? " **met**" : ""), (v[t, worst] == "inf" ? "∞" : sprintf("%.2f", v[t, worst])), k[t, worst],
-                (m >= 1e300 ? "∞" : sprintf("%.2f", m))
+                (m >= 1e300 ? "∞" : m <= -1e300 ? "nan" : sprintf("%.2f", m))
         }
     }' "$results"

@@ -537,4 +537,11 @@ for scn in scenes/*.scn scenes/parity/*.scn scenes/stability/*.scn tests/parity/
     fi
 done
 
+# make bench's table (scripts/bench-table.sh): a NaN ratio (0 / 0) meets no
+# goal, and the median of an infinity and a number is an infinity
+printf 'faults\ta\tnan\nfaults\tb\t0.2\nfaults\tc\t0.3\npn-fast\tx\tinf\npn-fast\ty\t0.5\n' >"$T/results.tsv"
+sh "$(dirname "$0")/../scripts/bench-table.sh" "$T/results.tsv" >"$T/table.md"
+has "$T/table.md" "| ≤ 1.0 | 2 of 3 | nan (a) | 0.30 |"
+has "$T/table.md" "| ≥ 1 | 1 of 2 | 0.50 (y) | ∞ |"
+
 tally cli
