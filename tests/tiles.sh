@@ -181,6 +181,10 @@ if [ -e "$T/c0.exr" ]; then bad "a frame was rendered before the clash was found
 # image, which its end removes: frame 0's statistics would be lost
 expect 2 "$LANCER" render "$T/orbit.scn" --width 8 --height 6 --frames 0:11 -o "$T/c%d.exr" --stats "$T/./c1%d.exr"
 has "$T/err" "--stats of frame 0 ($T/./c10.exr) and -o of frame 10 ($T/c10.exr) are one file"
+# and two files of one frame, frame 10's, when frames 8 and 9 are not
+expect 2 "$LANCER" render "$T/orbit.scn" --width 8 --height 6 --frames 8:11 -o "$T/c%d.exr" --stats "$T/c%02d.exr"
+has "$T/err" "-o of frame 10 ($T/c10.exr) and --stats of frame 10 ($T/c10.exr) are one file"
+if [ -e "$T/c8.exr" ]; then bad "frame 8 was rendered before frame 10's clash was found"; else ok; fi
 expect 2 "$LANCER" render "$T/orbit.scn" --width 8 --height 6 --frames 0:11 -o "$T/c%d.exr" --stats "$T/c1%d.partial.exr"
 has "$T/err" "--stats of frame 0 ($T/c10.partial.exr) and the partial image of -o of frame 10 ($T/c10.partial.exr) are one file"
 if [ -e "$T/c0.exr" ]; then bad "a frame was rendered before the clash was found"; else ok; fi

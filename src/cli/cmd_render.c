@@ -688,8 +688,9 @@ static int pattern_in_real_folder(const char *pat, char *out, size_t len)
     return n >= 0 && (size_t)n < len ? 0 : -1;
 }
 
-/* 0 when no two files of frames first..last-1 are one file, else 2 after a
- * message (each frame's own files are checked as it starts). The files:
+/* 0 when no two files of frames first..last-1 are one file, of two frames
+ * or of one (a%d.exr and a%02d.exr from frame 10), else 2 after a message
+ * (each frame's inputs and writability are checked as it starts). The files:
  * the outputs of pat[0 .. 2], and the partial image of -o (pat[0]), which
  * a finished frame removes. */
 static int frames_apart(const char *const pat[3], int first, int last)
@@ -725,7 +726,7 @@ static int frames_apart(const char *const pat[3], int first, int last)
                 if (!(meets[i] >> j & 1))
                     continue;
                 int g = frame_of(canon[j], tail[j], ntail[j], name, first, last);
-                if (g >= 0 && g != f) { /* named as the user wrote them */
+                if (g >= 0) { /* named as the user wrote them */
                     char a[AFILE_PATH_MAX], b[AFILE_PATH_MAX];
                     if (cli_frame_path(opt[i], given[i], f, a, sizeof a, NULL) != 0 ||
                         cli_frame_path(opt[j], given[j], g, b, sizeof b, NULL) != 0)
