@@ -793,8 +793,7 @@ static int build_wide(Bvh *b, const BvhNode *bin, int nbin, void **block, size_t
     b->lo[3] = b->hi[3] = 0.0f;
     fill_leaves(b);
     /* what the build touched past the tree, huge pages held whole */
-    b->held = skew + tree_bytes;
-    big_release(m, b->held, size);
+    big_release(m, skew + tree_bytes, size);
     return 0;
 }
 
@@ -805,7 +804,13 @@ void bvh_free(Bvh *b)
     memset(b, 0, sizeof *b);
 }
 
-size_t bvh_bytes(const Bvh *b) { return b->held + sizeof(int) * (size_t)b->nprims; }
+size_t bvh_bytes(const Bvh *b)
+{
+    /* the block up to the tree's end (the nodes follow the leaves), which
+     * build_wide keeps */
+    const size_t kept = b->mem ? (size_t)((const char *)(b->nodes + b->nnodes) - (const char *)b->mem) : 0;
+    return kept + sizeof(int) * (size_t)b->nprims;
+}
 
 int bvh_build(Bvh *b, const Prim *prims, int n, PrimVariant v, int threads)
 {

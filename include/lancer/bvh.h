@@ -83,8 +83,7 @@ typedef struct {
 } BvhLeaf;
 
 typedef struct {
-    void *mem;   /* one block: the leaves and the nodes, from its start */
-    size_t held; /* its bytes still in memory (bvh_bytes): those up to the tree's end */
+    void *mem; /* one block: the leaves and the nodes, from its start; its pages past them are given back */
     BvhWideNode *nodes;
     int nnodes;
     BvhLeaf *leaves;
