@@ -277,6 +277,12 @@ int mesh_finish(const LexReader *R, MeshBuild *B, int vertex_normals)
     return 0;
 }
 
+long long mesh_text_cap(long long count, size_t rem, unsigned long long min)
+{
+    unsigned long long cap = ((unsigned long long)rem + 1) / min + 1;
+    return (unsigned long long)count < cap ? count : (long long)cap;
+}
+
 int mesh_alloc_vertices(const LexReader *R, long line, MeshBuild *B, long long nv, int normals)
 {
     B->m.nv = (int)nv;

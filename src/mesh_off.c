@@ -68,30 +68,18 @@ int mesh_read_off(LexReader *R, MeshBuild *B)
             return lex_fail(R, R->line, tk[i].s, "negative count '%s'", lex_quote(tk[i], qb));
     }
     long long nv = cnt[0], nf = cnt[1];
+    LexTok nf_text = tk[1]; /* (tk is reused below) */
     long cline = R->line;
+    if (nv > INT_MAX) /* (quoted as written: a count may have saturated) */
+        return lex_fail(R, cline, tk[0].s, "%s vertices announced, more than %d", lex_quote(tk[0], qb), INT_MAX);
+    /* a vertex line takes at least a digit and a separator a value, a face
+     * line of 3 corners ("3 0 1 2\n") 8 bytes: the faces read past these
+     * grow the arrays as they need */
     size_t rem = (size_t)(R->end - R->p);
-    unsigned long long room = (unsigned long long)rem + 1; /* the last line needs no '\n' */
-    int nvals = 3 + 3 * normals;                           /* values a vertex needs */
-    /* the fewest bytes a vertex and a face line take ("0\n" for a face, which
-     * its own check then refuses): past these, the counts are too many */
-    unsigned long long vmin = 2 * (unsigned long long)nvals, fmin = 2;
-    char qb2[LEX_QUOTE_LEN]; /* counts are quoted as written: they may have saturated */
-    if ((unsigned long long)nv > room / vmin)
-        return lex_fail(R, cline, tk[0].s,
-                        "%s vertices announced, more than the %zu bytes after the counts line can hold",
-                        lex_quote(tk[0], qb), rem);
-    room -= (unsigned long long)nv * vmin;
-    if ((unsigned long long)nf > room / fmin)
-        return lex_fail(R, cline, tk[0].s,
-                        "%s vertices and %s faces announced, more than the %zu bytes after the counts line can hold",
-                        lex_quote(tk[0], qb), lex_quote(tk[1], qb2), rem);
-    if (nv > INT_MAX)
-        return lex_fail(R, cline, tk[0].s, "%lld vertices announced, more than %d", nv, INT_MAX);
-    if (mesh_alloc_vertices(R, cline, B, nv, normals) != 0)
+    int nvals = 3 + 3 * normals; /* values a vertex needs */
+    if (mesh_alloc_vertices(R, cline, B, mesh_text_cap(nv, rem, 2 * (unsigned)nvals), normals) != 0)
         return -1;
-    /* room for the triangles of faces of 3 corners ("3 0 1 2\n"), at most:
-     * the faces read then grow the arrays as they need */
-    unsigned long long reserve = (unsigned long long)nf < room / 8 ? (unsigned long long)nf : room / 8;
+    long long reserve = mesh_text_cap(nf, rem, 8);
     if (reserve > 0 && mesh_reserve_tris(R, cline, B, (size_t)(reserve < INT_MAX ? reserve : INT_MAX)) != 0)
         return -1;
 
@@ -123,7 +111,7 @@ int mesh_read_off(LexReader *R, MeshBuild *B)
 
     for (long long f = 0; f < nf; f++) {
         if (!lex_next_text_line(R, &s, &e, 1))
-            return lex_fail_eof(R, "file ends after %lld of %lld faces", f, nf);
+            return lex_fail_eof(R, "file ends after %lld of %s faces", f, lex_quote(nf_text, qb));
         long long k, idx;
         q = s;
         lex_next_tok(&q, e, &t);

@@ -255,14 +255,16 @@ static unsigned long long ply_min_bytes(const Ply *P, int ei)
     return b;
 }
 
-/* Checks every count against the bytes after the header, then allocates. */
+/* Allocates the vertices and the triangles. A binary file's counts are
+ * checked first against the bytes after the header, and refused at the
+ * header line that announced them; a text file's are not (mesh_text_cap). */
 static int ply_alloc(Ply *P)
 {
     LexReader *R = P->R;
     char q[LEX_QUOTE_LEN], q2[LEX_QUOTE_LEN];
     size_t rem = (size_t)(R->end - R->p);
-    unsigned long long room = (unsigned long long)rem + !P->binary; /* a text file's last '\n' is optional */
-    for (int i = 0; i < P->nel; i++) {
+    unsigned long long room = rem;
+    for (int i = 0; i < P->nel && P->binary; i++) {
         unsigned long long min = ply_min_bytes(P, i);
         const PlyElem *E = &P->el[i];
         if (min == 0) /* no properties: an instance is nothing to read */
@@ -275,11 +277,15 @@ static int ply_alloc(Ply *P)
     }
     const PlyElem *V = &P->el[P->vertex];
     if (V->count > INT_MAX)
-        return lex_fail(R, V->line, V->count_text.s, "%lld vertices announced, more than %d", V->count, INT_MAX);
-    if (mesh_alloc_vertices(R, V->line, P->B, V->count, P->nrm[0] >= 0) != 0)
+        return lex_fail(R, V->line, V->count_text.s, "%s vertices announced, more than %d", lex_quote(V->count_text, q),
+                        INT_MAX);
+    long long nv = P->binary ? V->count : mesh_text_cap(V->count, rem, ply_min_bytes(P, P->vertex));
+    if (mesh_alloc_vertices(R, V->line, P->B, nv, P->nrm[0] >= 0) != 0)
         return -1;
     if (P->face >= 0 && P->el[P->face].count > 0) {
         long long nf = P->el[P->face].count;
+        if (!P->binary)
+            nf = mesh_text_cap(nf, rem, ply_min_bytes(P, P->face));
         if (mesh_reserve_tris(R, P->el[P->face].line, P->B, (size_t)(nf < INT_MAX ? nf : INT_MAX)) != 0)
             return -1;
     }
@@ -318,7 +324,7 @@ static int ply_check_ascii(const LexReader *R, LexTok t, PlyType type)
 static int ply_ascii(Ply *P)
 {
     LexReader *R = P->R;
-    int nv = P->B->m.nv;
+    long long nv = P->el[P->vertex].count; /* as announced: m.nv may be fewer (ply_alloc) */
     const char *s, *e, *q;
     char q1[LEX_QUOTE_LEN], q2[LEX_QUOTE_LEN];
     LexTok t;
@@ -328,7 +334,7 @@ static int ply_ascii(Ply *P)
             continue;
         for (long long i = 0; i < E->count; i++) {
             if (!lex_next_text_line(R, &s, &e, 0))
-                return lex_fail_eof(R, "file ends after %lld of %lld '%s' elements", i, E->count,
+                return lex_fail_eof(R, "file ends after %lld of %s '%s' elements", i, lex_quote(E->count_text, q2),
                                     lex_quote(E->name, q1));
             q = s;
             for (int j = 0; j < E->nprops; j++) {
@@ -370,7 +376,7 @@ static int ply_ascii(Ply *P)
                     if (lex_parse_int(t, &idx) != 0)
                         return lex_fail(R, R->line, t.s, "malformed vertex index '%s'", lex_quote(t, q1));
                     if (idx < 0 || idx >= nv)
-                        return lex_fail(R, R->line, t.s, "vertex index %s out of range (%d vertices)", lex_quote(t, q1),
+                        return lex_fail(R, R->line, t.s, "vertex index %s out of range (%lld vertices)", lex_quote(t, q1),
                                         nv);
                     if (mesh_fan_corner(P->R, P->B, k, (int)idx, 0, corner, NULL) != 0)
                         return -1;

@@ -42,6 +42,13 @@ int mesh_read_coord(const LexReader *R, LexTok t, const char *what, float *out);
 /* Checks that t is a number (an ignored value: a colour, w, a property). */
 int mesh_check_number(const LexReader *R, LexTok t);
 
+/* Of `count` items announced in a text file, each at least `min` bytes
+ * (min > 0) with `rem` bytes left, as many as a reader can start: those
+ * bytes hold no more whole lines, the last '\n' optional, and one begun.
+ * A count past it is not refused when announced: the reading stops at the
+ * first short line or at the file's end, which says where the file is
+ * wrong, and arrays of this many items bound what it allocates. */
+long long mesh_text_cap(long long count, size_t rem, unsigned long long min);
 /* Allocates m->v (and m->n with normals) for nv vertices, nv <= INT_MAX. */
 int mesh_alloc_vertices(const LexReader *R, long line, MeshBuild *B, long long nv, int normals);
 /* Makes room for n triangles in all. Returns 0 or -1 (out of memory). */

@@ -1010,6 +1010,8 @@ typedef struct {
 
 /* OFF: a triangle whose fault (or whose file's fault) is in the marked line */
 #define OFF3 "OFF\n3 1 0\n"
+/* a comment line after the data (the text's words are kept for the columns
+ * of the messages at the file's end) */
 #define PAD "# a comment to pad the file, so that the announced counts still fit in its size\n"
 
 /* PLY ascii: a header of 9 lines, so vertex data start on line 10 */
@@ -1034,12 +1036,19 @@ static const BadCase bad_cases[] = {
     BAD("off count malformed", MESH_OFF, "OFF\n3 1.0 0\n", "t.off:2:3: malformed count '1.0'"),
     BAD("off count negative", MESH_OFF, "OFF\n-3 1 0\n", "t.off:2:1: negative count '-3'"),
     BAD("off huge vertex count", MESH_OFF, "OFF\n1000000000000 1 0\n0 0 0\n",
-        "t.off:2:1: 1000000000000 vertices announced, more than the 6 bytes after the counts line can hold"),
+        "t.off:2:1: 1000000000000 vertices announced, more than 2147483647"),
     BAD("off overflowing vertex count", MESH_OFF, "OFF\n99999999999999999999999 1 0\n0 0 0\n",
-        "t.off:2:1: 99999999999999999999999 vertices announced, more than the 6 bytes after the counts line can hold"),
+        "t.off:2:1: 99999999999999999999999 vertices announced, more than 2147483647"),
+    /* counts that the bytes cannot hold: the reading says where they end, or
+     * which line is short, with arrays no larger than the bytes can fill */
+    BAD("off vertex count past the bytes", MESH_OFF, "OFF\n1000000 1 0\n0 0 0\n",
+        "t.off:3:6: file ends after 1 of 1000000 vertices"),
     BAD("off huge face count", MESH_OFF, "OFF 3 1000000000000 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
-        "t.off:1:5: 3 vertices and 1000000000000 faces announced, more than the 26 bytes after the counts line can "
-        "hold"),
+        "t.off:5:8: file ends after 1 of 1000000000000 faces"),
+    BAD("off overflowing face count", MESH_OFF, "OFF 3 99999999999999999999999 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2",
+        "t.off:5:8: file ends after 1 of 99999999999999999999999 faces"),
+    BAD("off short vertex line in a near-minimal file", MESH_OFF, OFF3 "0 0 0\n1 0\n0 1 0\n3 0 1 2\n",
+        "t.off:4:1: vertex line has 2 values, expected 3"),
     BAD("off truncated vertices", MESH_OFF, "OFF\n4 1 0\n0 0 0\n1 0 0\n" PAD,
         "t.off:5:80: file ends after 2 of 4 vertices"),
     BAD("off truncated faces", MESH_OFF, "OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n" PAD,
@@ -1251,9 +1260,17 @@ static const BadCase bad_cases[] = {
         "element face 0\nproperty list uchar float vertex_indices\nend_header\n",
         "t.ply:7:9: face property 'vertex_indices' must have an integer item type"),
     BAD("ply huge vertex count", MESH_PLY, PLYH(1000000000000, 1) "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
-        "t.ply:3:16: 1000000000000 'vertex' elements announced, more than the 26 bytes after the header can hold"),
+        "t.ply:3:16: 1000000000000 vertices announced, more than 2147483647"),
+    BAD("ply vertex count past the bytes", MESH_PLY, PLYH(1000000, 1) "0 0 0\n1 0 0\n0 1 0\n",
+        "t.ply:12:6: file ends after 3 of 1000000 'vertex' elements"),
+    /* the vertex begun in the last of the bytes, one more than whole lines
+     * fill (the sanitized build checks that its values have room) */
+    BAD("ply vertex begun in the last byte", MESH_PLY, PLYH(1000, 1) "0 0 0\n0",
+        "t.ply:11:1: too few values for a 'vertex' element (no 'y')"),
     BAD("ply huge face count", MESH_PLY, PLYH(3, 1000000000000) "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
-        "t.ply:7:14: 1000000000000 'face' elements announced, more than the 26 bytes after the header can hold"),
+        "t.ply:13:8: file ends after 1 of 1000000000000 'face' elements"),
+    BAD("ply short vertex line in a near-minimal file", MESH_PLY, PLYH(3, 1) "0 0 0\n1 0\n0 1 0\n3 0 1 2\n",
+        "t.ply:11:1: too few values for a 'vertex' element (no 'z')"),
     BAD("ply truncated vertices", MESH_PLY, PLYH(3, 1) "0.0000 0.0000 0.0000\n1.0000 0.0000 0.0000\n",
         "t.ply:11:21: file ends after 2 of 3 'vertex' elements"),
     BAD("ply truncated faces", MESH_PLY, PLYH(3, 2) "0.0000 0.0000 0.0000\n1 0 0\n0 1 0\n3 0 1 2\n",
