@@ -835,7 +835,30 @@ static float float_of_bits(uint32_t b)
     return f;
 }
 
-static void srgb8_table(Srgb8Table *t)
+float image_half_round(float x)
+{
+    uint32_t b;
+    memcpy(&b, &x, sizeof b);
+    const uint32_t sign = b & 0x80000000u, a = b ^ sign;
+    float f;
+    if (a >= 0x477ff000u) { /* 65520 (65504 and half its step: the tie goes to the even 2^16), or NaN */
+        if (a > 0x7f800000u)
+            return x;
+        b = sign | 0x7f800000u;
+    } else if (a < 0x38800000u) { /* below 2^-14: a multiple of 2^-24, the sum's step, ties to even */
+        memcpy(&f, &a, sizeof f);
+        f = (f + 0.5f) - 0.5f;
+        memcpy(&b, &f, sizeof b);
+        b |= sign;
+    } else /* 10 of the 23 fraction bits, ties to even: a carry moves the exponent */
+        b = sign | ((a + 0x0fffu + (a >> 13 & 1u)) & ~0x1fffu);
+    memcpy(&f, &b, sizeof f);
+    return f;
+}
+
+/* With half, the thresholds of image_srgb8 of x rounded to half
+ * (image_half_round is monotone too): the lookup itself is the same. */
+static void srgb8_table(Srgb8Table *t, int half)
 {
     const uint32_t one = 0x3f800000u; /* 1.0f's bits */
     t->at[0] = 0.0f;
@@ -843,7 +866,8 @@ static void srgb8_table(Srgb8Table *t)
         uint32_t lo = 1, hi = one; /* image_srgb8 of hi is 255 >= k */
         while (lo < hi) {
             uint32_t mid = lo + (hi - lo) / 2;
-            if (image_srgb8(float_of_bits(mid)) >= k)
+            float x = float_of_bits(mid);
+            if (image_srgb8(half ? image_half_round(x) : x) >= k)
                 hi = mid;
             else
                 lo = mid + 1;
@@ -867,6 +891,7 @@ static unsigned char srgb8_lookup(const Srgb8Table *t, float x)
  * frame that calls setjmp, so longjmp cannot leave stale locals behind. */
 typedef struct {
     const Image *img;
+    int half; /* round each value to half first */
     FILE *fp;
     Srgb8Table srgb;
     unsigned char *row; /* 3 * width bytes */
@@ -939,7 +964,7 @@ static int image_png_run(ImagePngJob *job)
     png_set_sRGB_gAMA_and_cHRM(job->png, job->info, PNG_sRGB_INTENT_PERCEPTUAL);
     png_set_compression_level(job->png, IMAGE_ZIP_LEVEL);
     png_write_info(job->png, job->info);
-    srgb8_table(&job->srgb);
+    srgb8_table(&job->srgb, job->half);
     for (int y = 0; y < img->height; y++) {
         const float *src = img->rgb + (size_t)y * (size_t)img->width * 3;
         for (size_t i = 0; i < (size_t)img->width * 3; i++)
@@ -952,7 +977,7 @@ static int image_png_run(ImagePngJob *job)
 
 /* Writes the PNG into the file `file` (created or truncated), naming `path`
  * in messages. */
-static int png_to_file(const Image *img, const char *file, const char *path, char *err, size_t errlen)
+static int png_to_file(const Image *img, int half, const char *file, const char *path, char *err, size_t errlen)
 {
     if (!image_valid(img)) {
         snprintf(err, errlen, "%s: cannot write: invalid image", path);
@@ -961,6 +986,7 @@ static int png_to_file(const Image *img, const char *file, const char *path, cha
     ImagePngJob job;
     memset(&job, 0, sizeof job);
     job.img = img;
+    job.half = half;
     job.row = malloc((size_t)img->width * 3);
     if (job.row == NULL) {
         snprintf(err, errlen, "%s: cannot write: out of memory", path);
@@ -990,10 +1016,12 @@ static int png_to_file(const Image *img, const char *file, const char *path, cha
     return 0;
 }
 
-int image_write_png_file(const Image *img, const char *file, const char *name, char *err, size_t errlen)
+int image_write_png_file(const Image *img, const char *file, const char *name, ImagePrecision prec, char *err,
+                         size_t errlen)
 {
-    return png_to_file(img, file, name, err, errlen);
+    return png_to_file(img, prec == IMAGE_HALF, file, name, err, errlen);
 }
+
 
 int image_write_png(const Image *img, const char *path, char *err, size_t errlen)
 {
@@ -1004,7 +1032,7 @@ int image_write_png(const Image *img, const char *path, char *err, size_t errlen
     }
     if (afile_temp(path, tmp, sizeof tmp, err, errlen) != 0)
         return -1;
-    if (png_to_file(img, tmp, path, err, errlen) != 0) {
+    if (png_to_file(img, 0, tmp, path, err, errlen) != 0) {
         afile_abort(tmp);
         return -1;
     }

@@ -492,6 +492,9 @@ static void test_exr_half_roundtrip(void **state)
         if (float_to_bits(got) != float_to_bits(want))
             fail_msg("value %zu: %a became %a, expected %a", i, (double)v, (double)got,
                      (double)want);
+        if (float_to_bits(image_half_round(v)) != float_to_bits(got)) /* the PNG preview's rounding */
+            fail_msg("value %zu: image_half_round(%a) is %a, OpenEXR's half %a", i, (double)v,
+                     (double)image_half_round(v), (double)got);
         if (fabsf(v) >= 0x1p-14f && fabsf(v) <= 65504.0f)
             assert_true(fabs((double)got - (double)v) <= fabs((double)v) * 0x1p-11);
     }
@@ -942,12 +945,11 @@ static void test_png_roundtrip(void **state)
  * bytes must be image_srgb8's at and around every value where the byte
  * changes (found here by bisection), across [0, 1] by even steps of the
  * floats' bit patterns, and at the odd values. */
-static void test_png_bytes_are_srgb8(void **state)
+/* A 128x128 image of the values around each of image_srgb8's steps, odd
+ * values, then a sweep of [0, 1]. */
+static void srgb_edges(Image *img)
 {
-    Fixture *f = *state;
-    char err[512] = "";
-    Image img;
-    assert_int_equal(image_init(&img, 128, 128), 0);
+    assert_int_equal(image_init(img, 128, 128), 0);
     size_t n = (size_t)128 * 128 * 3, i = 0;
     const float one = 1.0f;
     uint32_t one_bits;
@@ -965,24 +967,64 @@ static void test_png_bytes_are_srgb8(void **state)
         }
         for (int d = -64; d <= 64; d++) {
             uint32_t b = lo + (uint32_t)d;
-            memcpy(&img.rgb[i++], &b, sizeof(float));
+            memcpy(&img->rgb[i++], &b, sizeof(float));
         }
     }
     const float odd[] = {0.0f, -0.0f, NAN, INFINITY, -INFINITY, 1.0f, 1.5f, -1.0f, 1e-45f, FLT_MIN, 0.0031308f};
     for (size_t k = 0; k < sizeof odd / sizeof odd[0]; k++)
-        img.rgb[i++] = odd[k];
+        img->rgb[i++] = odd[k];
     const uint32_t step = one_bits / (uint32_t)(n - i) + 1;
     for (uint32_t b = 0; i < n; b += step)
-        memcpy(&img.rgb[i++], &b, sizeof(float));
+        memcpy(&img->rgb[i++], &b, sizeof(float));
+}
+
+static void test_png_bytes_are_srgb8(void **state)
+{
+    Fixture *f = *state;
+    char err[512] = "";
+    Image img;
+    srgb_edges(&img);
+    size_t n = (size_t)img.width * (size_t)img.height * 3;
     const char *path = join(f, "srgb.png");
     assert_int_equal(image_write_png(&img, path, err, sizeof err), 0);
     PngData png;
     assert_int_equal(png_load(path, &png), 0);
-    for (i = 0; i < n; i++)
+    for (size_t i = 0; i < n; i++)
         if (png.pixels[i] != image_srgb8(img.rgb[i]))
             fail_msg("value %zu (%.9g): PNG byte %d, image_srgb8 %d", i, (double)img.rgb[i], png.pixels[i],
                      image_srgb8(img.rgb[i]));
     free(png.pixels);
+    image_free(&img);
+}
+
+/* The preview of a half EXR: the bytes that the EXR's own values give, as
+ * `lancer merge` makes them from its tiles, not those of the floats before
+ * the rounding (a render's PNG once differed from its merged tiles' in 1%
+ * of its bytes). */
+static void test_png_of_half_is_the_half_exrs(void **state)
+{
+    Fixture *f = *state;
+    char err[512] = "";
+    Image img, back;
+    srgb_edges(&img);
+    size_t n = (size_t)img.width * (size_t)img.height * 3;
+    const char *exr = join(f, "edges.exr");
+    assert_int_equal(image_write_exr(&img, exr, IMAGE_HALF, err, sizeof err), 0);
+    assert_int_equal(image_read_exr(exr, &back, err, sizeof err), 0);
+    const char *png_half = join(f, "half.png");
+    assert_int_equal(image_write_png_file(&img, png_half, "half.png", IMAGE_HALF, err, sizeof err), 0);
+    PngData png;
+    assert_int_equal(png_load(png_half, &png), 0);
+    size_t moved = 0;
+    for (size_t i = 0; i < n; i++) {
+        if (png.pixels[i] != image_srgb8(back.rgb[i]))
+            fail_msg("value %zu (%.9g, %.9g as half): PNG byte %d, the half's %d", i, (double)img.rgb[i],
+                     (double)back.rgb[i], png.pixels[i], image_srgb8(back.rgb[i]));
+        moved += png.pixels[i] != image_srgb8(img.rgb[i]);
+    }
+    assert_true(moved > 0); /* the rounding matters here */
+    free(png.pixels);
+    image_free(&back);
     image_free(&img);
 }
 
@@ -1285,6 +1327,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_srgb8),
         cmocka_unit_test_setup_teardown(test_png_roundtrip, setup, teardown),
         cmocka_unit_test_setup_teardown(test_png_bytes_are_srgb8, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_png_of_half_is_the_half_exrs, setup, teardown),
         cmocka_unit_test_setup_teardown(test_write_into_missing_dir, setup, teardown),
         cmocka_unit_test_setup_teardown(test_write_replaces_existing, setup, teardown),
         cmocka_unit_test_setup_teardown(test_write_over_directory, setup, teardown),

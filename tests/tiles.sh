@@ -74,8 +74,9 @@ expect 2 "$LANCER" render "$T/orbit.scn" --region "0:4, 0:4" -o "$T/r.exr"
 expect 1 "$LANCER" render "$T/orbit.scn" $O --region 0:62,0:4 -o "$T/r.exr"
 has "$T/err" "the region 0:62,0:4 is empty or not inside the 61x45 image"
 
-# six tiles, rendered on 1 and 2 threads, merge into the single render
-expect 0 "$LANCER" render "$T/orbit.scn" $O -q -o "$T/full.exr"
+# six tiles, rendered on 1 and 2 threads, merge into the single render, and
+# their PNG into its PNG (a preview of the half EXR's values)
+expect 0 "$LANCER" render "$T/orbit.scn" $O -q -o "$T/full.exr" --png "$T/full.png"
 i=0
 for r in $(cat "$T/six"); do
     expect 0 "$LANCER" render "$T/orbit.scn" $O -q --region "$r" --threads $((i % 2 + 1)) -o "$T/t$i.exr"
@@ -85,6 +86,7 @@ expect 0 "$LANCER" merge -o "$T/m.exr" --png "$T/m.png" "$T/t5.exr" "$T/t0.exr" 
 has "$T/err" "merged 6 tiles into $T/m.exr (61x45)"
 same "$T/m.exr" "$T/full.exr"
 if head -c 8 "$T/m.png" | od -An -c | grep -q "P   N   G"; then ok; else bad "merge --png wrote no PNG"; fi
+same "$T/m.png" "$T/full.png"
 # on one thread and on three (the EXR's chunks beside the PNG): the same bytes
 T6="$T/t0.exr $T/t1.exr $T/t2.exr $T/t3.exr $T/t4.exr $T/t5.exr"
 expect 0 "$LANCER" merge --threads 1 -q -o "$T/m1.exr" --png "$T/m1.png" $T6

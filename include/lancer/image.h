@@ -98,8 +98,17 @@ const char *image_meta_get(const ImageMeta *meta, const char *name);
 int image_write_png(const Image *img, const char *path, char *err, size_t errlen);
 
 /* image_write_png into the file `file` itself (a temporary file the caller
- * commits); messages name `name`. */
-int image_write_png_file(const Image *img, const char *file, const char *name, char *err, size_t errlen);
+ * commits); messages name `name`. With prec IMAGE_HALF, the preview of the
+ * image as a half EXR holds it: each value rounded to half first
+ * (image_half_round), so that it is the one that `lancer merge` makes of
+ * that EXR's tiles. */
+int image_write_png_file(const Image *img, const char *file, const char *name, ImagePrecision prec, char *err,
+                         size_t errlen);
+
+/* x rounded to the nearest half-precision value, ties to even, as OpenEXR
+ * stores a half channel: past 65504 by half a step or more an infinity,
+ * below 2^-14 a subnormal; a NaN stays a NaN. */
+float image_half_round(float x);
 
 /* The sRGB transfer function applied to one linear value, clamped, as an
  * 8-bit code value (rounded to nearest): 0 and below, and NaN, give 0; 1 and

@@ -200,6 +200,7 @@ int outputs_parse_rows(const char *rows, unsigned char *done, int h)
  * beside the EXR, or after it. */
 typedef struct {
     const Image *img;
+    ImagePrecision prec;
     const char *tmp, *name;
     int rc;
     char err[AFILE_PATH_MAX + 128];
@@ -208,7 +209,7 @@ typedef struct {
 static void *write_png(void *arg)
 {
     PngJob *j = arg;
-    j->rc = image_write_png_file(j->img, j->tmp, j->name, j->err, sizeof j->err);
+    j->rc = image_write_png_file(j->img, j->tmp, j->name, j->prec, j->err, sizeof j->err);
     return NULL;
 }
 
@@ -217,7 +218,7 @@ int outputs_write_images(const Image *img, const char *exr, const char *exr_name
 {
     char err[AFILE_PATH_MAX + 128];
     int rc = 0;
-    PngJob pj = {img, png, png_name, 0, ""};
+    PngJob pj = {img, prec, png, png_name, 0, ""};
     pthread_t tid;
     int beside = png && threads > 1 && thread_start(&tid, write_png, &pj) == 0;
     if (image_write_exr_file(img, exr, exr_name, prec, attrs, nattrs, threads - beside, err, sizeof err) != 0) {
