@@ -42,6 +42,11 @@ expect 2 "$LANCER"
 expect 2 "$LANCER" --version extra
 has "$T/err" "'--version' takes no arguments"
 expect 2 "$LANCER" help render extra
+# help is a command: it takes -h and --help as every command does
+expect 0 "$LANCER" help --help
+has "$T/out" "usage: lancer <command>"
+expect 0 "$LANCER" help -h
+has "$T/out" "usage: lancer <command>"
 expect 2 "$LANCER" frobnicate
 has "$T/err" "unknown command 'frobnicate'"
 # Each command's --help and the README's synopsis of it name the same

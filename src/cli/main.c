@@ -163,12 +163,14 @@ static int dispatch(int argc, char **argv)
     }
     const char *cmd = argv[1];
     const int version = !strcmp(cmd, "--version"), usage = !strcmp(cmd, "--help") || !strcmp(cmd, "-h");
-    const int help = !strcmp(cmd, "help");
+    /* 'help' is a command too, and takes -h and --help as every command does */
+    const int help = !strcmp(cmd, "help"),
+              help_help = help && argc == 3 && (!strcmp(argv[2], "--help") || !strcmp(argv[2], "-h"));
     if ((version || usage) && argc > 2) {
         fprintf(stderr, "lancer: '%s' takes no arguments (see 'lancer --help')\n", cmd);
         return 2;
     }
-    if (usage || (help && argc == 2)) {
+    if (usage || (help && argc == 2) || help_help) {
         fputs(usage_main, stdout);
         return 0;
     }
