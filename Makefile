@@ -1,8 +1,9 @@
 # lancer - see README.md. `make run` renders the default scene, `make test` runs every test.
 #
-# Two build trees share these rules: build/ (optimised, what `make run` uses)
-# and build/san/ (AddressSanitizer + UBSan, what `make test` uses). The tree
-# is chosen by BUILD and SAN; `make test` calls this Makefile again with both.
+# Three build trees share these rules: build/ (optimised, what `make run`
+# uses), build/san/ (AddressSanitizer + UBSan, what `make test` uses) and
+# build/tsan/ (SAN=thread, ThreadSanitizer, for `make test-threads`). The tree
+# is chosen by BUILD and SAN; `make test` calls this Makefile again with each.
 
 BUILD ?= build
 SAN   ?= 0
@@ -18,6 +19,9 @@ BASEFLAGS := -std=c99 $(WARN) -ffp-contract=off -pthread
 ifeq ($(SAN),1)
 OPTFLAGS := -O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize-recover=all
 SANLINK  := -fsanitize=address,undefined
+else ifeq ($(SAN),thread)
+OPTFLAGS := -O1 -g -fno-omit-frame-pointer -fsanitize=thread
+SANLINK  := -fsanitize=thread
 else
 # -O3, not -O2: the BVH traversal then runs 10-20% faster (make bench,
 # bunny00, alternating), with the same float bits (no -ffast-math).
@@ -53,7 +57,7 @@ TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/%)
 
 .PHONY: all run test tests deps-run deps-test clean exact exact-judge stress cgal-data bench install uninstall \
-        fuzz fuzz-build fuzzers frontier test-cluster test-oom
+        fuzz fuzz-build fuzzers frontier test-cluster test-oom test-threads
 .DEFAULT_GOAL := all
 
 all: $(BUILD)/lancer
@@ -184,6 +188,13 @@ test: deps-test
 	EXACT_RAYS=$(EXACT_RAYS) sh scripts/run-tests.sh build/san $(EXACT_DIR)/judge
 	$(MAKE) test-cluster
 	$(MAKE) test-oom
+	$(MAKE) test-threads
+
+# Data races: lancer built with ThreadSanitizer (build/tsan), on renders,
+# builds, writes and signals that run threads side by side.
+test-threads:
+	$(MAKE) BUILD=build/tsan SAN=thread WERROR=1 build/tsan/lancer
+	sh tests/threads.sh build/tsan/lancer
 
 # Out of memory at each allocation of the commands that write files, on the
 # release build (a preloaded allocator, which sanitizers would displace).

@@ -511,8 +511,9 @@ static int build_tree(Builder *B, int n, int threads)
     right.begin = mid;
     right.end = n;
     pthread_t tid;
-    int threaded = right.b.nodes && thread_start(&tid, build_task, &right) == 0;
-    if (right.b.nodes && !threaded)
+    const int alloc_ok = right.b.nodes != NULL; /* (read before the thread may grow them) */
+    int threaded = alloc_ok && thread_start(&tid, build_task, &right) == 0;
+    if (alloc_ok && !threaded)
         build_task(&right);
     int rc = build_node(B, c, 0, mid, 1);
     if (threaded)

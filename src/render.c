@@ -10,6 +10,7 @@
 
 #include "lancer/camera.h"
 #include "lancer/shade.h"
+#include "lancer/stop.h"
 #include "lancer/thread.h"
 #include "bigmem.h"
 
@@ -59,7 +60,7 @@ static void trace_packet(const Job *job, const float *sx, const float *sy, const
     accel_closest_packet(job->a, r, n, h, best, st);
     prefetch_prims(job->p->scene->prims, best, n);
     Vec3 c[ACCEL_PACKET];
-    shade_traced_packet(job->p, job->a, r, n, best, h, st, c);
+    shade_traced_packet(job->p, job->a, r, n, best, h, st, job->stop, c);
     for (int m = 0; m < n; m++) {
         float *p = row + 3 * px[m];
         p[0] += c[m].x;
@@ -71,7 +72,7 @@ static void trace_packet(const Job *job, const float *sx, const float *sy, const
 /* Adaptive supersampling goes in bands of at least this many rows. */
 #define RENDER_BAND 16
 
-static int stopped(const Job *job) { return job->stop && *job->stop; }
+static int stopped(const Job *job) { return stop_read(job->stop); }
 
 /* Columns xa..xb-1 of image row y into out (3 floats a pixel, from xa):
  * each pixel the mean of k x k camera rays through a regular grid of
@@ -112,6 +113,8 @@ static int render_row(const Job *job, int y, int xa, int xb, int k, const unsign
     }
     if (n > 0)
         trace_packet(job, sx, sy, px, n, out, st);
+    if (stopped(job)) /* maybe within a pixel, which shade_traced_packet then left unfinished */
+        return -1;
     if (k > 1)
         for (int x = xa; x < xb; x++)
             if (!mask || mask[x - xa])

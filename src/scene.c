@@ -1462,14 +1462,14 @@ static int parse_statement(Parser *P)
     if (dispatch_statement(P, kw) != 0)
         return -1;
     for (int i = before; i < P->s->nprims; i++) {
-        PnRef *pn = P->s->prims[i].kind == PRIM_PN ? &P->s->prims[i].g.pn : NULL;
-        int mode = pn ? pn->mode : 0, ok;
+        Prim *pr = &P->s->prims[i];
+        const int pn = pr->kind == PRIM_PN, mode = pn ? pr->g.pn.mode : 0;
         link_prim(P->s, i);
         if (pn && mode < 0) /* the image block's, which may come later: any mode is well formed */
-            pn->mode = PN_EXACT;
-        ok = prim_valid(P->s, i);
+            pr->g.pn.mode = PN_EXACT;
+        const int ok = prim_valid(P->s, i);
         if (pn)
-            pn->mode = mode;
+            pr->g.pn.mode = mode;
         if (!ok)
             return fail(P, kw.loc, "%.*s: its transform leaves it flat or out of float's range", (int)kw.len,
                         kw.start);

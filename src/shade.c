@@ -12,6 +12,7 @@
  * at most. At the light's end a shadow ray stops short (light_reach).
  */
 #include "lancer/shade.h"
+#include "lancer/stop.h"
 
 #include <string.h>
 
@@ -57,6 +58,7 @@ typedef struct {
     RayStats *st;
     Givens *given;
     int *continued; /* continued rays in the recursion now (LIMIT_CONTINUED) */
+    const volatile sig_atomic_t *stop; /* NULL, or nonzero: shade no more */
 } Ctx;
 
 /* Light attenuation: 2 / (1 + (d/fade_distance)^fade_power), or 1. */
@@ -726,14 +728,14 @@ Vec3 shade_trace(const RenderPlan *p, const Accel *a, const Ray *r, RayStats *st
     Givens given;
     given.n = 0;
     int continued = 0;
-    Ctx c = {p, p->scene, a, st, &given, &continued};
+    Ctx c = {p, p->scene, a, st, &given, &continued, NULL};
     return trace(&c, r, 0, 0, &p->camera_in, 1.0f);
 }
 
 Vec3 shade_traced(const RenderPlan *p, const Accel *a, const Ray *r, int i, const PrimHit *h, RayStats *st)
 {
     Vec3 col;
-    shade_traced_packet(p, a, r, 1, &i, h, st, &col);
+    shade_traced_packet(p, a, r, 1, &i, h, st, NULL, &col);
     return col;
 }
 
@@ -749,6 +751,11 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
                          const Interiors *const *in, const float *wt, Vec3 *out)
 {
     const Scene *s = c->s;
+    if (stop_read(c->stop)) {
+        for (int k = 0; k < n; k++)
+            out[k] = vec3(0, 0, 0);
+        return;
+    }
     const Material *m[ACCEL_PACKET];
     Surface sf[ACCEL_PACKET];
     Vec3 front[ACCEL_PACKET]; /* each hit's origin for the rays that leave on ng's side: most do */
@@ -904,7 +911,7 @@ static void shade_packet(const Ctx *c, const Ray *r, int n, const int *best, con
 }
 
 void shade_traced_packet(const RenderPlan *p, const Accel *a, const Ray *r, int n, const int *best, const PrimHit *h,
-                         RayStats *st, Vec3 *out)
+                         RayStats *st, const volatile sig_atomic_t *stop, Vec3 *out)
 {
     static const float ONES[ACCEL_PACKET] = {1, 1, 1, 1, 1, 1, 1, 1}; /* camera rays weigh 1 */
     const Interiors *in[ACCEL_PACKET]; /* camera rays start in the same solids */
@@ -913,7 +920,7 @@ void shade_traced_packet(const RenderPlan *p, const Accel *a, const Ray *r, int 
     Givens given;
     given.n = 0;
     int continued = 0;
-    Ctx c = {p, p->scene, a, st, &given, &continued};
+    Ctx c = {p, p->scene, a, st, &given, &continued, stop};
     for (int k = 0; k < n; k += ACCEL_PACKET) {
         int m = n - k < ACCEL_PACKET ? n - k : ACCEL_PACKET;
         if (p->max_depth < 1) /* as trace() at level 0 */

@@ -115,6 +115,28 @@ rc=$?
 if [ "$rc" -eq 130 ]; then ok; else bad "SIGINT while rendering: exit $rc, wanted 130"; fi
 check "SIGINT while rendering" "$rc"
 
+# Stopped within a pixel: one pixel of glass in glass at depth 256, whose
+# every hit spawns a mirror ray and a refracted one of weight 1, a tree of
+# 2^256 rays. The signal stops the trace, not only the next pixel: exit 143
+# before a row was done (it once ran on until killed).
+cat >"$T/tree.scn" <<'SCN'
+image { width 1 height 1 max_depth 256 }
+camera { eye 0 0 -5 target 0 0 0 fov 10 }
+light { position -6 9 -6 }
+material g { color 1 1 1 reflection 1 transmit 1 ior 1.5 }
+sphere { center 0 0 0 radius 1 material g }
+sphere { center 0 0 0 radius 3 material g }
+SCN
+reset_outputs
+run_bg render "$T/tree.scn" -o "$T/a.exr" --png "$T/a.png" --threads 1
+sleep 1
+kill -s TERM "$pid"
+finish "$pid"
+rc=$?
+if [ "$rc" -eq 143 ]; then ok; else bad "SIGTERM within a pixel: exit $rc, wanted 143"; fi
+if grep -q "stopped by SIGTERM before a row was done" "$T/err"; then ok; else bad "SIGTERM within a pixel: $(head -c 300 "$T/err")"; fi
+check "SIGTERM within a pixel" "$rc"
+
 # A second signal exits at once, leaving nothing half written.
 for delay in 0.5 3; do
     reset_outputs

@@ -12,6 +12,7 @@
 
 #include "lancer/camera.h"
 #include "lancer/render.h"
+#include "lancer/stop.h"
 #include "lancer/shade.h"
 
 typedef struct {
@@ -164,7 +165,7 @@ static void stop_after(void *ctx, int done, int total)
     StopAfter *sa = ctx;
     (void)total;
     if (done >= sa->after)
-        sa->stop = 1;
+        stop_set(&sa->stop, 1);
 }
 
 /* Concentric glass balls seen from outside: with 16 a refracted ray's list

@@ -17,6 +17,7 @@
 #include "testutil.h"
 
 #include "lancer/shade.h"
+#include "lancer/stop.h"
 
 static const char *floor_scene =
     "image { background 0.2 0.4 0.6 }\n"
@@ -947,7 +948,7 @@ static void test_traced_is_trace(void **state)
             accel_closest_packet(a, r, n, h, best, &st);
             Vec3 all[2 * ACCEL_PACKET];
             RayStats st2 = st;
-            shade_traced_packet(&p, a, r, n, best, h, &st2, all);
+            shade_traced_packet(&p, a, r, n, best, h, &st2, NULL, all);
             for (int k = 0; k < n; k++) {
                 PrimHit w;
                 assert_int_equal(best[k], accel_closest(a, &r[k], &w, &st1));
@@ -1001,7 +1002,7 @@ static void test_filtered_shadows_in_packets(void **state)
         RayStats st = {0}, st1 = st;
         accel_closest_packet(a, r, m, h, best, &st);
         Vec3 all[ACCEL_PACKET];
-        shade_traced_packet(&p, a, r, m, best, h, &st, all);
+        shade_traced_packet(&p, a, r, m, best, h, &st, NULL, all);
         for (int k = 0; k < m; k++) {
             Vec3 want = shade_trace(&p, a, &r[k], &st1);
             assert_memory_equal(&all[k], &want, sizeof want);
@@ -1060,7 +1061,7 @@ static void test_refraction_in_packets(void **state)
             accel_closest_packet(a, r, 8, h, best, &st);
             accel_closest_packet(a, r + 8, 8, h + 8, best + 8, &st);
             Vec3 all[N];
-            shade_traced_packet(&p, a, r, N, best, h, &st, all);
+            shade_traced_packet(&p, a, r, N, best, h, &st, NULL, all);
             for (int k = 0; k < N; k++) {
                 Vec3 want = shade_trace(&p, a, &r[k], &st1);
                 assert_memory_equal(&all[k], &want, sizeof want);
@@ -1104,7 +1105,7 @@ static void test_invisible_sphere_in_glass(void **state)
         RayStats st = {0};
         Vec3 got[ACCEL_PACKET];
         accel_closest_packet(a1, r, ACCEL_PACKET, h, best, &st);
-        shade_traced_packet(&p1, a1, r, ACCEL_PACKET, best, h, &st, got);
+        shade_traced_packet(&p1, a1, r, ACCEL_PACKET, best, h, &st, NULL, got);
         for (int k = 0; k < ACCEL_PACKET; k++) {
             Vec3 want = shade_trace(&p0, a0, &r[k], &st);
             assert_vec(got[k], want.x, want.y, want.z, 1e-5);
@@ -1117,6 +1118,42 @@ static void test_invisible_sphere_in_glass(void **state)
     }
     scene_free(&s0);
     scene_free(&s1);
+}
+
+/* A stop flag, once set, stops the shading where it is: the packet's
+ * colours are black and no secondary ray is traced, where without it the
+ * glass sends mirror and refracted rays. */
+static void test_stop_flag_stops_shading(void **state)
+{
+    (void)state;
+    Scene sc;
+    load(&sc, "material g { color 0.9 0.95 1 reflection 0.5 transmit 0.5 ior 1.5 }\n"
+              "light { position -2 6 -1 }\n"
+              "sphere { center 0.5 1.2 0.8 radius 1 material g }\n");
+    RenderPlan p;
+    Accel *a = plan_world(&p, &sc);
+    Ray r[ACCEL_PACKET];
+    for (int k = 0; k < ACCEL_PACKET; k++)
+        r[k] = ray_make(EYE, vec_normalize(vec_sub(vec3(0.3f + 0.05f * (float)k, 0.9f, 0.7f), EYE)), INFINITY);
+    PrimHit h[ACCEL_PACKET];
+    int best[ACCEL_PACKET];
+    RayStats st = {0};
+    accel_closest_packet(a, r, ACCEL_PACKET, h, best, &st);
+    Vec3 got[ACCEL_PACKET];
+    volatile sig_atomic_t flag = 0;
+    shade_traced_packet(&p, a, r, ACCEL_PACKET, best, h, &st, &flag, got);
+    assert_true(st.reflection > 0 && st.refraction > 0);
+    for (int k = 0; k < ACCEL_PACKET; k++)
+        assert_true(got[k].x > 0.0f);
+    RayStats st2 = {0};
+    stop_set(&flag, SIGTERM);
+    shade_traced_packet(&p, a, r, ACCEL_PACKET, best, h, &st2, &flag, got);
+    assert_true(st2.reflection == 0 && st2.refraction == 0 && st2.shadow == 0);
+    for (int k = 0; k < ACCEL_PACKET; k++)
+        assert_vec(got[k], 0, 0, 0, 0);
+    accel_free(a);
+    plan_free(&p);
+    scene_free(&sc);
 }
 
 /* POV-Ray's adaptive area light, against povray 3.7.0.10's own renders
@@ -1182,7 +1219,7 @@ int main(void)
         cmocka_unit_test(test_shadow_of_low_box_on_huge_floor), cmocka_unit_test(test_mirror_of_low_box_on_huge_floor),
         cmocka_unit_test(test_shadow_of_box_standing_on_huge_pane), cmocka_unit_test(test_filtered_shadow_on_huge_floor),
         cmocka_unit_test(test_shadow_on_huge_floor_over_slabs), cmocka_unit_test(test_ball_in_glass_box_on_huge_pane),
-        cmocka_unit_test(test_continued_rays_cut),
+        cmocka_unit_test(test_continued_rays_cut), cmocka_unit_test(test_stop_flag_stops_shading),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

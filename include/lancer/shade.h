@@ -28,6 +28,8 @@
 #ifndef LANCER_SHADE_H
 #define LANCER_SHADE_H
 
+#include <signal.h>
+
 #include "lancer/accel.h"
 #include "lancer/plan.h"
 
@@ -41,8 +43,11 @@ Vec3 shade_traced(const RenderPlan *p, const Accel *a, const Ray *r, int i, cons
 /* shade_traced for each of r[0 .. n-1] into out[k], BVH_PACKET at a time:
  * the same colours. The shadow rays of the rays' hits towards each point light
  * are traced together (accel_occluded_packet), and so are their mirror
- * rays (accel_closest_packet), whose hits are shaded the same way. */
+ * rays (accel_closest_packet), whose hits are shaded the same way. stop:
+ * NULL, or a flag (RenderOptions.stop) read before each packet of hits is
+ * shaded; once it is nonzero the rest is left untraced, black, and the
+ * colours are not the picture's (a ray's tree can grow as 2^max_depth). */
 void shade_traced_packet(const RenderPlan *p, const Accel *a, const Ray *r, int n, const int *best, const PrimHit *h,
-                         RayStats *st, Vec3 *out);
+                         RayStats *st, const volatile sig_atomic_t *stop, Vec3 *out);
 
 #endif

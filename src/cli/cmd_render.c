@@ -383,7 +383,7 @@ static int write_outputs(const Args *a, const Paths *pp, const char *scene, cons
     phase[3] = clock_now() - t0;
     if (rc == 0 && stats && write_stats(stats, pp->stats, scene, plan, ai, phase, st) != 0)
         rc = -1;
-    if (rc == 0 && outputs_stop)
+    if (rc == 0 && outputs_stopped())
         rc = 1;
     if (rc != 0) {
         outputs_abort();
@@ -812,8 +812,8 @@ static int run(void *args, const char **pos, int npos)
         rc = render_one(a, scene, &po, f, &pp);
         if (rc != 0)
             return rc;
-        if (outputs_stop && f + 1 < last) /* between two frames: the next one is not begun */
-            return 128 + outputs_stop;
+        if (outputs_stopped() && f + 1 < last) /* between two frames: the next one is not begun */
+            return 128 + outputs_stopped();
     }
     return 0;
 }

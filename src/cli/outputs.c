@@ -19,6 +19,7 @@
 #include <unistd.h>
 
 #include "lancer/afile.h"
+#include "lancer/stop.h"
 #include "lancer/thread.h"
 
 volatile sig_atomic_t outputs_stop;
@@ -26,12 +27,14 @@ static AfileSet run_files;
 
 static void on_signal(int sig)
 {
-    if (outputs_stop) {
+    if (stop_read(&outputs_stop)) {
         afile_set_abort(&run_files);
         _exit(128 + sig);
     }
-    outputs_stop = sig;
+    stop_set(&outputs_stop, sig);
 }
+
+int outputs_stopped(void) { return stop_read(&outputs_stop); }
 
 /* A signal ignored when lancer started (nohup, a background job of a
  * shell) stays ignored, as the caller meant. */
@@ -131,7 +134,7 @@ static void rows_list(const unsigned char *done, int h, char *buf, size_t len)
 int outputs_save_partial(const ImageAttr *attrs, int nattrs, const char *exr, const char *partial, Image *img,
                          const unsigned char *done, const char *lead)
 {
-    int sig = outputs_stop, n = 0, w = img->width, h = img->height;
+    int sig = outputs_stopped(), n = 0, w = img->width, h = img->height;
     for (int y = 0; y < h; y++)
         if (done[y])
             n++;

@@ -5,7 +5,7 @@
  *     outputs_catch_signals();
  *     ... render, passing &outputs_stop as the render's stop flag ...
  *     const char *tmp = outputs_add("out.exr");   then write into tmp
- *     if (outputs_stop) outputs_abort(); else outputs_commit();
+ *     if (outputs_stopped()) outputs_abort(); else outputs_commit();
  *
  * The first SIGINT or SIGTERM sets outputs_stop to its number: the render
  * leaves its rows, and outputs_save_partial keeps the rows done. A second
@@ -20,8 +20,10 @@
 
 #include "lancer/image.h"
 
-/* 0, or the number of the signal that asked the render to stop. */
+/* 0, or the number of the signal that asked the render to stop: the
+ * render's stop flag (stop.h), which outputs_stopped reads. */
 extern volatile sig_atomic_t outputs_stop;
+int outputs_stopped(void);
 
 /* Installs the handler for SIGINT and SIGTERM. */
 void outputs_catch_signals(void);
