@@ -508,6 +508,71 @@ static void test_hits_just_before_tmax(void **state)
     free(p);
 }
 
+/* Lone primitives where a plausible slip in the box test or the boxes
+ * changes the answer, which a review's mutations found no other test to
+ * see; each through the tree, closest and any hit. */
+static void lone_hit(const Prim *p, const Ray *r, float t)
+{
+    Bvh b;
+    build_ok(&b, p, 1, 1);
+    unsigned long long tests = 0;
+    PrimHit h;
+    int got = bvh_closest(&b, r, &h, &tests);
+    if (t > 0.0f) {
+        assert_int_equal(got, 0);
+        assert_true(h.t == t);
+        assert_true(bvh_occluded(&b, r, &tests));
+    } else {
+        assert_int_equal(got, -1);
+        assert_false(bvh_occluded(&b, r, &tests));
+    }
+    bvh_free(&b);
+}
+
+static void test_lone_primitives_at_the_box_tests_edges(void **state)
+{
+    (void)state;
+    Prim p[1];
+    memset(p, 0, sizeof p);
+    p[0].kind = PRIM_TRIANGLE;
+    { /* entry and exit distances both overflow to infinity: a box entered
+       * where they are equal (<=, not <) */
+        p[0].g.tri.a = vec3(0x1p127f, -1, -1);
+        p[0].g.tri.b = vec3(0x1p127f, 1, -1);
+        p[0].g.tri.c = vec3(0x1p127f, 0, 1);
+        Ray r = ray_make(vec3(-0x1p127f, 0, 0), vec3(1024, 0, 0), INFINITY);
+        lone_hit(p, &r, 0x1p118f);
+    }
+    { /* a direction component of exactly 2^-128, whose reciprocal
+       * overflows: that axis culls nothing (inverse_dir) */
+        p[0].g.tri.a = vec3(1024, 0x1p-120f, -1);
+        p[0].g.tri.b = vec3(1024, 1, -1);
+        p[0].g.tri.c = vec3(1024, 0x1p-120f, 1);
+        Ray r = ray_make(vec3(0, 0, 0), vec3(1, 0x1p-128f, 0), INFINITY);
+        lone_hit(p, &r, 1024);
+    }
+    { /* a hit at exactly tmax is no hit, in the leaves' lanes too */
+        p[0].g.tri.a = vec3(-1, -1, 1);
+        p[0].g.tri.b = vec3(1, -1, 1);
+        p[0].g.tri.c = vec3(0, 1, 1);
+        Ray r = ray_make(vec3(0, 0, 0), vec3(0, 0, 1), 1.0f);
+        lone_hit(p, &r, 0);
+        r.tmax = nextafterf(1.0f, INFINITY);
+        lone_hit(p, &r, 1);
+    }
+    { /* a sphere 2^-30 across at x = 1: its box's corners are rounded
+       * outward from double (1 - 2^-30 is no float), and the ray that
+       * grazes its side is hit at t = 1 */
+        p[0].kind = PRIM_SPHERE;
+        p[0].g.sphere.c = vec3(1, 0, 0);
+        p[0].g.sphere.r = 0x1p-30f;
+        Ray r = ray_make(vec3(1.0f - 0x1p-24f, -1, 0), vec3(0x1p-24f - 0x1p-31f, 1, 0), INFINITY);
+        PrimHit h;
+        assert_true(prim_intersect(p, &r, PRIM_ROBUST, &h));
+        lone_hit(p, &r, h.t);
+    }
+}
+
 static void test_rays_from_outside_touching_the_root_box(void **state)
 {
     (void)state;
@@ -870,6 +935,7 @@ int main(void)
         cmocka_unit_test(test_non_finite_rays_and_boxes),
         cmocka_unit_test(test_agrees_with_brute_force),
         cmocka_unit_test(test_hits_just_before_tmax),
+        cmocka_unit_test(test_lone_primitives_at_the_box_tests_edges),
         cmocka_unit_test(test_rays_from_outside_touching_the_root_box),
         cmocka_unit_test(test_mesh_leaves_agree_with_brute_force),
         cmocka_unit_test(test_tree_lies_in_the_refs_block),

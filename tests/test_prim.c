@@ -1780,6 +1780,66 @@ static void test_tri4_far_and_tiny_match_scalar(void **state)
     assert_int_equal(found, aimed);
 }
 
+/* Inputs where a plausible slip in the triangle routines changes the
+ * answer, which a review's mutations of them found no other test to see. */
+static void test_triangle_at_t0_at_tmax_and_tiny(void **state)
+{
+    (void)state;
+    PrimHit h;
+    { /* classic: an origin on the triangle is t = 0, not a hit (t > 0) */
+        Triangle t = {0};
+        t.a = vec3(0, 0, 0);
+        t.b = vec3(1, 0, 0);
+        t.c = vec3(0, 1, 0);
+        Ray r = ray_make(vec3(0.25f, 0.25f, 0), vec3(0, 0, 1), INFINITY);
+        assert_false(prim_triangle_hit(&t, &r, &h));
+    }
+    { /* a t taken in double (past float's range) that lands on tmax: no hit */
+        const float k = 0x1p50f;
+        Triangle t = {0};
+        t.a = vec3(k, -k, k);
+        t.b = vec3(-k, -k, k);
+        t.c = vec3(0, k, k);
+        Ray r = ray_make(vec3(0, 0, 0), vec3(0, 0, 1), k);
+        assert_false(prim_triangle_hit_watertight(&t, &r, &h));
+        r.tmax = nextafterf(k, INFINITY);
+        assert_true(prim_triangle_hit_watertight(&t, &r, &h) && h.t == k);
+    }
+    { /* a hit at exactly tmax, in the lanes as in the scalar routine: no hit */
+        const Vec3 v[3] = {vec3(-1, -1, 1), vec3(1, -1, 1), vec3(0, 1, 1)};
+        PrimTri8 t = {0};
+        for (int l = 0; l < 8; l++)
+            put_lane(&t, l, v);
+        Ray r = ray_make(vec3(0, 0, 0), vec3(0, 0, 1), 1.0f);
+        PrimTriRay p;
+        prim_triray_init(&p, &r);
+        Hit4 h4;
+        assert_false(prim_triangle_hit_watertight3(v, &r, &h));
+        assert_int_equal(tri4_hit(&t, 0, 15, &p, &r, &h4), 0);
+        r.tmax = nextafterf(1.0f, INFINITY);
+        prim_triray_init(&p, &r);
+        assert_int_equal(tri4_hit(&t, 0, 15, &p, &r, &h4), 15);
+    }
+    { /* coordinates near 2^-40 and a direction of 2^-50: the lanes' shear
+       * error takes the same floor (TRI_SHEAR_FLOOR) as the scalar
+       * routine's, and gets its bits */
+        const Vec3 v[3] = {vec3(-0x1.b7568ap-41f, -0x1.430eb4p-41f, 0x1.ddfb34p-40f),
+                           vec3(-0x1.e79d2p-45f, -0x1.90e11p-43f, 0x1.93c384p-40f),
+                           vec3(0x1.be3748p-41f, 0x1.49ff4cp-41f, 0x1.a6077ap-40f)};
+        PrimTri8 t = {0};
+        for (int l = 0; l < 8; l++)
+            put_lane(&t, l, v);
+        Ray r = ray_make(vec3(0, 0, 0), vec3(-0x1.10d032p-64f, 0x1.90a69p-61f, 0x1p-50f), INFINITY);
+        PrimTriRay p;
+        prim_triray_init(&p, &r);
+        Hit4 h4;
+        assert_true(prim_triangle_hit_watertight3(v, &r, &h));
+        assert_int_equal(tri4_hit(&t, 0, 15, &p, &r, &h4), 15);
+        for (int l = 0; l < 4; l++)
+            assert_lane_is(&h4, l, &h);
+    }
+}
+
 static void test_shared_edge_with_an_edge_on_triangle(void **state)
 {
     (void)state;
@@ -2028,6 +2088,7 @@ int main(void)
         cmocka_unit_test(test_triangle_normal_at_any_scale),
         cmocka_unit_test(test_watertight_far_and_tiny),
         cmocka_unit_test(test_tri4_far_and_tiny_match_scalar),
+        cmocka_unit_test(test_triangle_at_t0_at_tmax_and_tiny),
         cmocka_unit_test(test_shared_edge_with_an_edge_on_triangle),
         cmocka_unit_test(test_edge_on_triangle_hit_near_origin),
         cmocka_unit_test(test_triray_init),
