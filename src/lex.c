@@ -10,6 +10,7 @@
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <time.h>
 
 /* ---- lines, tokens and errors ---- */
 
@@ -332,3 +333,22 @@ int lex_parse_float(LexTok t, float *out)
     return LEX_NUM_OK;
 }
 
+
+uint64_t lex_hash_seed(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return lex_mix64((uint64_t)ts.tv_nsec ^ (uint64_t)ts.tv_sec << 30 ^ (uint64_t)(uintptr_t)&ts << 7);
+}
+
+uint64_t lex_hash_str(const char *s, uint64_t seed)
+{
+    uint64_t k = seed;
+    size_t n = strlen(s);
+    for (size_t i = 0; i < n; i += 8) {
+        uint64_t g = 0;
+        memcpy(&g, s + i, n - i < 8 ? n - i : 8);
+        k = lex_mix64(k ^ g);
+    }
+    return lex_mix64(k ^ n);
+}

@@ -16,6 +16,7 @@
 
 #include <stdarg.h>
 #include <stddef.h>
+#include <stdint.h>
 #include <string.h>
 
 #include "lancer/limits.h"
@@ -114,6 +115,24 @@ int lex_parse_int(LexTok t, long long *out);
  * behaviour C gives an out-of-range conversion. Returns 0, or -1 when the
  * result is not finite. */
 int lex_to_float(double d, float *f);
+
+/* The readers' hash tables (material names, STL's welded vertices) take a
+ * seed of their own each time: a file made so that its keys fill one slot
+ * of one table cannot aim at the next, whose slots it cannot know, and its
+ * reading stays in proportion to its size. From the clock's nanoseconds
+ * and the stack's address: no secret, but not the file author's to see. */
+uint64_t lex_hash_seed(void);
+/* Stafford's "Mix13" finaliser (as in SplitMix64): a bijection of 64 bits
+ * in which every input bit reaches every output bit. */
+static inline uint64_t lex_mix64(uint64_t k)
+{
+    k = (k ^ k >> 30) * 0xbf58476d1ce4e5b9u;
+    k = (k ^ k >> 27) * 0x94d049bb133111ebu;
+    return k ^ k >> 31;
+}
+/* The hash of string s under seed: its bytes eight at a time, each group
+ * mixed into the state by lex_mix64, then its length. */
+uint64_t lex_hash_str(const char *s, uint64_t seed);
 
 enum { LEX_NUM_OK = 0, LEX_NUM_MALFORMED = -1, LEX_NUM_NONFINITE = -2, LEX_NUM_LONG = -3 };
 /* The float nearest to decimal token t. Returns a LEX_NUM_ code. */

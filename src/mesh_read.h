@@ -72,9 +72,10 @@ void mesh_drop_normals(Mesh *m);
  * tri. A mesh without triangles keeps no normals. */
 int mesh_finish(const LexReader *R, MeshBuild *B, int vertex_normals);
 
-/* The hash of a vertex's coordinates by which STL's vertices are welded
- * (-0 as +0); any run of its low bits serves as a table's slot. */
-uint64_t mesh_weld_hash(Vec3 p);
+/* The hash of a vertex's coordinates under seed by which STL's vertices
+ * are welded (-0 as +0), each table with a seed of its own
+ * (lex_hash_seed); any run of its low bits serves as a table's slot. */
+uint64_t mesh_weld_hash(Vec3 p, uint64_t seed);
 
 /* The readers: each returns 0, or -1 with the message in R's buffer. */
 int mesh_read_off(LexReader *R, MeshBuild *B);

@@ -31,6 +31,7 @@
 typedef struct {
     int *slot; /* -1: empty */
     size_t mask;
+    uint64_t seed; /* this table's (lex_hash_seed) */
 } Weld;
 
 static int weld_init(const LexReader *R, Weld *W, size_t nmax)
@@ -43,6 +44,7 @@ static int weld_init(const LexReader *R, Weld *W, size_t nmax)
     if (!W->slot)
         return lex_fail(R, 1, R->data, "out of memory for %zu vertices", nmax);
     memset(W->slot, 0xff, n * sizeof *W->slot);
+    W->seed = lex_hash_seed();
     return 0;
 }
 
@@ -54,23 +56,22 @@ static uint32_t bits(float x)
     return b;
 }
 
-uint64_t mesh_weld_hash(Vec3 p)
+uint64_t mesh_weld_hash(Vec3 p, uint64_t seed)
 {
     /* Whole numbers and halves, as CAD and voxel exports write, have
-     * floats whose low mantissa bits are all 0, and a product by an odd
-     * constant keeps them 0: every bit must reach the low ones the table
-     * takes. Stafford's "Mix13" finaliser (as in SplitMix64) does that. */
-    uint64_t k = ((uint64_t)bits(p.x) << 32 | bits(p.y)) ^ (uint64_t)bits(p.z) * 0x9e3779b97f4a7c15u;
-    k = (k ^ k >> 30) * 0xbf58476d1ce4e5b9u;
-    k = (k ^ k >> 27) * 0x94d049bb133111ebu;
-    return k ^ k >> 31;
+     * floats whose low mantissa bits are all 0: every bit must reach the
+     * low ones the table takes, which lex_mix64 does. The seed is mixed
+     * in before the first coordinate, so that no two points' hashes are
+     * equal whatever the seed (a fixed mix of all three, which a file can
+     * make equal, then a seed, would not separate them). */
+    return lex_mix64(lex_mix64(lex_mix64(seed ^ bits(p.x)) ^ bits(p.y)) ^ bits(p.z));
 }
 
 /* The index of vertex p, a new one when no vertex has its coordinates. */
 static int weld(Weld *W, Mesh *m, Vec3 p)
 {
     uint32_t x = bits(p.x), y = bits(p.y), z = bits(p.z);
-    for (size_t h = (size_t)mesh_weld_hash(p) & W->mask;; h = (h + 1) & W->mask) {
+    for (size_t h = (size_t)mesh_weld_hash(p, W->seed) & W->mask;; h = (h + 1) & W->mask) {
         int i = W->slot[h];
         if (i < 0) {
             m->v[m->nv] = p;
@@ -125,7 +126,7 @@ static float lef32(const unsigned char *b)
 static int stl_binary(LexReader *R, MeshBuild *B, uint32_t n)
 {
     const unsigned char *d = (const unsigned char *)R->data;
-    Weld W = {NULL, 0};
+    Weld W = {NULL, 0, 0};
     if ((size_t)n * 3 > INT_MAX)
         return lex_fail(R, 1, R->data, "binary STL of %lu triangles: more than %d vertices", (unsigned long)n, INT_MAX);
     int rc = stl_alloc(R, B, &W, (size_t)n * 3, n);
@@ -240,7 +241,7 @@ static int stl_ascii(LexReader *R, MeshBuild *B)
     size_t nmax = 0;
     while (next(&T, &t))
         nmax += is(t, "vertex");
-    Weld W = {NULL, 0};
+    Weld W = {NULL, 0, 0};
     int rc = stl_alloc(R, B, &W, nmax, nmax / 3);
     /* pass 2: one or more solids, each "solid [name] facet* endsolid [name]" */
     R->p = start;

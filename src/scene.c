@@ -55,6 +55,7 @@ typedef struct {
     int cap_materials, cap_lights, cap_prims, cap_place, cap_patches, cap_ellipsoids, cap_ellipsoid_at;
     int have_image, have_camera, cap_keys;
     int *names, cap_names; /* the materials by name: open addressing, -1 free */
+    uint64_t name_seed;    /* the table's hash seed (lex_hash_seed) */
 } Parser;
 
 LEX_PRINTF(3, 4) static int fail(Parser *P, Loc loc, const char *fmt, ...)
@@ -467,21 +468,12 @@ static Prim *new_prim(Parser *P, PrimKind kind, Loc loc, Place **pl)
     return p;
 }
 
-/* FNV-1a (Fowler, Noll and Vo) of a material's name. */
-static uint32_t name_hash(const char *name)
-{
-    uint32_t h = 2166136261u;
-    for (; *name; name++)
-        h = (h ^ (unsigned char)*name) * 16777619u;
-    return h;
-}
-
 /* The slot of P->names where name is, or the free one where it would go:
  * without the table, a scene's materials took time in their count squared. */
 static int name_slot(const Parser *P, const char *name)
 {
     const int mask = P->cap_names - 1;
-    int j = (int)(name_hash(name) & (uint32_t)mask);
+    int j = (int)(lex_hash_str(name, P->name_seed) & (uint64_t)mask);
     while (P->names[j] >= 0 && strcmp(P->s->materials[P->names[j]].name, name) != 0)
         j = (j + 1) & mask;
     return j;
@@ -2077,6 +2069,7 @@ int scene_parse(const char *name, const char *text, size_t len, Scene *s, char *
     P.at.col = 1;
     P.err = err;
     P.errlen = errlen;
+    P.name_seed = lex_hash_seed();
     P.s = s;
     s->image.width = 640;
     s->image.height = 480;

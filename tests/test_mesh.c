@@ -650,6 +650,7 @@ static void test_stl_weld_grid(void **state)
     (void)state;
     enum { SIDE = 40, SLOTS = 1 << 17 };
     static int slot[SLOTS];
+    const uint64_t seed = lex_hash_seed();
     for (int step = 0; step < 2; step++) { /* whole numbers, then halves */
         memset(slot, 0, sizeof slot);
         long probes = 0;
@@ -657,7 +658,7 @@ static void test_stl_weld_grid(void **state)
             for (int y = 0; y < SIDE; y++)
                 for (int z = 0; z < SIDE; z++) {
                     float f = step ? 0.5f : 1.0f;
-                    size_t h = (size_t)mesh_weld_hash(vec3(f * (float)x, f * (float)y, f * (float)z)) & (SLOTS - 1);
+                    size_t h = (size_t)mesh_weld_hash(vec3(f * (float)x, f * (float)y, f * (float)z), seed) & (SLOTS - 1);
                     for (probes++; slot[h]; probes++)
                         h = (h + 1) & (SLOTS - 1);
                     slot[h] = 1;
@@ -665,7 +666,38 @@ static void test_stl_weld_grid(void **state)
         assert_true(probes < 3L * SIDE * SIDE * SIDE);
     }
     /* -0 and +0 are one vertex, and any slot they take is the same */
-    assert_true(mesh_weld_hash(vec3(-0.0f, 1, 2)) == mesh_weld_hash(vec3(0.0f, 1, 2)));
+    assert_true(mesh_weld_hash(vec3(-0.0f, 1, 2), seed) == mesh_weld_hash(vec3(0.0f, 1, 2), seed));
+
+    /* Points whose hashes under one seed all fall in one slot of 2^12, as a
+     * file made against a fixed hash would have them (such a binary STL of
+     * 30,000 triangles took 27 s to weld), spread under another seed: a
+     * few probes a point where the first seed takes hundreds. */
+    enum { NAIMED = 400, AIMED_SLOTS = 1 << 12 };
+    static Vec3 aimed[NAIMED];
+    uint64_t s1 = lex_mix64(1), s2 = lex_mix64(2), rng_k = 7;
+    for (int n = 0; n < NAIMED;) {
+        rng_k = lex_mix64(rng_k);
+        Vec3 q = vec3((float)(rng_k & 0xfffff), (float)(rng_k >> 20 & 0xfffff), (float)(rng_k >> 40 & 0xfffff));
+        if ((mesh_weld_hash(q, s1) & (AIMED_SLOTS - 1)) == 0)
+            aimed[n++] = q;
+    }
+    for (int pass = 0; pass < 2; pass++) {
+        static int taken[AIMED_SLOTS];
+        memset(taken, 0, sizeof taken);
+        long probes = 0;
+        for (int n = 0; n < NAIMED; n++) {
+            size_t h = (size_t)mesh_weld_hash(aimed[n], pass ? s2 : s1) & (AIMED_SLOTS - 1);
+            for (probes++; taken[h]; probes++)
+                h = (h + 1) & (AIMED_SLOTS - 1);
+            taken[h] = 1;
+        }
+        if (pass)
+            assert_true(probes < 2L * NAIMED);
+        else
+            assert_true(probes > 100L * NAIMED);
+    }
+    /* and each table its own seed */
+    assert_true(lex_hash_seed() != lex_hash_seed());
 
     /* a binary STL of a 9 x 9 grid of unit squares (as many as a Buf
      * holds) welds into its 10 x 10 vertices */
