@@ -413,6 +413,11 @@ int plan_build(RenderPlan *p, Scene *s, const PlanOptions *o, char *err, size_t 
         if (o->area_adaptive)
             l->adaptive = o->area_adaptive;
     }
+    if (scene_light_samples(s) > LIMIT_LIGHT_SAMPLES) {
+        snprintf(err, errlen, "%d area samples a side would give the lights %lld samples, more than %d in all",
+                 o->area_samples, scene_light_samples(s), LIMIT_LIGHT_SAMPLES);
+        return -1;
+    }
     if (o->pn_mode < 0 || o->pn_mode > PN_FAST + 1)
         return fail(err, errlen, "pn_mode out of range");
     for (int i = 0; i < s->nprims; i++)

@@ -56,6 +56,7 @@ typedef struct {
     int have_image, have_camera, cap_keys;
     int *names, cap_names; /* the materials by name: open addressing, -1 free */
     uint64_t name_seed;    /* the table's hash seed (lex_hash_seed) */
+    long long light_samples; /* of the lights so far (LIMIT_LIGHT_SAMPLES) */
 } Parser;
 
 LEX_PRINTF(3, 4) static int fail(Parser *P, Loc loc, const char *fmt, ...)
@@ -791,6 +792,11 @@ static int parse_light(Parser *P, Loc at)
         l.area_n1 = (int)v[AREA_SAMPLES].v[0];
         l.area_n2 = (int)v[AREA_SAMPLES].v[1];
     }
+    P->light_samples += l.area_n1 * l.area_n2;
+    if (P->light_samples > LIMIT_LIGHT_SAMPLES)
+        return fail(P, area ? v[AREA_SAMPLES].value : at,
+                    "light: the scene's lights would take %lld samples, more than %d in all", P->light_samples,
+                    LIMIT_LIGHT_SAMPLES);
     Light *arr = grow(P->s->lights, &P->cap_lights, P->s->nlights, sizeof(Light));
     if (!arr)
         return fail(P, at, "out of memory");
@@ -1889,6 +1895,14 @@ static int prim_valid(const Scene *s, int i)
     return ok;
 }
 
+long long scene_light_samples(const Scene *s)
+{
+    long long n = 0;
+    for (int i = 0; i < s->nlights; i++)
+        n += (long long)s->lights[i].area_n1 * s->lights[i].area_n2;
+    return n;
+}
+
 int scene_validate(const Scene *s, char *err, size_t errlen)
 {
 #define BAD(...) return snprintf(err, errlen, __VA_ARGS__), -1
@@ -1929,6 +1943,8 @@ int scene_validate(const Scene *s, char *err, size_t errlen)
             l->area_n2 > LIMIT_AREA_SAMPLES || l->adaptive < 0 || l->adaptive > LIMIT_AREA_ADAPTIVE + 1)
             BAD("light %d: area samples out of range", i);
     }
+    if (scene_light_samples(s) > LIMIT_LIGHT_SAMPLES)
+        BAD("the lights take more than %d samples in all", LIMIT_LIGHT_SAMPLES);
     for (int i = 0; i < s->nprims; i++) {
         const Prim *p = &s->prims[i];
         if (p->material < 0 || p->material >= s->nmaterials)

@@ -198,6 +198,27 @@ static void test_errors(void **state)
     assert_int_equal(plan_build(&p, &s, &o, err, sizeof err), -1);
     assert_string_equal(err, "the scene degenerates at that scale or offset");
     scene_free(&s);
+    /* --area-samples over lights the scene kept within LIMIT_LIGHT_SAMPLES:
+     * 300 area lights of 2 x 2 samples, at 64 a side 1,228,800, and 1,100
+     * of them 4,505,600, past it, before the plan's tables take 88 MB */
+    for (int n = 300; n <= 1100; n += 800) {
+        static char text[1200 * 80];
+        int len = snprintf(text, sizeof text, "%s", base);
+        for (int i = 0; i < n; i++)
+            len += snprintf(text + len, sizeof text - (size_t)len,
+                            "light { position %d 9 0 area_u 1 0 0 area_v 0 0 1 area_samples 2 2 }\n", i);
+        assert_int_equal(scene_parse("t.scn", text, (size_t)len, &s, err, sizeof err), 0);
+        o = plan_options();
+        o.area_samples = LIMIT_AREA_SAMPLES;
+        if (n == 300) {
+            build_ok(&p, &s, &o);
+            plan_free(&p);
+        } else {
+            assert_int_equal(plan_build(&p, &s, &o, err, sizeof err), -1);
+            assert_string_equal(err, "64 area samples a side would give the lights 4509698 samples, more than 4194304 in all");
+        }
+        scene_free(&s);
+    }
 }
 
 /* A unit sphere flattened to a disk by `scale 1 1 F`, seen from k times

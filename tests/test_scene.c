@@ -1610,6 +1610,31 @@ static void test_content_hash(void **state)
     rmdir(dir);
 }
 
+/* A scene's lights take at most LIMIT_LIGHT_SAMPLES samples in all: 1,024
+ * area lights of 64 x 64 do, the next one is refused at its samples (each
+ * such line, 80 bytes, made the plan keep 80 KB, and 100,000 of them ran
+ * out of 4 GiB), and a point light past them at its statement. */
+static void test_light_samples_limit(void **state)
+{
+    (void)state;
+    static char text[1100 * 90];
+    const char *area = "light { position 0 9 0 area_u 1 0 0 area_v 0 0 1 area_samples 64 64 }\n";
+    int len = snprintf(text, sizeof text, CAM);
+    for (int i = 0; i < 1024; i++)
+        len += snprintf(text + len, sizeof text - (size_t)len, "%s", area);
+    Scene s;
+    char err[256];
+    assert_int_equal(scene_parse("t.scn", text, (size_t)len, &s, err, sizeof err), 0);
+    assert_true(scene_light_samples(&s) == 1024 * 4096);
+    scene_free(&s);
+    int with_area = len + snprintf(text + len, sizeof text - (size_t)len, "%s", area);
+    assert_int_equal(scene_parse("t.scn", text, (size_t)with_area, &s, err, sizeof err), -1);
+    assert_string_equal(err, "t.scn:1026:63: light: the scene's lights would take 4198400 samples, more than 4194304 in all");
+    int with_point = len + snprintf(text + len, sizeof text - (size_t)len, "light { position 0 9 0 }\n");
+    assert_int_equal(scene_parse("t.scn", text, (size_t)with_point, &s, err, sizeof err), -1);
+    assert_string_equal(err, "t.scn:1026:1: light: the scene's lights would take 4194305 samples, more than 4194304 in all");
+}
+
 int main(int argc, char **argv)
 {
     if (argc == 3 && !strcmp(argv[1], "--seeds"))
@@ -1640,6 +1665,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_split_triangles),
         cmocka_unit_test(test_camera_path),
         cmocka_unit_test(test_content_hash),
+        cmocka_unit_test(test_light_samples_limit),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -21,6 +21,10 @@
 /* An area light's grid, per side, and its adaptive level. */
 #define LIMIT_AREA_SAMPLES 64
 #define LIMIT_AREA_ADAPTIVE 16
+/* The samples of a scene's lights, all together (a point light is one):
+ * the plan keeps each area light's samples, 20 bytes each, so that a light
+ * of a line of text cannot take 80 KB of memory without bound. */
+#define LIMIT_LIGHT_SAMPLES (1 << 22)
 
 /* Files, refused by size before they are read. A scene is text written
  * by hand or by a script. A mesh in the most verbose format lancer reads,

@@ -195,6 +195,10 @@ Place scene_place(const Scene *s, int i);
  * what is wrong in err. */
 int scene_validate(const Scene *s, char *err, size_t errlen);
 
+/* The samples of the scene's lights, all together: area_n1 x area_n2 each
+ * (a point light's 1), at most LIMIT_LIGHT_SAMPLES in a valid scene. */
+long long scene_light_samples(const Scene *s);
+
 /* Puts the camera where the camera path has it at `frame` (scene_camera
  * takes the camera block's up): on a key, the key's camera exactly;
  * between keys, the Catmull-Rom splines through them, with the frame
