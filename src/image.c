@@ -891,7 +891,7 @@ static unsigned char srgb8_lookup(const Srgb8Table *t, float x)
  * frame that calls setjmp, so longjmp cannot leave stale locals behind. */
 typedef struct {
     const Image *img;
-    int half; /* round each value to half first */
+    int half; /* a half EXR's preview: its values as half rounds them (srgb8_table) */
     FILE *fp;
     Srgb8Table srgb;
     unsigned char *row; /* 3 * width bytes */
@@ -1021,7 +1021,6 @@ int image_write_png_file(const Image *img, const char *file, const char *name, I
 {
     return png_to_file(img, prec == IMAGE_HALF, file, name, err, errlen);
 }
-
 
 int image_write_png(const Image *img, const char *path, char *err, size_t errlen)
 {

@@ -333,7 +333,6 @@ int lex_parse_float(LexTok t, float *out)
     return LEX_NUM_OK;
 }
 
-
 uint64_t lex_hash_seed(void)
 {
     struct timespec ts;

@@ -376,8 +376,8 @@ static int ply_ascii(Ply *P)
                     if (lex_parse_int(t, &idx) != 0)
                         return lex_fail(R, R->line, t.s, "malformed vertex index '%s'", lex_quote(t, q1));
                     if (idx < 0 || idx >= nv)
-                        return lex_fail(R, R->line, t.s, "vertex index %s out of range (%lld vertices)", lex_quote(t, q1),
-                                        nv);
+                        return lex_fail(R, R->line, t.s, "vertex index %s out of range (%lld vertices)",
+                                        lex_quote(t, q1), nv);
                     if (mesh_fan_corner(P->R, P->B, k, (int)idx, 0, corner, NULL) != 0)
                         return -1;
                 }
