@@ -1275,6 +1275,19 @@ int prim_line_crosses(const Prim *x, const Surface *s, Vec3 d)
     return 1;
 }
 
+/* 1 when n faces along d (n . d > 0): the two-sided surfaces' normals turn
+ * to face the ray. A grazing ray's float product can round to 0, or past
+ * it, while the exact one is not: within its rounding bound (with room for
+ * products below FLT_MIN), the sign is taken in double, where the products
+ * of floats are exact. */
+static int faces_along(Vec3 n, Vec3 d)
+{
+    const float x = n.x * d.x, y = n.y * d.y, z = n.z * d.z, f = (x + y) + z;
+    if (fabsf(f) > gamma_f(4) * ((fabsf(x) + fabsf(y)) + fabsf(z)) + 0x1p-147f)
+        return f > 0.0f;
+    return (double)n.x * d.x + (double)n.y * d.y + (double)n.z * d.z > 0.0;
+}
+
 void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, Surface *s)
 {
     int robust = v == PRIM_ROBUST;
@@ -1423,6 +1436,7 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
     ng = vec_normalize(ng);
     noff = edge ? vec_normalize(noff) : ng;
     ns = ng;
+    const int smooth = p->kind == PRIM_SMOOTH_TRIANGLE || p->kind == PRIM_PN;
     if (p->kind == PRIM_SMOOTH_TRIANGLE) {
         const Triangle *tr = &p->g.tri;
         float w = 1.0f - h->u - h->v;
@@ -1434,12 +1448,12 @@ void prim_surface(const Prim *p, const Ray *r, const PrimHit *h, PrimVariant v, 
     /* Two-sided surfaces: each normal faces the incoming ray. A box's edge
      * normal turns with its face's normal, not by its own sign against the
      * ray: it must keep pointing out of (or into) every face it touches. */
-    int back = oriented ? 0 : vec_dot(ng, r->d) > 0.0f;
+    int back = oriented ? 0 : faces_along(ng, r->d);
     if (s->pin_side) /* obox_pin's side is the outward normal's: turn it with ng */
         s->pin_side = back ? -s->pin_side : s->pin_side;
     s->ng = back ? vec_neg(ng) : ng;
     s->noff = back ? vec_neg(noff) : noff;
-    s->ns = oriented ? s->ng : vec_dot(ns, r->d) > 0.0f ? vec_neg(ns) : ns;
+    s->ns = oriented || !smooth ? s->ng : faces_along(ns, r->d) ? vec_neg(ns) : ns; /* (ns is ng) */
 }
 
 #ifdef PRIM_AVX
@@ -1490,8 +1504,25 @@ __attribute__((target("avx"))) static void sphere_surface4(const Prim *prims, co
         n[i] = _mm_or_ps(_mm_and_ps(pos, _mm_mul_ps(n[i], inv)), _mm_andnot_ps(pos, n[i]));
         dd[i] = rf[RAY_D + i];
     }
-    __m128 nd = _mm_add_ps(_mm_add_ps(_mm_mul_ps(n[0], dd[0]), _mm_mul_ps(n[1], dd[1])), _mm_mul_ps(n[2], dd[2]));
-    __m128 flip = _mm_and_ps(_mm_cmpgt_ps(nd, _mm_setzero_ps()), _mm_set1_ps(-0.0f));
+    /* faces_along, lane by lane: the float product where it is sure */
+    const __m128 x = _mm_mul_ps(n[0], dd[0]), y = _mm_mul_ps(n[1], dd[1]), z = _mm_mul_ps(n[2], dd[2]);
+    const __m128 nd = _mm_add_ps(_mm_add_ps(x, y), z), abs = _mm_set1_ps(-0.0f);
+    const __m128 bound = _mm_add_ps(
+        _mm_mul_ps(_mm_set1_ps(gamma_f(4)),
+                   _mm_add_ps(_mm_add_ps(_mm_andnot_ps(abs, x), _mm_andnot_ps(abs, y)), _mm_andnot_ps(abs, z))),
+        _mm_set1_ps(0x1p-147f));
+    __m128 flip = _mm_and_ps(_mm_cmpgt_ps(nd, _mm_setzero_ps()), abs);
+    const int unsure = _mm_movemask_ps(_mm_cmple_ps(_mm_andnot_ps(abs, nd), bound));
+    if (unsure) {
+        float nf[3][4], fl[4];
+        for (int i = 0; i < 3; i++)
+            _mm_storeu_ps(nf[i], n[i]);
+        _mm_storeu_ps(fl, flip);
+        for (int j = 0; j < 4; j++)
+            if (unsure >> j & 1)
+                fl[j] = faces_along(vec3(nf[0][j], nf[1][j], nf[2][j]), r[k[j]].d) ? -0.0f : 0.0f;
+        flip = _mm_loadu_ps(fl);
+    }
     for (int i = 0; i < 3; i++)
         _mm_storeu_ps(ng[i], _mm_xor_ps(n[i], flip));
     for (int j = 0; j < 4; j++) {

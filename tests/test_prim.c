@@ -324,6 +324,18 @@ static void test_plane(void **state)
     assert_true(prim_intersect(&p, &r, V, &h));
     prim_surface(&p, &r, &h, V, &sf);
     assert_vec(sf.ng, 0, -1, 0, 0);
+    /* grazing: n . d is 0 in float and 8.7e-9 in fact, so the ray meets the
+     * plane 10^8 away, going along n: the normal turns to face it (it did
+     * not while the float product decided) */
+    Prim g = {PRIM_PLANE, 0, {.plane = {vec3(0x1.d84184p-1f, -0x1.8b913p-2f, 0), 1}}};
+    r = ray_make(vec3(0, 0, 0), vec3(0x1.07ed78p-2f, 0x1.3b186ap-1f, 0.5f), INFINITY);
+    assert_true(vec_dot(g.g.plane.n, r.d) == 0.0f);
+    if (prim_intersect(&g, &r, V, &h)) {
+        prim_surface(&g, &r, &h, V, &sf);
+        assert_true((double)sf.ng.x * r.d.x + (double)sf.ng.y * r.d.y + (double)sf.ng.z * r.d.z < 0.0);
+        assert_true((double)sf.ns.x * r.d.x + (double)sf.ns.y * r.d.y + (double)sf.ns.z * r.d.z < 0.0);
+    } else
+        assert_true(V == PRIM_CLASSIC); /* the classic test takes the ray as parallel */
 }
 
 /* ---- triangle ---- */
@@ -1507,6 +1519,13 @@ static void test_surface_hits_match_scalar(void **state)
             Vec3 aim = vec_add(c, vec_scale(vec3(test_uniform(&s, -1, 1), test_uniform(&s, -1, 1), test_uniform(&s, -1, 1)), size * 0.6f));
             r[k] = ray_make(o, vec_normalize(vec_sub(aim, o)), INFINITY);
             best[k] = k % 7 != 6 && prim_intersect(p, &r[k], v, &h[k]) ? i : -1;
+            if (k % 6 == 5 && p->kind == PRIM_SPHERE) { /* a tangent ray, its hit at the tangent point */
+                Vec3 d = vec_normalize(vec_sub(aim, o)), w = vec_normalize(vec_cross(d, vec3(0.3f, 1, -0.2f)));
+                Vec3 q = vec_add(c, vec_scale(w, p->g.sphere.r));
+                r[k] = ray_make(vec_sub(q, vec_scale(d, 5 * p->g.sphere.r)), d, INFINITY);
+                h[k] = (PrimHit){5 * p->g.sphere.r, 0, 0, 0, 0};
+                best[k] = i;
+            }
             spheres += best[k] >= 0 && p->kind == PRIM_SPHERE;
         }
         Surface got[8];
