@@ -194,6 +194,11 @@ static void test_phong_and_specular_peaks(void **state)
     s.lights[0].color = vec3(1, 1, 1);
     float hl = 0.25f * powf(0.8f, 40) + 0.5f * powf(1.8f / sqrtf(3.6f), 20);
     assert_vec(trace(&s, EYE, DIR), 0.5f * 0.7f + hl, 0.4f * 0.7f + hl, 0.3f * 0.7f + hl, 1e-5);
+    /* and at phong_size 3, where the exponent shows: 0.8^3 (0.8^4 would be
+     * 0.026 less) */
+    s.materials[s.prims[0].material].phong_size = 3.0f;
+    hl = 0.25f * 0.8f * 0.8f * 0.8f + 0.5f * powf(1.8f / sqrtf(3.6f), 20);
+    assert_vec(trace(&s, EYE, DIR), 0.5f * 0.7f + hl, 0.4f * 0.7f + hl, 0.3f * 0.7f + hl, 1e-5);
     scene_free(&s);
 }
 
@@ -869,6 +874,70 @@ static void test_total_internal_reflection(void **state)
     scene_free(&s);
 }
 
+/* One camera ray at a sphere of `material`, with adc_bailout b: its
+ * counts of rays. */
+static RayStats bailout_rays(const char *material, float b)
+{
+    Scene s;
+    char extra[512];
+    snprintf(extra, sizeof extra, "material x { %s }\nsphere { center 0 0 0 radius 1 material x }\n", material);
+    load_floorless(&s, extra);
+    s.image.adc_bailout = b;
+    RenderPlan p;
+    Accel *a = plan_world(&p, &s);
+    RayStats st;
+    memset(&st, 0, sizeof st);
+    Ray r = ray_make(vec3(0, 0, -5), vec3(0, 0, 1), INFINITY);
+    shade_trace(&p, a, &r, &st);
+    accel_free(a);
+    plan_free(&p);
+    scene_free(&s);
+    return st;
+}
+
+/* POV-Ray's adc_bailout (trace.cpp): a transmitted ray is traced when the
+ * luminance of what the surface lets through, 0.297 r + 0.589 g + 0.114 b,
+ * is above the bailout; a ray whose weight, the product of the
+ * coefficients on its path, is below it is not. */
+static void test_bailout_rules(void **state)
+{
+    (void)state;
+    const char *red = "color 1 0 0 filter 1 ior 1", *green = "color 0 1 0 filter 1 ior 1";
+    assert_int_equal(bailout_rays(red, 0.4f).refraction, 0); /* 0.297: not above */
+    assert_int_equal(bailout_rays(red, 0.297f).refraction, 0); /* equal: not above */
+    assert_true(bailout_rays(red, 0.29f).refraction > 0);
+    assert_true(bailout_rays(green, 0.58f).refraction > 0); /* 0.589 */
+    assert_int_equal(bailout_rays(green, 0.59f).refraction, 0);
+    /* a mirror ray of weight 0.5 at a bailout of 0.5 is not below it */
+    RayStats st = bailout_rays("reflection 0.5", 0.5f);
+    assert_true(st.reflection == 1 && st.cut == 0);
+    st = bailout_rays("reflection 0.5", nextafterf(0.5f, 1.0f));
+    assert_true(st.reflection == 0 && st.cut == 1);
+    /* through a ball of transmit 0.3: the ray inside weighs 0.3, the one
+     * out of it 0.09, below a bailout of 0.2 */
+    st = bailout_rays("transmit 0.3 ior 1", 0.2f);
+    assert_true(st.refraction == 1 && st.cut == 1);
+}
+
+/* Total internal reflection's ray takes the transmitted ray's weight and
+ * is not filtered by the reflection coefficient: from inside a glass box,
+ * a ray meets the +x face at 60 degrees (sin 60 * 1.5 > 1), is reflected
+ * whole, and leaves by the +y face at 30 degrees, filtered by 0.9. */
+static void test_total_internal_reflection_unfiltered(void **state)
+{
+    (void)state;
+    Scene s;
+    load_floorless(&s, "material glass { color 1 1 1 ambient 0 diffuse 0 reflection 0.1 transmit 0.9 ior 1.5 }\n"
+                       "box { min -3 -3 -3 max 3 3 3 material glass }\n");
+    s.camera.eye = vec3(0, -2.5f, 0);
+    Vec3 c = trace(&s, vec3(0, -2.5f, 0), vec3(0.5f, 0.8660254f, 0));
+    /* at least the background through the +y face, 0.9 of it, and at
+     * most that and a tenth more (the mirror ray back into the box) */
+    assert_true(c.x >= 0.9f * 0.2f - 1e-6f && c.x <= 0.9f * 0.2f + 0.1f);
+    assert_true(c.z >= 0.9f * 0.6f - 1e-6f && c.z <= 0.9f * 0.6f + 0.1f);
+    scene_free(&s);
+}
+
 static void test_no_self_shadowing_on_spheres(void **state)
 {
     (void)state;
@@ -1220,6 +1289,7 @@ int main(void)
         cmocka_unit_test(test_shadow_of_box_standing_on_huge_pane), cmocka_unit_test(test_filtered_shadow_on_huge_floor),
         cmocka_unit_test(test_shadow_on_huge_floor_over_slabs), cmocka_unit_test(test_ball_in_glass_box_on_huge_pane),
         cmocka_unit_test(test_continued_rays_cut), cmocka_unit_test(test_stop_flag_stops_shading),
+        cmocka_unit_test(test_bailout_rules), cmocka_unit_test(test_total_internal_reflection_unfiltered),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
