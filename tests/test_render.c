@@ -206,6 +206,45 @@ static void test_nesting_past_the_limit_is_counted(void **state)
     }
 }
 
+/* Adaptive anti-aliasing's rule: a pixel is supersampled when its centre
+ * differs from one of its four neighbours' by more than the threshold (the
+ * sum of the channels' differences). A box whose top edge lies on the
+ * image's middle line, of colour 0.25 against a black background: the
+ * rows either side of the edge differ by exactly 0.25, and only from their
+ * neighbour above or below. */
+static void test_adaptive_mask_rule(void **state)
+{
+    (void)state;
+    const char *text = "image { width 16 height 8 spp 3 background 0 0 0 }\n"
+                       "camera { eye 0 0 -5 target 0 0 0 fov 40 }\n"
+                       "material w { color 0.25 0 0 ambient 1 diffuse 0 }\n"
+                       "box { min -100 -100 0 max 100 0 1 material w }\n";
+    const float thresholds[3] = {0.25f, 0.2f, 0.3f};
+    const unsigned long long want[3] = {0, 2 * 16, 0};
+    for (int i = 0; i < 3; i++) {
+        Scene s;
+        RenderPlan p;
+        char err[256];
+        assert_int_equal(scene_parse("aa.scn", text, strlen(text), &s, err, sizeof err), 0);
+        PlanOptions o = plan_options();
+        o.aa_threshold = thresholds[i];
+        assert_int_equal(plan_build(&p, &s, &o, err, sizeof err), 0);
+        Accel *a = accel_build(&s, p.variant, 1);
+        assert_non_null(a);
+        Image img;
+        assert_int_equal(image_init(&img, 16, 8), 0);
+        RayStats st = {0};
+        RenderOptions opt = {NULL, NULL, NULL, NULL};
+        assert_int_equal(render_image(&p, a, &opt, &img, &st), 0);
+        assert_true(img.rgb[0] == 0.0f && img.rgb[(size_t)3 * 16 * 7] == 0.25f); /* the corners: sky, box */
+        assert_true(st.supersampled == want[i]);
+        image_free(&img);
+        accel_free(a);
+        plan_free(&p);
+        scene_free(&s);
+    }
+}
+
 /* A stopped render returns 1, marks exactly the rows it finished, and each
  * of those rows is the full render's, bit for bit; stopped before it
  * starts, it does no row. */
@@ -451,6 +490,7 @@ int main(void)
         cmocka_unit_test(test_nesting_past_the_limit_is_counted),
         cmocka_unit_test(test_pixels_are_single_rays),
         cmocka_unit_test(test_stop_keeps_finished_rows),
+        cmocka_unit_test(test_adaptive_mask_rule),
         cmocka_unit_test(test_adaptive_antialiasing),
         cmocka_unit_test(test_regions_are_the_whole_renders_pixels),
         cmocka_unit_test(test_resumed_render_is_the_whole_render),
