@@ -128,6 +128,23 @@ expect 0 "$LANCER" render "$T/orbit.scn" $O --classic --accel loop -q --region 0
 expect 0 "$LANCER" render "$T/orbit.scn" $O --classic -q --region 20:40,0:22 -o "$T/cl-bvh.exr"
 expect 1 "$LANCER" merge -o "$T/keep.exr" "$T/cl-loop.exr" "$T/cl-bvh.exr"
 has "$T/err" "$T/cl-bvh.exr: rendered with intersect=classic-bvh, not intersect=classic-loop, unlike $T/cl-loop.exr"
+# half and float tiles, and tiles of the scene moved, do not merge either
+T15="$T/t1.exr $T/t2.exr $T/t3.exr $T/t4.exr $T/t5.exr"
+expect 0 "$LANCER" render "$T/orbit.scn" $O --float -q --region 0:20,0:22 -o "$T/float.exr"
+expect 1 "$LANCER" merge -o "$T/keep.exr" "$T/float.exr" $T15
+has "$T/err" "$T/t1.exr: rendered with channels=half, not channels=float, unlike $T/float.exr"
+expect 0 "$LANCER" render "$T/orbit.scn" $O --scale 2 -q --region 0:20,0:22 -o "$T/scale2.exr"
+expect 1 "$LANCER" merge -o "$T/keep.exr" "$T/scale2.exr" $T15
+has "$T/err" "$T/t1.exr: rendered with scale=1, not scale=2, unlike $T/scale2.exr"
+# regions that share a single column overlap
+expect 0 "$LANCER" render "$T/orbit.scn" $O -q --region 0:21,0:22 -o "$T/t0wide.exr"
+expect 1 "$LANCER" merge -o "$T/keep.exr" "$T/t0wide.exr" $T15
+has "$T/err" "$T/t1.exr: its region 20:40,0:22 overlaps $T/t0wide.exr's 0:21,0:22"
+# a tile whose picture is another size than the first's, its stamp the same
+# (its display window one row taller, by perl-base)
+perl -0777 -pe 's/(displayWindow\0box2i\0\x10\0\0\0.{12})(.{4})/$1 . pack("l<", unpack("l<", $2) + 1)/se' "$T/t1.exr" >"$T/taller.exr"
+expect 1 "$LANCER" merge -o "$T/keep.exr" "$T/t0.exr" "$T/taller.exr"
+has "$T/err" "$T/taller.exr: is a tile of a 61x46 picture, $T/t0.exr of 61x45"
 expect 0 "$LANCER" render "$T/orbit.scn" $O --frame 3 -q --region 0:20,0:22 -o "$T/f3.exr"
 expect 1 "$LANCER" merge -o "$T/keep.exr" "$T/f3.exr" "$T/t1.exr" "$T/t2.exr" "$T/t3.exr" "$T/t4.exr" "$T/t5.exr"
 has "$T/err" "$T/t1.exr: is frame still, not 3, unlike $T/f3.exr"
