@@ -543,6 +543,10 @@ static void test_skips(void **state)
         {SKY "light { position 3 4 -2 }\nmaterial g { diffuse 0.2 transmit 0.7 ior 1.5 }\n"
              "sphere { center 0 1 0 radius 1 material g }\n",
          1, 0, 1, PLAN_SHADOW_FILTERED},
+        /* and a lone ball that filters (filter, no transmit) */
+        {SKY "light { position 3 4 -2 }\nmaterial g { color 1 0.2 0.2 ambient 0 diffuse 1 filter 0.8 ior 1 }\n"
+             "sphere { center 0 1 0 radius 1 material g }\n",
+         1, 0, 1, PLAN_SHADOW_FILTERED},
         /* two mirrors face each other at depth 256 and adc_bailout 0: the
          * weight, 0.1 a bounce, underflows long before the last level, and
          * every ray is traced all the same (the plan once took a weight of
