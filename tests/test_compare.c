@@ -78,8 +78,38 @@ static void test_relative_tolerance(void **state)
     assert_int_equal(st.over, 3);
     assert_int_equal(compare_images(&a, &b, COMPARE_THRESHOLD, COMPARE_HALF, &st, err, sizeof err), 0);
     assert_int_equal(st.over, 2);
+    /* a difference of exactly relative times the larger value is within
+     * (0.25 between 1 and 0.75 at relative 0.25; 0.003 is then within too) */
+    a.rgb[0] = 1.0f;
+    b.rgb[0] = 0.75f;
+    assert_int_equal(compare_images(&a, &b, COMPARE_THRESHOLD, 0.25, &st, err, sizeof err), 0);
+    assert_int_equal(st.over, 1); /* the NaN */
+    assert_int_equal(compare_images(&a, &b, COMPARE_THRESHOLD, 0.2499, &st, err, sizeof err), 0);
+    assert_int_equal(st.over, 2);
     image_free(&a);
     image_free(&b);
+}
+
+/* The largest difference's place in an image wider than tall, and taller
+ * than wide: x along the row, y down the rows. */
+static void test_max_place(void **state)
+{
+    (void)state;
+    const int sizes[2][2] = {{7, 3}, {3, 7}};
+    for (int k = 0; k < 2; k++) {
+        const int w = sizes[k][0], h = sizes[k][1];
+        Image a, b;
+        fill(&a, w, h, 0.0f);
+        fill(&b, w, h, 0.0f);
+        b.rgb[3 * (2 * w + 1) + 2] = 0.5f; /* (1, 2) */
+        CompareStats st;
+        char err[128];
+        assert_int_equal(compare_images(&a, &b, COMPARE_THRESHOLD, 0.0, &st, err, sizeof err), 0);
+        assert_int_equal(st.max_x, 1);
+        assert_int_equal(st.max_y, 2);
+        image_free(&a);
+        image_free(&b);
+    }
 }
 
 static void test_nan_and_size_mismatch(void **state)
@@ -176,6 +206,12 @@ static void test_parts_of_pictures(void **state)
     b.x = 6;
     assert_int_equal(compare_images(&a, &b, COMPARE_THRESHOLD, 0.0, &st, err, sizeof err), -1);
     assert_string_equal(err, "the images are different parts of their pictures: 4x3 at 0,0 of 10x6 and at 6,0 of 10x6");
+    b.x = 0; /* the same place in pictures of two heights */
+    b.full_height = 7;
+    assert_int_equal(compare_images(&a, &b, COMPARE_THRESHOLD, 0.0, &st, err, sizeof err), -1);
+    assert_string_equal(err, "the images are different parts of their pictures: 4x3 at 0,0 of 10x6 and at 0,0 of 10x7");
+    b.x = 6;
+    b.full_height = 6;
     assert_int_equal(compare_heatmap(&a, &b, COMPARE_THRESHOLD, &small, err, sizeof err), -1);
     fill(&big, 8, 6, 0.5f);
     big.x = 12;
@@ -204,6 +240,7 @@ int main(void)
         cmocka_unit_test(test_heatmap_colours),
         cmocka_unit_test(test_parts_of_pictures),
         cmocka_unit_test(test_relative_tolerance),
+        cmocka_unit_test(test_max_place),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
