@@ -171,6 +171,26 @@ static void stop_after(void *ctx, int done, int total)
 /* Concentric glass balls seen from outside: with 16 a refracted ray's list
  * holds every ball it enters; with 17 the rays toward the centre enter one
  * more, and the render counts them. */
+/* Renders scene text at w x h with options o on one thread into img (made
+ * here), its counts into *st. */
+static void render_text(const char *text, size_t len, const PlanOptions *o, int w, int h, Image *img, RayStats *st)
+{
+    Scene s;
+    RenderPlan p;
+    char err[256];
+    assert_int_equal(scene_parse("t.scn", text, len, &s, err, sizeof err), 0);
+    assert_int_equal(plan_build(&p, &s, o, err, sizeof err), 0);
+    Accel *a = accel_build(&s, p.variant, 1);
+    assert_non_null(a);
+    assert_int_equal(image_init(img, w, h), 0);
+    memset(st, 0, sizeof *st);
+    RenderOptions opt = {NULL, NULL, NULL, NULL};
+    assert_int_equal(render_image(&p, a, &opt, img, st), 0);
+    accel_free(a);
+    plan_free(&p);
+    scene_free(&s);
+}
+
 static void test_nesting_past_the_limit_is_counted(void **state)
 {
     (void)state;
@@ -182,27 +202,15 @@ static void test_nesting_past_the_limit_is_counted(void **state)
         for (int i = 0; i < n; i++)
             len += snprintf(text + len, sizeof text - (size_t)len, "sphere { center 0 0 0 radius %g material %s }\n",
                             1.9 - 0.1 * i, i % 2 ? "b" : "a");
-        Scene s;
-        RenderPlan p;
-        char err[256];
-        assert_int_equal(scene_parse("n.scn", text, (size_t)len, &s, err, sizeof err), 0);
         PlanOptions o = plan_options();
-        assert_int_equal(plan_build(&p, &s, &o, err, sizeof err), 0);
-        Accel *a = accel_build(&s, p.variant, 1);
-        assert_non_null(a);
         Image img;
-        assert_int_equal(image_init(&img, 8, 8), 0);
-        RayStats st = {0};
-        RenderOptions opt = {NULL, NULL, NULL, NULL};
-        assert_int_equal(render_image(&p, a, &opt, &img, &st), 0);
+        RayStats st;
+        render_text(text, (size_t)len, &o, 8, 8, &img, &st);
         if (n == LIMIT_INTERIORS)
             assert_true(st.too_deep == 0);
         else
             assert_true(st.too_deep > 0);
         image_free(&img);
-        accel_free(a);
-        plan_free(&p);
-        scene_free(&s);
     }
 }
 
@@ -222,26 +230,14 @@ static void test_adaptive_mask_rule(void **state)
     const float thresholds[3] = {0.25f, 0.2f, 0.3f};
     const unsigned long long want[3] = {0, 2 * 16, 0};
     for (int i = 0; i < 3; i++) {
-        Scene s;
-        RenderPlan p;
-        char err[256];
-        assert_int_equal(scene_parse("aa.scn", text, strlen(text), &s, err, sizeof err), 0);
         PlanOptions o = plan_options();
         o.aa_threshold = thresholds[i];
-        assert_int_equal(plan_build(&p, &s, &o, err, sizeof err), 0);
-        Accel *a = accel_build(&s, p.variant, 1);
-        assert_non_null(a);
         Image img;
-        assert_int_equal(image_init(&img, 16, 8), 0);
-        RayStats st = {0};
-        RenderOptions opt = {NULL, NULL, NULL, NULL};
-        assert_int_equal(render_image(&p, a, &opt, &img, &st), 0);
+        RayStats st;
+        render_text(text, strlen(text), &o, 16, 8, &img, &st);
         assert_true(img.rgb[0] == 0.0f && img.rgb[(size_t)3 * 16 * 7] == 0.25f); /* the corners: sky, box */
         assert_true(st.supersampled == want[i]);
         image_free(&img);
-        accel_free(a);
-        plan_free(&p);
-        scene_free(&s);
     }
 }
 
