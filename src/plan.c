@@ -413,13 +413,13 @@ int plan_build(RenderPlan *p, Scene *s, const PlanOptions *o, char *err, size_t 
         if (o->area_adaptive)
             l->adaptive = o->area_adaptive;
     }
-    if (scene_light_samples(s) > LIMIT_LIGHT_SAMPLES) { /* (a scene the parser made is within it) */
+    const long long samples = scene_light_samples(s);
+    if (samples > LIMIT_LIGHT_SAMPLES) { /* (a scene the parser made is within it) */
         if (o->area_samples)
             snprintf(err, errlen, "%d area samples a side would give the lights %lld samples, more than %d in all",
-                     o->area_samples, scene_light_samples(s), LIMIT_LIGHT_SAMPLES);
+                     o->area_samples, samples, LIMIT_LIGHT_SAMPLES);
         else
-            snprintf(err, errlen, "the lights take %lld samples, more than %d in all", scene_light_samples(s),
-                     LIMIT_LIGHT_SAMPLES);
+            snprintf(err, errlen, "the lights take %lld samples, more than %d in all", samples, LIMIT_LIGHT_SAMPLES);
         return -1;
     }
     if (o->pn_mode < 0 || o->pn_mode > PN_FAST + 1)
