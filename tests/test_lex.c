@@ -111,29 +111,17 @@ static void test_hash_str_seeded(void **state)
     assert_true(lex_hash_str("", s1) != lex_hash_str("a", s1));
     assert_true(lex_hash_str("abcdefgh", s1) != lex_hash_str("abcdefgh\x01", s1));
     enum { N = 400, SLOTS = 1 << 12 };
-    static char names[N][16];
-    uint64_t k = 3;
+    uint64_t h1[N], h2[N], k = 3;
     for (int n = 0; n < N;) {
+        char name[24];
         k = lex_mix64(k);
-        snprintf(names[n], sizeof names[n], "m%llx", (unsigned long long)(k >> 20));
-        if ((lex_hash_str(names[n], s1) & (SLOTS - 1)) == 0)
-            n++;
+        snprintf(name, sizeof name, "m%llx", (unsigned long long)(k >> 20));
+        h1[n] = lex_hash_str(name, s1);
+        h2[n] = lex_hash_str(name, s2);
+        n += (h1[n] & (SLOTS - 1)) == 0;
     }
-    for (int pass = 0; pass < 2; pass++) {
-        static int taken[SLOTS];
-        memset(taken, 0, sizeof taken);
-        long probes = 0;
-        for (int n = 0; n < N; n++) {
-            size_t h = (size_t)lex_hash_str(names[n], pass ? s2 : s1) & (SLOTS - 1);
-            for (probes++; taken[h]; probes++)
-                h = (h + 1) & (SLOTS - 1);
-            taken[h] = 1;
-        }
-        if (pass)
-            assert_true(probes < 2L * N);
-        else
-            assert_true(probes > 100L * N);
-    }
+    assert_true(test_probes(h1, N, SLOTS) > 100L * N);
+    assert_true(test_probes(h2, N, SLOTS) < 2L * N);
 }
 
 int main(void)

@@ -649,21 +649,16 @@ static void test_stl_weld_grid(void **state)
 {
     (void)state;
     enum { SIDE = 40, SLOTS = 1 << 17 };
-    static int slot[SLOTS];
+    static uint64_t h[SIDE * SIDE * SIDE];
     const uint64_t seed = lex_hash_seed();
     for (int step = 0; step < 2; step++) { /* whole numbers, then halves */
-        memset(slot, 0, sizeof slot);
-        long probes = 0;
+        const float f = step ? 0.5f : 1.0f;
+        int n = 0;
         for (int x = 0; x < SIDE; x++)
             for (int y = 0; y < SIDE; y++)
-                for (int z = 0; z < SIDE; z++) {
-                    float f = step ? 0.5f : 1.0f;
-                    size_t h = (size_t)mesh_weld_hash(vec3(f * (float)x, f * (float)y, f * (float)z), seed) & (SLOTS - 1);
-                    for (probes++; slot[h]; probes++)
-                        h = (h + 1) & (SLOTS - 1);
-                    slot[h] = 1;
-                }
-        assert_true(probes < 3L * SIDE * SIDE * SIDE);
+                for (int z = 0; z < SIDE; z++)
+                    h[n++] = mesh_weld_hash(vec3(f * (float)x, f * (float)y, f * (float)z), seed);
+        assert_true(test_probes(h, n, SLOTS) < 3L * n);
     }
     /* -0 and +0 are one vertex, and any slot they take is the same */
     assert_true(mesh_weld_hash(vec3(-0.0f, 1, 2), seed) == mesh_weld_hash(vec3(0.0f, 1, 2), seed));
@@ -673,29 +668,16 @@ static void test_stl_weld_grid(void **state)
      * 30,000 triangles took 27 s to weld), spread under another seed: a
      * few probes a point where the first seed takes hundreds. */
     enum { NAIMED = 400, AIMED_SLOTS = 1 << 12 };
-    static Vec3 aimed[NAIMED];
-    uint64_t s1 = lex_mix64(1), s2 = lex_mix64(2), rng_k = 7;
+    uint64_t h1[NAIMED], h2[NAIMED], s1 = lex_mix64(1), s2 = lex_mix64(2), rng_k = 7;
     for (int n = 0; n < NAIMED;) {
         rng_k = lex_mix64(rng_k);
         Vec3 q = vec3((float)(rng_k & 0xfffff), (float)(rng_k >> 20 & 0xfffff), (float)(rng_k >> 40 & 0xfffff));
-        if ((mesh_weld_hash(q, s1) & (AIMED_SLOTS - 1)) == 0)
-            aimed[n++] = q;
+        h1[n] = mesh_weld_hash(q, s1);
+        h2[n] = mesh_weld_hash(q, s2);
+        n += (h1[n] & (AIMED_SLOTS - 1)) == 0;
     }
-    for (int pass = 0; pass < 2; pass++) {
-        static int taken[AIMED_SLOTS];
-        memset(taken, 0, sizeof taken);
-        long probes = 0;
-        for (int n = 0; n < NAIMED; n++) {
-            size_t h = (size_t)mesh_weld_hash(aimed[n], pass ? s2 : s1) & (AIMED_SLOTS - 1);
-            for (probes++; taken[h]; probes++)
-                h = (h + 1) & (AIMED_SLOTS - 1);
-            taken[h] = 1;
-        }
-        if (pass)
-            assert_true(probes < 2L * NAIMED);
-        else
-            assert_true(probes > 100L * NAIMED);
-    }
+    assert_true(test_probes(h1, NAIMED, AIMED_SLOTS) > 100L * NAIMED);
+    assert_true(test_probes(h2, NAIMED, AIMED_SLOTS) < 2L * NAIMED);
     /* and each table its own seed */
     assert_true(lex_hash_seed() != lex_hash_seed());
 

@@ -5,6 +5,7 @@
 #ifndef LANCER_TESTUTIL_H
 #define LANCER_TESTUTIL_H
 
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <sys/stat.h>
@@ -12,6 +13,25 @@
 
 #include "lancer/prim.h"
 #include "lancer/vec.h"
+
+/* The slots that keys of hashes h[0 .. n-1] look at, put one by one into a
+ * table of linear probing of nslots (a power of two, more than n), as the
+ * readers' hash tables are. */
+static inline long test_probes(const uint64_t *h, int n, size_t nslots)
+{
+    unsigned char *taken = calloc(nslots, 1);
+    if (!taken)
+        abort();
+    long probes = 0;
+    for (int k = 0; k < n; k++) {
+        size_t i = (size_t)h[k] & (nslots - 1);
+        for (probes++; taken[i]; probes++)
+            i = (i + 1) & (nslots - 1);
+        taken[i] = 1;
+    }
+    free(taken);
+    return probes;
+}
 
 /* Each component of v within tol of (x, y, z). */
 static inline void assert_vec(Vec3 v, float x, float y, float z, float tol)
